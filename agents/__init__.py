@@ -1,0 +1,1 @@
+"""agents: builds on dresspack_gym (see README)."""

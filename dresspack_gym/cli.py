@@ -1,0 +1,147 @@
+"""The ``dresspack`` command line: inspect, render and benchmark stations."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+
+from .errors import DresspackError
+
+
+def _load(station_ref: str):
+    from .loading import load_station
+    from .simulation import CableSimulator
+    from .station import Station
+
+    station = Station(load_station(station_ref))
+    return station, CableSimulator(station)
+
+
+def _measure_report(sim) -> dict:
+    from .wear_cost import normalized_wear_cost, wear_cost
+
+    m = sim.measures()
+    cfg = sim.station.config.wear_cost
+    cost = wear_cost(m, cfg)
+    norm = normalized_wear_cost(m, cfg)
+    return {
+        "max_curvature": m.max_curvature,
+        "max_tension": m.max_tension,
+        "min_clearance": m.min_clearance,
+        "max_twist_rate": m.max_twist_rate,
+        "cost": cost.total,
+        "cost_terms": cost.terms(),
+        "normalized_cost": norm.total,
+        "normalized_cost_terms": norm.terms(),
+        "curvature_at": m.curvature_at,
+        "tension_at": m.tension_at,
+        "clearance_at": m.clearance_at,
+        "nearest_obstacle": m.nearest_obstacle,
+    }
+
+
+def cmd_inspect(args) -> int:
+    station, sim = _load(args.station)
+    report = _measure_report(sim)
+    cfg = station.config
+    if args.json:
+        report["station"] = cfg.name
+        report["weld_points"] = {k: int(len(v)) for k, v in station.weld_configurations.items()}
+        print(json.dumps(report, indent=2))
+        return 0
+    print(f"Station {cfg.name!r}: {cfg.description}")
+    for r, idx in zip(cfg.robots, station.robots):
+        k = r.robot.kinematics
+        reach = k.a1 + k.a2 + float(np.hypot(k.d4, k.a3))
+        dp = r.dresspack
+        print(f"\nRobot {r.name!r}: {r.robot.name} (wrist reach {reach:.3f} m) at {r.base_pos}, yaw "
+              f"{np.degrees(r.base_yaw):.0f} deg\n  source: {r.robot.source}")
+        print(f"  Home [deg]: {np.round(np.degrees(r.home), 1).tolist()}")
+        print(f"  Dresspack {dp.name!r}: L={dp.length} m, r={dp.radius} m, rho={dp.linear_density} kg/m, "
+              f"EI={dp.bending_stiffness} N m^2, GJ={dp.torsional_stiffness} N m^2, EA={dp.tensile_stiffness} N")
+        print(f"    MuJoCo DER: {dp.segments} segments of {dp.segment_length * 1000:.1f} mm, young={dp.young_modulus:.4g} "
+              f"Pa, shear={dp.shear_modulus:.4g} Pa, inextensible edges")
+        for n in dp.nodes:
+            kind = "clamp" if n.direction is not None else "ring"
+            print(f"    node {n.name!r}: {kind} on {n.body} at {n.pos} (arc {n.arc_length:.3f} m)")
+        if dp.free_end:
+            print("    free hanging end")
+    print(f"\nObstacles: {len(cfg.obstacles)}" + (" + floor" if cfg.floor else ""))
+    print(f"Weld points: {len(cfg.weld_points)}")
+    for w in cfg.weld_points:
+        print(f"  {w.name}: pos {w.pos}, approach {[round(float(a), 3) for a in w.approach]}, "
+              f"{len(station.weld_configurations[w.name])} IK solutions within limits")
+    print("\nSettled at Home:")
+    print(f"  max curvature  {report['max_curvature']:8.3f} 1/m   (at {report['curvature_at']:.2f} m along the cable)")
+    print(f"  max tension    {report['max_tension']:8.3f} N     (at {report['tension_at']:.2f} m)")
+    print(f"  min clearance  {report['min_clearance']:8.3f} m     (to {report['nearest_obstacle'] or '-'})")
+    print(f"  max twist rate {report['max_twist_rate']:8.3f} rad/m")
+    terms = report["cost_terms"]
+    print(f"  wear cost (4.10) {report['cost']:.4f} = curvature {terms['curvature']:.4f} + tension "
+          f"{terms['tension']:.4f} + distance {terms['distance']:.4f}; normalized {report['normalized_cost']:.4f}")
+    return 0
+
+
+def cmd_render(args) -> int:
+    from .rendering import StationRenderer, default_camera, save_png
+
+    station, sim = _load(args.station)
+    renderer = StationRenderer(station.model, width=args.width, height=args.height)
+    cam = default_camera(station.model, azimuth=args.azimuth, elevation=args.elevation, distance=args.distance)
+    save_png(renderer.render(sim.data, cam), args.out)
+    renderer.close()
+    print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from .bench import physics_benchmark
+
+    result = physics_benchmark(args.station, repeats=args.repeats)
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        for k, v in result.items():
+            print(f"{k:32s} {v}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="dresspack", description="Robot dresspack wear simulation and planning.")
+    sub = p.add_subparsers(dest="command", required=True)
+    q = sub.add_parser("inspect", help="build a station, settle at Home and print robot, cable and wear measures")
+    q.add_argument("station", help="station YAML file or shipped station name (e.g. default)")
+    q.add_argument("--json", action="store_true", help="print one JSON object")
+    q.set_defaults(func=cmd_inspect)
+    r = sub.add_parser("render", help="write a PNG picture of the station at Home")
+    r.add_argument("station")
+    r.add_argument("--out", required=True, help="output PNG path")
+    r.add_argument("--width", type=int, default=960)
+    r.add_argument("--height", type=int, default=720)
+    r.add_argument("--azimuth", type=float, default=-140.0)
+    r.add_argument("--elevation", type=float, default=-25.0)
+    r.add_argument("--distance", type=float, default=6.5)
+    r.set_defaults(func=cmd_render)
+    b = sub.add_parser("bench", help="benchmarks")
+    b.add_argument("what", choices=["physics"], help="which benchmark")
+    b.add_argument("--station", default="default")
+    b.add_argument("--repeats", type=int, default=3)
+    b.add_argument("--json", action="store_true")
+    b.set_defaults(func=cmd_bench)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except DresspackError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,407 @@
+"""Frozen configuration dataclasses for robots, dresspacks, stations, wear cost and simulation.
+
+Every ``from_dict`` validates strictly (unknown keys, types, units, ranges) and raises
+:class:`~dresspack_gym.errors.ConfigError` naming the dotted field. Angles in YAML are degrees
+(keys end in ``_deg``); internally they are radians. Lengths are metres, forces newtons.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+
+from .errors import ConfigError
+from .validation import Section
+
+ROBOT_LINKS = ("base", "link1", "link2", "link3", "link4", "link5", "link6")
+NODE_BODIES = ROBOT_LINKS + ("world",)
+PRIMITIVES = ("box", "capsule", "sphere", "cylinder")
+OBSTACLE_TYPES = PRIMITIVES + ("plane", "mesh")
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """Link dimensions of a 6-axis robot with spherical wrist (ABB-style naming), metres.
+
+    Shoulder (j2) at (a1, 0, d1) from the base, upper arm a2 along z, forearm offset a3 (z)
+    and length d4 (x) to the wrist centre, flange d6 beyond the wrist centre.
+    """
+
+    a1: float
+    d1: float
+    a2: float
+    a3: float
+    d4: float
+    d6: float
+
+
+@dataclass(frozen=True)
+class CollisionPrimitive:
+    """A capsule, box, sphere or cylinder rigidly attached to one robot link (link frame)."""
+
+    link: str
+    type: str
+    size: tuple[float, ...]
+    pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    fromto: tuple[float, ...] | None = None
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """A 6-axis industrial robot: kinematics, limits, speeds, tool and collision geometry."""
+
+    name: str
+    source: str
+    kinematics: Kinematics
+    joint_limits: np.ndarray  # (6, 2) radians
+    joint_speed: np.ndarray  # (6,) rad/s
+    tcp_pos: tuple[float, float, float]
+    tcp_rpy: tuple[float, float, float]
+    collision: tuple[CollisionPrimitive, ...]
+
+    @staticmethod
+    def from_dict(data: Mapping[str, Any], path: str = "robot") -> "RobotConfig":
+        s = Section(data, path)
+        name = s.string("name")
+        source = s.string("source")
+        k = s.section("kinematics")
+        kin = Kinematics(*(k.number(key, lo=-5.0, hi=5.0, unit="m",
+                                    hint="kinematic lengths are metres, not millimetres")
+                           for key in ("a1", "d1", "a2", "a3", "d4", "d6")))
+        k.done()
+        if kin.a2 <= 0 or kin.d4 <= 0:
+            raise ConfigError(f"{path}.kinematics", "a2 and d4 must be positive link lengths")
+        limits_raw = s.raw("joint_limits_deg")
+        if not isinstance(limits_raw, list) or len(limits_raw) != 6:
+            raise ConfigError(s.field("joint_limits_deg"), "expected 6 pairs [lower, upper] in degrees")
+        limits = np.zeros((6, 2))
+        for i, pair in enumerate(limits_raw):
+            f = f"{s.field('joint_limits_deg')}[{i}]"
+            from .validation import check_vector
+            lo, hi = check_vector(pair, f, 2, lo=-720.0, hi=720.0, unit="deg")
+            if lo >= hi:
+                raise ConfigError(f, f"lower limit {lo} must be below upper limit {hi}")
+            limits[i] = np.radians([lo, hi])
+        speed = np.radians(s.vector("joint_speed_deg_s", 6, lo=1e-3, hi=2000.0, unit="deg/s"))
+        tool = s.section("tool")
+        tcp_pos = tool.vector("tcp_pos", 3, lo=-3.0, hi=3.0, unit="m")
+        tcp_rpy = tuple(np.radians(tool.vector("tcp_rpy_deg", 3, (0, 0, 0), lo=-360, hi=360, unit="deg")))
+        tool.done()
+        prims = tuple(_primitive(p, ROBOT_LINKS) for p in s.sections("collision", []))
+        s.done()
+        return RobotConfig(name, source, kin, limits, speed, tcp_pos, tcp_rpy, prims)
+
+
+def _primitive(p: Section, links: tuple[str, ...]) -> CollisionPrimitive:
+    link = p.string("link", choices=links)
+    kind = p.string("type", choices=PRIMITIVES)
+    fromto = None
+    if kind == "capsule" and p.has("fromto"):
+        fromto = p.vector("fromto", 6, lo=-10, hi=10, unit="m")
+        size = (p.number("radius", lo=0.0, lo_open=True, hi=2.0, unit="m"),)
+    elif kind == "box":
+        size = p.vector("half_size", 3, lo=1e-4, hi=50.0, unit="m")
+    elif kind == "sphere":
+        size = (p.number("radius", lo=0.0, lo_open=True, hi=10.0, unit="m"),)
+    else:  # capsule/cylinder by pos+half_length along local z
+        size = (p.number("radius", lo=0.0, lo_open=True, hi=10.0, unit="m"),
+                p.number("half_length", lo=0.0, lo_open=True, hi=50.0, unit="m"))
+    pos = p.vector("pos", 3, (0, 0, 0), lo=-50, hi=50, unit="m")
+    rpy = tuple(np.radians(p.vector("rpy_deg", 3, (0, 0, 0), lo=-360, hi=360, unit="deg")))
+    p.done()
+    return CollisionPrimitive(link, kind, size, pos, rpy, fromto)
+
+
+@dataclass(frozen=True)
+class CableNode:
+    """Where the dresspack is held: a point on a robot link (or the world) at an arc length.
+
+    ``direction`` (unit vector in the body frame) makes the node a clamp that fixes the cable
+    tangent; without it the node only fixes the position (a ring the cable can swivel in).
+    ``arc_length`` is measured from the cable start; None means "start" (first node) or "end".
+    """
+
+    name: str
+    body: str
+    pos: tuple[float, float, float]
+    direction: tuple[float, float, float] | None
+    arc_length: float
+
+
+@dataclass(frozen=True)
+class DresspackConfig:
+    """Cable material (thesis Table 3.1 style), discretisation and attachment nodes."""
+
+    name: str
+    source: str
+    length: float
+    radius: float
+    linear_density: float
+    bending_stiffness: float  # EI, N m^2
+    tensile_stiffness: float  # EA, N
+    torsional_stiffness: float  # GJ, N m^2
+    segments: int
+    nodes: tuple[CableNode, ...]
+    collide_with_robot: bool = True
+
+    @property
+    def second_moment(self) -> float:
+        """Area moment of inertia I = pi r^4 / 4 of the circular cross-section [m^4]."""
+        return math.pi * self.radius ** 4 / 4.0
+
+    @property
+    def polar_moment(self) -> float:
+        """Torsion constant J = pi r^4 / 2 of the circular cross-section [m^4]."""
+        return math.pi * self.radius ** 4 / 2.0
+
+    @property
+    def young_modulus(self) -> float:
+        """MuJoCo ``young`` so that E*I equals the configured bending stiffness EI [Pa]."""
+        return self.bending_stiffness / self.second_moment
+
+    @property
+    def shear_modulus(self) -> float:
+        """MuJoCo ``shear`` so that G*J equals the configured torsional stiffness GJ [Pa]."""
+        return self.torsional_stiffness / self.polar_moment
+
+    @property
+    def segment_length(self) -> float:
+        return self.length / self.segments
+
+    @property
+    def free_end(self) -> bool:
+        return self.nodes[-1].arc_length < self.length - 1e-9
+
+    @staticmethod
+    def from_dict(data: Mapping[str, Any], path: str = "dresspack") -> "DresspackConfig":
+        s = Section(data, path)
+        name = s.string("name")
+        source = s.string("source", "")
+        length = s.number("length", lo=0.05, hi=20.0, unit="m", hint="cable length is in metres")
+        radius = s.number("radius", lo=0.001, hi=0.2, unit="m", hint="cable radius is in metres")
+        rho = s.number("linear_density", lo=0.0, lo_open=True, hi=50.0, unit="kg/m")
+        ei = s.number("bending_stiffness", lo=0.0, lo_open=True, hi=1e4, unit="N m^2")
+        ea = s.number("tensile_stiffness", lo=0.0, lo_open=True, hi=1e9, unit="N")
+        gj = s.number("torsional_stiffness", lo=0.0, lo_open=True, hi=1e4, unit="N m^2")
+        segments = s.integer("segments", 24, lo=3, hi=400)
+        collide = s.boolean("collide_with_robot", True)
+        node_sections = s.sections("nodes")
+        s.done()
+        if not node_sections:
+            raise ConfigError(f"{path}.nodes", "at least one attachment node is required")
+        nodes = []
+        for i, n in enumerate(node_sections):
+            nname = n.string("name", f"node{i}")
+            body = n.string("body", choices=NODE_BODIES)
+            pos = n.vector("pos", 3, lo=-50, hi=50, unit="m")
+            direction = None
+            if n.has("direction"):
+                d = np.asarray(n.vector("direction", 3, lo=-1e3, hi=1e3))
+                if np.linalg.norm(d) < 1e-9:
+                    raise ConfigError(n.field("direction"), "must be a non-zero vector")
+                direction = tuple(d / np.linalg.norm(d))
+            at = n.raw("at", "start" if i == 0 else "end")
+            if at == "start":
+                arc = 0.0
+            elif at == "end":
+                arc = length
+            else:
+                from .validation import check_number
+                arc = check_number(at, n.field("at"), lo=0.0, hi=length, unit="m",
+                                   hint="'start', 'end' or an arc length along the cable")
+            n.done()
+            nodes.append(CableNode(nname, body, pos, direction, arc))
+        if nodes[0].arc_length != 0.0:
+            raise ConfigError(f"{path}.nodes[0].at", "the first node must be at the cable start ('start' or 0)")
+        arcs = [n.arc_length for n in nodes]
+        if any(b <= a for a, b in zip(arcs, arcs[1:])):
+            raise ConfigError(f"{path}.nodes", f"node arc lengths must increase along the cable, got {arcs}")
+        h = length / segments
+        vidx = [round(a / h) for a in arcs]
+        for i in range(1, len(vidx)):
+            gap = 2 if (nodes[i].direction is not None or nodes[i - 1].direction is not None) else 1
+            if vidx[i] - vidx[i - 1] < gap + 1:
+                raise ConfigError(f"{path}.nodes[{i}].at",
+                                  f"nodes are closer than the cable discretisation allows ({segments} segments "
+                                  f"of {h:.3f} m); increase 'segments' or separate the nodes")
+        return DresspackConfig(name, source, length, radius, rho, ei, ea, gj, segments, tuple(nodes), collide)
+
+
+@dataclass(frozen=True)
+class WearCostConfig:
+    """Weights and thresholds of the wear cost (thesis eq. 4.10) and its normalised variant."""
+
+    w_curvature: float = 1.0
+    curvature_threshold: float = 8.0  # kappa_0 [1/m]
+    w_tension: float = 1e-5
+    w_distance: float = 100.0
+    clearance: float = 1.0  # c [m]
+    # Reference scales of the normalised variant: each term is 1 when its measure is one scale
+    # beyond its threshold, so equal weights penalise the three causes of wear about equally.
+    curvature_scale: float = 8.0  # 1/m
+    tension_scale: float = 100.0  # N
+    clearance_scale: float = 0.1  # m
+    normalized_weights: tuple[float, float, float] = (1.0, 1.0, 1.0)  # curvature, tension, distance
+
+    @staticmethod
+    def from_dict(data: Mapping[str, Any], path: str = "wear_cost") -> "WearCostConfig":
+        s = Section(data, path)
+        d = WearCostConfig()
+        out = WearCostConfig(
+            w_curvature=s.number("w_curvature", d.w_curvature, lo=0.0),
+            curvature_threshold=s.number("curvature_threshold", d.curvature_threshold, lo=0.0, unit="1/m"),
+            w_tension=s.number("w_tension", d.w_tension, lo=0.0),
+            w_distance=s.number("w_distance", d.w_distance, lo=0.0),
+            clearance=s.number("clearance", d.clearance, lo=0.0, hi=100.0, unit="m"),
+            curvature_scale=s.number("curvature_scale", d.curvature_scale, lo=0.0, lo_open=True, unit="1/m"),
+            tension_scale=s.number("tension_scale", d.tension_scale, lo=0.0, lo_open=True, unit="N"),
+            clearance_scale=s.number("clearance_scale", d.clearance_scale, lo=0.0, lo_open=True, unit="m"),
+            normalized_weights=s.vector("normalized_weights", 3, d.normalized_weights, lo=0.0),
+        )
+        s.done()
+        return out
+
+
+@dataclass(frozen=True)
+class SimulationConfig:
+    """Physics and quasi-static motion settings.
+
+    The defaults were chosen from the convergence study in ``tests/test_physics_validation.py``
+    and ``dresspack bench physics`` (see README): 2 ms steps with the implicit ``discrete``
+    integrator are stable for the Table 3.1 cable at 24 segments.
+    """
+
+    timestep: float = 0.002
+    speed_fraction: float = 0.5  # fraction of the robot's rated joint speeds used for motions
+    cable_damping: float = 5.0  # viscous damping rate of the cable's motion [1/s] (air/contact losses)
+    bending_damping: float = 0.02  # Rayleigh damping time of the rod elasticity [s]
+    settle_time: float = 1.5  # max seconds of simulated settling after a motion
+    settle_speed: float = 0.005  # settled when every vertex moves slower than this [m/s]
+    gravity: float = 9.81
+
+    @staticmethod
+    def from_dict(data: Mapping[str, Any], path: str = "simulation") -> "SimulationConfig":
+        s = Section(data, path)
+        d = SimulationConfig()
+        out = SimulationConfig(
+            timestep=s.number("timestep", d.timestep, lo=1e-5, hi=0.02, unit="s"),
+            speed_fraction=s.number("speed_fraction", d.speed_fraction, lo=0.0, lo_open=True, hi=1.0),
+            cable_damping=s.number("cable_damping", d.cable_damping, lo=0.0, hi=200.0, unit="1/s"),
+            bending_damping=s.number("bending_damping", d.bending_damping, lo=0.0, hi=10.0, unit="s"),
+            settle_time=s.number("settle_time", d.settle_time, lo=0.0, hi=60.0, unit="s"),
+            settle_speed=s.number("settle_speed", d.settle_speed, lo=0.0, lo_open=True, hi=10.0, unit="m/s"),
+            gravity=s.number("gravity", d.gravity, lo=0.0, hi=100.0, unit="m/s^2"),
+        )
+        s.done()
+        return out
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """Static geometry in the station (world frame)."""
+
+    name: str
+    type: str
+    pos: tuple[float, float, float]
+    rpy: tuple[float, float, float]
+    size: tuple[float, ...]
+    fromto: tuple[float, ...] | None = None
+    mesh_file: str | None = None
+    mesh_scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    rgba: tuple[float, float, float, float] = (0.55, 0.6, 0.68, 1.0)
+
+
+@dataclass(frozen=True)
+class WeldPoint:
+    """A tool pose to reach: TCP position and approach direction (TCP z axis), world frame."""
+
+    name: str
+    robot: str
+    pos: tuple[float, float, float]
+    approach: tuple[float, float, float]
+    spin: tuple[float, ...]  # candidate rotations about the approach axis, radians
+
+
+@dataclass(frozen=True)
+class RobotPlacement:
+    """One robot in the station with its dresspack, base pose and Home configuration."""
+
+    name: str
+    robot: RobotConfig
+    dresspack: DresspackConfig
+    base_pos: tuple[float, float, float]
+    base_yaw: float
+    home: np.ndarray  # (6,) radians
+
+
+@dataclass(frozen=True)
+class StationConfig:
+    """A whole station: robots with dresspacks, obstacles, weld points, cost and physics settings."""
+
+    name: str
+    description: str
+    robots: tuple[RobotPlacement, ...]
+    obstacles: tuple[Obstacle, ...]
+    weld_points: tuple[WeldPoint, ...]
+    wear_cost: WearCostConfig = field(default_factory=WearCostConfig)
+    simulation: SimulationConfig = field(default_factory=SimulationConfig)
+    floor: bool = True
+
+    def robot_index(self, name: str) -> int:
+        names = [r.name for r in self.robots]
+        if name not in names:
+            raise ConfigError("robot", f"unknown robot {name!r}; this station has {names}")
+        return names.index(name)
+
+
+def obstacle_from_section(o: Section) -> Obstacle:
+    name = o.string("name")
+    kind = o.string("type", choices=OBSTACLE_TYPES)
+    pos = o.vector("pos", 3, (0, 0, 0), lo=-500, hi=500, unit="m")
+    rpy = tuple(np.radians(o.vector("rpy_deg", 3, (0, 0, 0), lo=-360, hi=360, unit="deg")))
+    rgba = o.vector("rgba", 4, (0.55, 0.6, 0.68, 1.0), lo=0.0, hi=1.0)
+    fromto, mesh_file, scale = None, None, (1.0, 1.0, 1.0)
+    if kind == "box":
+        size = o.vector("half_size", 3, lo=1e-4, hi=500.0, unit="m")
+    elif kind == "sphere":
+        size = (o.number("radius", lo=0.0, lo_open=True, hi=100.0, unit="m"),)
+    elif kind in ("capsule", "cylinder"):
+        radius = o.number("radius", lo=0.0, lo_open=True, hi=100.0, unit="m")
+        if o.has("fromto"):
+            fromto = o.vector("fromto", 6, lo=-500, hi=500, unit="m")
+            size = (radius,)
+        else:
+            size = (radius, o.number("half_length", lo=0.0, lo_open=True, hi=500.0, unit="m"))
+    elif kind == "plane":
+        size = o.vector("half_size", 2, (10.0, 10.0), lo=0.01, hi=1e4, unit="m") + (0.1,)
+    else:  # mesh
+        mesh_file = o.string("file")
+        scale = o.vector("scale", 3, (1, 1, 1), lo=1e-6, hi=1e6)
+        size = ()
+    o.done()
+    return Obstacle(name, kind, pos, rpy, size, fromto, mesh_file, scale, rgba)
+
+
+def weld_point_from_section(w: Section, robot_names: list[str]) -> WeldPoint:
+    name = w.string("name")
+    robot = w.string("robot", robot_names[0], choices=robot_names)
+    pos = w.vector("pos", 3, lo=-500, hi=500, unit="m")
+    approach = np.asarray(w.vector("approach", 3, lo=-1e3, hi=1e3))
+    if np.linalg.norm(approach) < 1e-9:
+        raise ConfigError(w.field("approach"), "must be a non-zero direction vector")
+    approach = tuple(approach / np.linalg.norm(approach))
+    spin_raw = w.raw("spin_deg", None)
+    if spin_raw is None:
+        spin = tuple(np.radians(np.arange(0.0, 360.0, 30.0)))  # a symmetric stud gun: any spin
+    else:
+        if not isinstance(spin_raw, list) or not spin_raw:
+            raise ConfigError(w.field("spin_deg"), "expected a non-empty list of angles in degrees")
+        from .validation import check_number
+        spin = tuple(math.radians(check_number(v, f"{w.field('spin_deg')}[{i}]", lo=-360, hi=360, unit="deg"))
+                     for i, v in enumerate(spin_raw))
+    w.done()
+    return WeldPoint(name, robot, pos, approach, spin)

@@ -1,0 +1,137 @@
+"""YAML edge of the package: reads station/robot/dresspack files into frozen config dataclasses."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import yaml
+
+from .config import (DresspackConfig, RobotConfig, RobotPlacement, SimulationConfig, StationConfig,
+                     WearCostConfig, obstacle_from_section, weld_point_from_section)
+from .errors import ConfigError
+from .validation import Section
+
+CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
+
+
+def read_yaml(path: str | Path, field: str = "file") -> dict[str, Any]:
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(field, f"file not found: {path}")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise ConfigError(field, f"{path} is not valid YAML: {exc}") from None
+    if not isinstance(data, dict):
+        raise ConfigError(field, f"{path} must contain a mapping at the top level")
+    return data
+
+
+def _resolve(ref: str, kind: str, base_dir: Path, field: str) -> Path:
+    """A robot/dresspack reference is a path (relative to the station file) or a shipped name."""
+    candidates = [base_dir / ref, CONFIG_DIR / kind / f"{ref}.yaml", CONFIG_DIR / kind / ref]
+    for c in candidates:
+        if c.is_file():
+            return c
+    shipped = sorted(p.stem for p in (CONFIG_DIR / kind).glob("*.yaml"))
+    raise ConfigError(field, f"unknown {kind[:-1]} {ref!r}: not a file next to the station and not one of "
+                             f"the shipped {kind}: {shipped}")
+
+
+def list_stations() -> list[str]:
+    return sorted(p.stem for p in (CONFIG_DIR / "stations").glob("*.yaml"))
+
+
+def resolve_station_path(ref: str | Path) -> Path:
+    """Accept a YAML path or the name of a shipped station (``default``, ``thesis_curvature``...)."""
+    p = Path(ref)
+    if p.is_file():
+        return p
+    shipped = CONFIG_DIR / "stations" / f"{ref}.yaml"
+    if shipped.is_file():
+        return shipped
+    raise ConfigError("station", f"{str(ref)!r} is neither a YAML file nor a shipped station; "
+                                 f"shipped stations: {list_stations()}")
+
+
+def load_robot(ref: str | Path, base_dir: Path = CONFIG_DIR, field: str = "robot") -> RobotConfig:
+    path = _resolve(str(ref), "robots", base_dir, field)
+    return RobotConfig.from_dict(read_yaml(path, field), path=f"{path.name}")
+
+
+def _merge(base: dict[str, Any], overrides: Mapping[str, Any]) -> dict[str, Any]:
+    out = copy.deepcopy(base)
+    for k, v in overrides.items():
+        out[k] = copy.deepcopy(v)
+    return out
+
+
+def load_station(ref: str | Path) -> StationConfig:
+    path = resolve_station_path(ref)
+    return station_from_dict(read_yaml(path, "station"), base_dir=path.parent, label=path.name)
+
+
+def station_from_dict(data: Mapping[str, Any], base_dir: Path = CONFIG_DIR / "stations",
+                      label: str = "station") -> StationConfig:
+    s = Section(data, "")
+    name = s.string("name")
+    description = s.string("description", "")
+    robots = []
+    for r in s.sections("robots"):
+        rname = r.string("name", f"robot{len(robots)}")
+        robot = load_robot(r.string("robot"), base_dir, r.field("robot"))
+        dp_ref = r.raw("dresspack")
+        if isinstance(dp_ref, str):
+            dp_path = _resolve(dp_ref, "dresspacks", base_dir, r.field("dresspack"))
+            dp_data = read_yaml(dp_path, r.field("dresspack"))
+        elif isinstance(dp_ref, dict):
+            dp_data = dp_ref
+        else:
+            raise ConfigError(r.field("dresspack"), "expected a dresspack name/path or an inline mapping")
+        overrides = r.raw("dresspack_overrides", {})
+        if not isinstance(overrides, dict):
+            raise ConfigError(r.field("dresspack_overrides"), "expected a mapping of dresspack keys to values")
+        dresspack = DresspackConfig.from_dict(_merge(dp_data, overrides), path=f"{r.field('dresspack')}")
+        base_pos = r.vector("base_pos", 3, (0, 0, 0), lo=-500, hi=500, unit="m")
+        base_yaw = float(np.radians(r.number("base_yaw_deg", 0.0, lo=-360, hi=360, unit="deg")))
+        home = np.radians(r.vector("home_deg", 6, lo=-720, hi=720, unit="deg"))
+        lim = robot.joint_limits
+        bad = np.where((home < lim[:, 0] - 1e-9) | (home > lim[:, 1] + 1e-9))[0]
+        if len(bad):
+            j = int(bad[0])
+            raise ConfigError(f"{r.field('home_deg')}[{j}]",
+                              f"{np.degrees(home[j]):.1f} deg is outside joint {j + 1}'s limits "
+                              f"[{np.degrees(lim[j, 0]):.0f}, {np.degrees(lim[j, 1]):.0f}] deg")
+        r.done()
+        robots.append(RobotPlacement(rname, robot, dresspack, base_pos, base_yaw, home))
+    if not robots:
+        raise ConfigError("robots", "a station needs at least one robot")
+    names = [r.name for r in robots]
+    if len(set(names)) != len(names):
+        raise ConfigError("robots", f"robot names must be unique, got {names}")
+    obstacles = tuple(obstacle_from_section(o) for o in s.sections("obstacles", []))
+    onames = [o.name for o in obstacles]
+    if len(set(onames)) != len(onames):
+        raise ConfigError("obstacles", f"obstacle names must be unique, got {onames}")
+    obstacles = tuple(_absolute_mesh(o, base_dir) for o in obstacles)
+    welds = tuple(weld_point_from_section(w, names) for w in s.sections("weld_points", []))
+    wear = WearCostConfig.from_dict(s.raw("wear_cost", {}), "wear_cost")
+    sim = SimulationConfig.from_dict(s.raw("simulation", {}), "simulation")
+    floor = s.boolean("floor", True)
+    s.done()
+    return StationConfig(name, description, tuple(robots), obstacles, welds, wear, sim, floor)
+
+
+def _absolute_mesh(o, base_dir: Path):
+    if o.mesh_file is None:
+        return o
+    p = Path(o.mesh_file)
+    if not p.is_absolute():
+        p = base_dir / p
+    if not p.is_file():
+        raise ConfigError(f"obstacles.{o.name}.file", f"mesh file not found: {p}")
+    from dataclasses import replace
+    return replace(o, mesh_file=str(p))

@@ -1,0 +1,52 @@
+"""Offscreen pictures of a station (MuJoCo renderer; set MUJOCO_GL=egl on a headless machine)."""
+
+from __future__ import annotations
+
+import os
+
+import mujoco
+import numpy as np
+
+from .errors import DresspackError
+
+
+def default_camera(model: mujoco.MjModel, azimuth: float = 150.0, elevation: float = -25.0,
+                   distance: float | None = None, lookat=(1.0, 0.0, 1.0)) -> mujoco.MjvCamera:
+    cam = mujoco.MjvCamera()
+    cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+    cam.azimuth, cam.elevation = azimuth, elevation
+    cam.distance = distance if distance is not None else 6.5
+    cam.lookat[:] = lookat
+    return cam
+
+
+class StationRenderer:
+    """Renders RGB frames of a model/data pair; reuse one instance for many frames."""
+
+    def __init__(self, model: mujoco.MjModel, width: int = 960, height: int = 720):
+        os.environ.setdefault("MUJOCO_GL", "egl")
+        try:
+            self.renderer = mujoco.Renderer(model, height=height, width=width)
+        except Exception as exc:  # no GL context available
+            raise DresspackError(f"offscreen rendering is unavailable ({exc}); on a headless machine "
+                                 f"install EGL (libegl1) and set MUJOCO_GL=egl") from None
+        self.model = model
+        self.option = mujoco.MjvOption()
+        self.option.geomgroup[5] = 0  # hide the clearance probe
+
+    def render(self, data: mujoco.MjData, camera: mujoco.MjvCamera | None = None) -> np.ndarray:
+        cam = camera if camera is not None else default_camera(self.model)
+        self.renderer.update_scene(data, camera=cam, scene_option=self.option)
+        return self.renderer.render().copy()
+
+    def close(self) -> None:
+        self.renderer.close()
+
+
+def save_png(image: np.ndarray, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.imsave(path, image)

@@ -1,0 +1,105 @@
+"""Builds a 6-axis robot into a ``mujoco.MjSpec`` with the exact body chain of :mod:`kinematics`."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from .config import RobotPlacement
+from .kinematics import rpy_matrix
+
+# Contact bits shared by all builders: obstacles and robot links are hit by cables only;
+# robot-obstacle collisions are queried explicitly (the robot is kinematic, contacts cannot stop it).
+OBSTACLE_BITS = 1
+ROBOT_BITS = 2
+# A kinematic robot: huge joint inertia so cable reactions cannot move it within a step, and its
+# joint positions/velocities are overwritten every substep anyway.
+ROBOT_ARMATURE = 1e6
+
+ROBOT_RGBA = (0.93, 0.45, 0.1, 1.0)
+
+
+def mat_to_quat(m: np.ndarray) -> np.ndarray:
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.asarray(m, dtype=float).ravel())
+    return q
+
+
+def body_name(robot: str, link: str) -> str:
+    return f"{robot}/{link}"
+
+
+def joint_name(robot: str, j: int) -> str:
+    return f"{robot}/j{j + 1}"
+
+
+def add_robot(spec: mujoco.MjSpec, placement: RobotPlacement) -> None:
+    """Add base, link1..link6, flange and TCP sites of one robot to ``spec``."""
+    name = placement.name
+    k = placement.robot.kinematics
+    lim = placement.robot.joint_limits
+    base = spec.worldbody.add_body(name=body_name(name, "base"), pos=list(placement.base_pos),
+                                   quat=list(mat_to_quat(_rz(placement.base_yaw))))
+    chain = [  # (link, parent offset, joint axis)
+        ("link1", (0, 0, 0), (0, 0, 1)),
+        ("link2", (k.a1, 0, k.d1), (0, 1, 0)),
+        ("link3", (0, 0, k.a2), (0, 1, 0)),
+        ("link4", (0, 0, k.a3), (1, 0, 0)),
+        ("link5", (k.d4, 0, 0), (0, 1, 0)),
+        ("link6", (0, 0, 0), (1, 0, 0)),
+    ]
+    bodies = {"base": base}
+    parent = base
+    for j, (link, offset, axis) in enumerate(chain):
+        b = parent.add_body(name=body_name(name, link), pos=list(offset))
+        b.gravcomp = 1.0
+        b.mass = 1.0
+        b.inertia = [0.1, 0.1, 0.1]
+        b.explicitinertial = True
+        b.add_joint(name=joint_name(name, j), type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(axis),
+                    armature=ROBOT_ARMATURE, range=list(lim[j]), limited=mujoco.mjtLimited.mjLIMITED_FALSE)
+        bodies[link] = b
+        parent = b
+    flange = bodies["link6"].add_site(name=f"{name}/flange", pos=[k.d6, 0, 0], size=[0.02, 0, 0])
+    del flange
+    tcp_rot = rpy_matrix(placement.robot.tcp_rpy)
+    tcp_pos = np.array([k.d6, 0, 0]) + np.asarray(placement.robot.tcp_pos)
+    bodies["link6"].add_site(name=f"{name}/tcp", pos=list(tcp_pos), quat=list(mat_to_quat(tcp_rot)),
+                             size=[0.015, 0, 0], rgba=[1, 0, 0, 1])
+    for i, prim in enumerate(placement.robot.collision):
+        g = bodies[prim.link].add_geom(name=f"{name}/{prim.link}_geom{i}", rgba=list(ROBOT_RGBA))
+        g.contype = ROBOT_BITS
+        g.conaffinity = 0
+        _set_primitive(g, prim.type, prim.size, prim.pos, prim.rpy, prim.fromto)
+
+
+def _rz(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def _set_primitive(g, kind: str, size, pos, rpy, fromto) -> None:
+    """Fill a geom spec from a primitive description (shared by robot links and obstacles)."""
+    types = {"box": mujoco.mjtGeom.mjGEOM_BOX, "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
+             "sphere": mujoco.mjtGeom.mjGEOM_SPHERE, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+             "plane": mujoco.mjtGeom.mjGEOM_PLANE}
+    g.type = types[kind]
+    if fromto is not None:
+        a, b = np.asarray(fromto[:3], float), np.asarray(fromto[3:], float)
+        axis = b - a
+        half = np.linalg.norm(axis) / 2
+        z = axis / max(np.linalg.norm(axis), 1e-12)
+        g.pos = list((a + b) / 2)
+        g.quat = list(_quat_z_to(z))
+        g.size = [size[0], half, 0]
+        return
+    padded = list(size) + [0.0] * (3 - len(size))
+    g.size = padded
+    g.pos = list(pos)
+    g.quat = list(mat_to_quat(rpy_matrix(rpy)))
+
+
+def _quat_z_to(z: np.ndarray) -> np.ndarray:
+    q = np.zeros(4)
+    mujoco.mju_quatZ2Vec(q, np.asarray(z, dtype=float))
+    return q

@@ -1,0 +1,48 @@
+"""The cable wear cost of thesis eq. (4.10), term by term, and a normalised variant (thesis §5.3)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .config import WearCostConfig
+from .measures import WearMeasures
+
+
+@dataclass(frozen=True)
+class WearCost:
+    """C = C_kappa + C_F + C_d for one configuration; ``normalized`` is the equal-weight variant."""
+
+    curvature: float
+    tension: float
+    distance: float
+
+    @property
+    def total(self) -> float:
+        return self.curvature + self.tension + self.distance
+
+    def terms(self) -> dict[str, float]:
+        return {"curvature": self.curvature, "tension": self.tension, "distance": self.distance}
+
+
+def wear_cost(m: WearMeasures, cfg: WearCostConfig) -> WearCost:
+    """Eq. (4.10): w_k max(0, k - k0)^2 + w_F F^2 + w_d min(0, d - c)^2."""
+    return WearCost(
+        curvature=cfg.w_curvature * max(0.0, m.max_curvature - cfg.curvature_threshold) ** 2,
+        tension=cfg.w_tension * m.max_tension ** 2,
+        distance=cfg.w_distance * min(0.0, m.min_clearance - cfg.clearance) ** 2,
+    )
+
+
+def normalized_wear_cost(m: WearMeasures, cfg: WearCostConfig) -> WearCost:
+    """Eq. (4.10) on dimensionless measures: each excess is divided by its reference scale.
+
+    With equal weights each term is 1 when its measure is one scale past its threshold (e.g. curvature
+    kappa0 + 8 1/m, tension 100 N, clearance 0.1 m inside c), so the three causes weigh about equally
+    under the default ``normalized_weights`` (1, 1, 1).
+    """
+    wk, wf, wd = cfg.normalized_weights
+    return WearCost(
+        curvature=wk * (max(0.0, m.max_curvature - cfg.curvature_threshold) / cfg.curvature_scale) ** 2,
+        tension=wf * (m.max_tension / cfg.tension_scale) ** 2,
+        distance=wd * (min(0.0, m.min_clearance - cfg.clearance) / cfg.clearance_scale) ** 2,
+    )

@@ -1,0 +1,1 @@
+"""eval: builds on dresspack_gym (see README)."""

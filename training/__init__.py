@@ -1,0 +1,1 @@
+"""training: builds on dresspack_gym (see README)."""
