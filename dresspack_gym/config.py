@@ -280,7 +280,8 @@ class SimulationConfig:
     cable_damping: float = 5.0  # viscous damping rate of the cable's motion [1/s] (air/contact losses)
     bending_damping: float = 0.02  # Rayleigh damping time of the rod elasticity [s]
     settle_time: float = 1.5  # max seconds of simulated settling after a motion
-    settle_speed: float = 0.005  # settled when every vertex moves slower than this [m/s]
+    settle_speed: float = 0.005  # settled when every vertex moves slower than this [m/s] ...
+    settle_accel: float = 0.05  # ... and accelerates less than this [m/s^2] (no force imbalance left)
     gravity: float = 9.81
 
     @staticmethod
@@ -294,6 +295,7 @@ class SimulationConfig:
             bending_damping=s.number("bending_damping", d.bending_damping, lo=0.0, hi=10.0, unit="s"),
             settle_time=s.number("settle_time", d.settle_time, lo=0.0, hi=60.0, unit="s"),
             settle_speed=s.number("settle_speed", d.settle_speed, lo=0.0, lo_open=True, hi=10.0, unit="m/s"),
+            settle_accel=s.number("settle_accel", d.settle_accel, lo=0.0, lo_open=True, hi=100.0, unit="m/s^2"),
             gravity=s.number("gravity", d.gravity, lo=0.0, hi=100.0, unit="m/s^2"),
         )
         s.done()

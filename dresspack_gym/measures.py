@@ -68,6 +68,33 @@ def edge_tensions(model: mujoco.MjModel, data: mujoco.MjData, cable: CableIndex)
     return -data.efc_force[rows]
 
 
+def node_tensions(model: mujoco.MjModel, data: mujoco.MjData, cable: CableIndex, points: np.ndarray) -> np.ndarray:
+    """Tension where the cable enters each node [N]: the node's reaction force along the cable.
+
+    The connect forces (``efc_force``, the force on the cable vertex) of all vertices a node holds add
+    up to the force the node applies to the cable; its component pulling the cable towards the node is
+    the continuum tension at the attachment (for a hanging cable: its whole weight, rho g L).
+    """
+    out = np.zeros(len(cable.attachments))
+    eq_rows = data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY
+    n = len(points) - 1
+    for k, (att, eq_ids) in enumerate(zip(cable.attachments, cable.node_eq_ids)):
+        force = np.zeros(3)
+        for eq in eq_ids:
+            force += data.efc_force[eq_rows & (data.efc_id == eq)]
+        v = att.vertices[0]
+        # Unit vector from the cable into the node: against the arc-length direction at a start
+        # node, along it at an end node; interior nodes pull both ways, use the larger side.
+        if v == 0:
+            toward = [points[0] - points[1]]
+        elif v == n:
+            toward = [points[n] - points[n - 1]]
+        else:
+            toward = [points[v] - points[v + 1], points[v] - points[v - 1]]
+        out[k] = max(float(force @ (t / max(np.linalg.norm(t), 1e-12))) for t in toward)
+    return out
+
+
 def twist_rates(model: mujoco.MjModel, data: mujoco.MjData, cable: CableIndex) -> np.ndarray:
     """Material twist per unit length at each interior vertex [rad/m]: (theta_e - theta_{e-1}) / h.
 
@@ -147,13 +174,16 @@ def measure_cable(station: Station, data: mujoco.MjData, cable: CableIndex, prob
         raise SimulationError(f"cable of robot {cable.robot!r} has non-finite vertex positions")
     h = cable.segment_length
     kappa = vertex_curvatures(points)
-    tension = edge_tensions(station.model, data, cable)
+    tension = np.concatenate([edge_tensions(station.model, data, cable),
+                              node_tensions(station.model, data, cable, points)])
     twist = twist_rates(station.model, data, cable)
     dist, edge, obstacle = probe.min_distance(data, cable, points)
-    ik, it = int(np.argmax(kappa)), int(np.argmax(tension)) if len(tension) else 0
-    values = (float(kappa[ik]), float(max(tension.max(), 0.0)) if len(tension) else 0.0, float(dist),
+    ik, it = int(np.argmax(kappa)), int(np.argmax(tension))
+    n_edges = len(points) - 1
+    tension_at = (it + 0.5) * h if it < n_edges else cable.attachments[it - n_edges].node.arc_length
+    values = (float(kappa[ik]), float(max(tension.max(), 0.0)), float(dist),
               float(twist.max()) if len(twist) else 0.0)
     if not all(np.isfinite(values)):
         raise SimulationError(f"wear measures of robot {cable.robot!r} are not finite: {values}")
-    return WearMeasures(*values, curvature_at=(ik + 1) * h, tension_at=(it + 0.5) * h,
+    return WearMeasures(*values, curvature_at=(ik + 1) * h, tension_at=tension_at,
                         clearance_at=(edge + 0.5) * h if edge >= 0 else 0.0, nearest_obstacle=obstacle)

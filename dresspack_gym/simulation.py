@@ -133,7 +133,11 @@ class CableSimulator:
         return trace
 
     def settle(self, max_time: float | None = None) -> float:
-        """Hold the robots still until every cable vertex is slower than ``settle_speed``; returns seconds."""
+        """Hold the robots still until the cables are in equilibrium; returns the simulated seconds used.
+
+        Equilibrium: every vertex slower than ``settle_speed`` and accelerating less than ``settle_accel``
+        (a slow longitudinal bounce of the cable has small speeds but large accelerations).
+        """
         max_time = self.config.settle_time if max_time is None else max_time
         dt = self.model.opt.timestep
         steps = int(np.ceil(max_time / dt))
@@ -146,7 +150,8 @@ class CableSimulator:
                 self.data.qvel[self.station.robot_dof] = 0.0
                 mujoco.mj_step(self.model, self.data)
             done += n
-            if np.max(np.abs(self.data.qvel[self._vertex_dofs])) < self.config.settle_speed:
+            if (np.max(np.abs(self.data.qvel[self._vertex_dofs])) < self.config.settle_speed
+                    and np.max(np.abs(self.data.qacc[self._vertex_dofs])) < self.config.settle_accel):
                 break
         self._check_finite()
         mujoco.mj_forward(self.model, self.data)

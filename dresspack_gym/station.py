@@ -28,6 +28,7 @@ class CableIndex:
     twist_qpos: np.ndarray  # qpos address per edge twist joint (-1 where the edge has none)
     edge_eq_id: int  # equality id of the flex edge constraint
     attachments: tuple[NodeAttachment, ...]
+    node_eq_ids: tuple[tuple[int, ...], ...]  # connect equality ids holding each node's vertices
     segment_length: float
     radius: float
 
@@ -95,6 +96,7 @@ class Station:
         spec.option.gravity = [0, 0, -sim.gravity]
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
         spec.option.viscosity = 1.0  # cable damping via the inertia-box fluid model (see cable_model)
+        spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_REFSAFE  # allow 1-step clamp constraints
         spec.visual.global_.offwidth = 1280
         spec.visual.global_.offheight = 960
         spec.worldbody.add_light(pos=[0, 0, 6], dir=[0, 0, -1], diffuse=[0.8, 0.8, 0.8])
@@ -159,7 +161,8 @@ class Station:
             except KeyError:
                 pass
         eq = [i for i in range(m.neq) if m.eq_type[i] == mujoco.mjtEq.mjEQ_FLEX and m.eq_obj1id[i] == flex_id]
-        return CableIndex(name, flex_id, bodies, qpos, dof, twist, eq[0], tuple(attachments),
+        node_eqs = tuple(tuple(m.equality(f"{vs}_connect").id for vs in att.vertex_sites) for att in attachments)
+        return CableIndex(name, flex_id, bodies, qpos, dof, twist, eq[0], tuple(attachments), node_eqs,
                           dp.segment_length, dp.radius)
 
     # ------------------------------------------------------------------------------ helpers

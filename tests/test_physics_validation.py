@@ -1,0 +1,115 @@
+"""Physics validation against analytic solutions (SPEC §9)."""
+
+import numpy as np
+import pytest
+
+from dresspack_gym.measures import edge_tensions, vertex_curvatures
+
+from helpers import settled, world_cable_station
+
+G = 9.81
+
+
+def test_hanging_cable_top_tension_is_rho_g_L():
+    """A cable hanging from one clamped end: top tension = rho g L within 3 %, linear profile."""
+    station = world_cable_station([{"name": "top", "body": "world", "pos": [0, 0, 3.0], "direction": [0, 0, -1]}])
+    sim = settled(station)
+    cable = station.cables[0]
+    tension = edge_tensions(station.model, sim.data, cable)
+    rho, length = 1.25, 1.74
+    assert sim.measures().max_tension == pytest.approx(rho * G * length, rel=0.03)
+    # Every free edge (below the clamped first edge) carries the weight below its midpoint.
+    h = length / 24
+    s_mid = (np.arange(24) + 0.5) * h
+    np.testing.assert_allclose(tension[1:], rho * G * (length - s_mid[1:]), rtol=0.01, atol=0.02)
+
+
+def test_cantilever_tip_deflection_matches_small_deflection_theory():
+    """Clamped horizontal cantilever of stiff EI under its own weight: tip = w L^4 / (8 EI) within 5 %."""
+    length, rho, ei = 1.0, 0.5, 20.0
+    station = world_cable_station(
+        [{"name": "clamp", "body": "world", "pos": [0, 0, 2.0], "direction": [1, 0, 0]}],
+        cable={"length": length, "linear_density": rho, "bending_stiffness": ei, "segments": 40})
+    sim = settled(station, 8.0)
+    points = sim.cable_points()
+    deflection = 2.0 - points[-1, 2]
+    expected = rho * G * length ** 4 / (8 * ei)
+    assert deflection == pytest.approx(expected, rel=0.05)
+    assert expected < 0.05 * length  # small-deflection regime
+
+
+def test_rod_bent_into_an_arc_has_curvature_one_over_radius():
+    """Both clamps on a circle of radius R (no gravity): the rod settles into the arc, kappa = 1/R.
+
+    The clamps hold the first and last edges as chords of the circle (a clamp fixes two vertices),
+    so the pure-bending equilibrium is the polygon inscribed in the circle with equal turning angles.
+    """
+    radius, n, h = 0.5, 24, 0.05
+    step = 2 * np.arcsin(h / (2 * radius))  # angle subtended by one edge of length h
+    angles = (np.arange(n + 1) - n / 2) * step
+
+    def on_circle(a):
+        return np.array([radius * np.sin(a), 0.0, 2.0 + radius * np.cos(a)])
+
+    p = [on_circle(a) for a in angles]
+    station = world_cable_station(
+        [{"name": "a", "body": "world", "pos": p[0].tolist(), "direction": (p[1] - p[0]).tolist()},
+         {"name": "b", "body": "world", "pos": p[-1].tolist(), "direction": (p[-1] - p[-2]).tolist()}],
+        cable={"length": n * h, "segments": n}, gravity=0.0)
+    sim = settled(station, 4.0)
+    kappa = vertex_curvatures(sim.cable_points())
+    np.testing.assert_allclose(kappa, 1.0 / radius, rtol=0.03)
+    assert sim.measures().max_curvature == pytest.approx(1.0 / radius, rel=0.03)
+
+
+def test_menger_curvature_is_exact_on_sampled_circles():
+    for radius in (0.1, 0.5, 3.0):
+        a = np.linspace(0, 2.5, 30)
+        pts = np.stack([radius * np.cos(a), radius * np.sin(a), 0.3 * a], axis=1)
+        pts[:, 2] = 0.0
+        np.testing.assert_allclose(vertex_curvatures(pts), 1.0 / radius, rtol=1e-9)
+
+
+@pytest.mark.parametrize("obstacle, expected", [
+    ({"name": "wall", "type": "box", "pos": [0.45, 0, 2.0], "half_size": [0.2, 0.5, 1.5]}, 0.25 - 0.03),
+    ({"name": "post", "type": "capsule", "fromto": [0.4, -1, 2.0, 0.4, 1, 2.0], "radius": 0.1}, 0.30 - 0.03),
+    ({"name": "ball", "type": "sphere", "pos": [0, 0.7, 2.5], "radius": 0.2}, 0.5 - 0.03),
+])
+def test_clearance_to_geometry_at_a_known_offset(obstacle, expected):
+    """A vertical hanging cable (x = y = 0, z in [1.26, 3]) next to a primitive: d within 2 mm."""
+    station = world_cable_station([{"name": "top", "body": "world", "pos": [0, 0, 3.0], "direction": [0, 0, -1]}],
+                                  obstacles=[obstacle])
+    sim = settled(station, 3.0)
+    m = sim.measures()
+    assert m.min_clearance == pytest.approx(expected, abs=0.002)
+    assert m.nearest_obstacle == obstacle["name"]
+
+
+def test_clearance_is_zero_in_contact_and_floor_counts():
+    station = world_cable_station([{"name": "top", "body": "world", "pos": [0, 0, 1.5], "direction": [0, 0, -1]}],
+                                  floor=True)
+    sim = settled(station, 3.0)
+    m = sim.measures()
+    assert m.min_clearance == 0.0  # 1.74 m of cable hanging from 1.5 m lies on the floor
+    assert m.nearest_obstacle == "floor"
+
+
+def test_clearance_matches_brute_force_point_sampling():
+    """ClearanceProbe (MuJoCo narrow phase) agrees with dense point sampling against a rotated box."""
+    box = {"name": "crate", "type": "box", "pos": [0.5, 0.1, 1.0], "half_size": [0.2, 0.3, 0.25],
+           "rpy_deg": [10, 25, 40]}
+    station = world_cable_station([{"name": "a", "body": "world", "pos": [0, 0, 2.0], "direction": [1, 0, 0]},
+                                   {"name": "b", "body": "world", "pos": [1.2, 0.2, 2.0], "direction": [1, 0, 0]}],
+                                  obstacles=[box])
+    sim = settled(station, 3.0)
+    pts = sim.cable_points()
+    m = station.model
+    g = m.geom("obstacle/crate").id
+    rot = sim.data.geom_xmat[g].reshape(3, 3)
+    center = sim.data.geom_xpos[g]
+    half = m.geom_size[g]
+    dense = np.concatenate([np.linspace(a, b, 200) for a, b in zip(pts[:-1], pts[1:])])
+    local = (dense - center) @ rot
+    outside = np.maximum(np.abs(local) - half, 0.0)
+    brute = np.linalg.norm(outside, axis=1).min() - 0.03
+    assert sim.measures().min_clearance == pytest.approx(max(brute, 0.0), abs=1e-3)
