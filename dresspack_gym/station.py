@@ -71,6 +71,19 @@ class Station:
         self.robot_dof = np.concatenate([r.dof for r in self.robots])
         self.home = np.stack([r.home for r in config.robots])
         self.weld_configurations = self._solve_welds(config)
+        self.home_cable_shapes = self._home_shapes()
+
+    def _home_shapes(self) -> list[np.ndarray]:
+        """Cable shapes at Home; fails early (naming the robot) if a cable cannot span its nodes."""
+        try:
+            return self.initial_cable_shapes(self.home)
+        except ConfigError as exc:
+            for i in range(self.n_robots):  # find the robot whose cable failed
+                try:
+                    self.initial_cable_shapes_for(i, self.home[i])
+                except ConfigError:
+                    break
+            raise ConfigError(f"robots[{i}].{exc.field}", str(exc).split(": ", 1)[1]) from None
 
     def _solve_welds(self, config: StationConfig) -> dict[str, np.ndarray]:
         """All IK solutions (within joint limits) of every weld point; unreachable ones are config errors."""
@@ -168,12 +181,12 @@ class Station:
     # ------------------------------------------------------------------------------ helpers
     def initial_cable_shapes(self, q_robots: np.ndarray) -> list[np.ndarray]:
         """Reference shapes (world vertex positions) of every cable with the robots at ``q_robots``."""
-        shapes = []
+        return [self.initial_cable_shapes_for(i, q) for i, q in enumerate(q_robots)]
+
+    def initial_cable_shapes_for(self, i: int, q: np.ndarray) -> np.ndarray:
+        r, rob = self.config.robots[i], self.robots[i]
         g = np.asarray(self.model.opt.gravity, dtype=float)
         gdir = g / np.linalg.norm(g) if np.linalg.norm(g) > 0 else np.array([0, 0, -1.0])
-        for r, rob, q in zip(self.config.robots, self.robots, q_robots):
-            frames = rob.kinematics.link_frames(q)
-            node_frames = [np.eye(4) if nd.body == "world" else frames[LINK_INDEX[nd.body]]
-                           for nd in r.dresspack.nodes]
-            shapes.append(reference_shape(r.dresspack, node_frames, gdir))
-        return shapes
+        frames = rob.kinematics.link_frames(q)
+        node_frames = [np.eye(4) if nd.body == "world" else frames[LINK_INDEX[nd.body]] for nd in r.dresspack.nodes]
+        return reference_shape(r.dresspack, node_frames, gdir)
