@@ -2,20 +2,18 @@
 
 from __future__ import annotations
 
-import os
-
 import mujoco
 import numpy as np
 
 from .errors import DresspackError
 
 
-def default_camera(model: mujoco.MjModel, azimuth: float = 150.0, elevation: float = -25.0,
-                   distance: float | None = None, lookat=(1.0, 0.0, 1.0)) -> mujoco.MjvCamera:
+def default_camera(model: mujoco.MjModel, azimuth: float = -60.0, elevation: float = -22.0,
+                   distance: float | None = None, lookat=(0.4, 0.0, 1.1)) -> mujoco.MjvCamera:
     cam = mujoco.MjvCamera()
     cam.type = mujoco.mjtCamera.mjCAMERA_FREE
     cam.azimuth, cam.elevation = azimuth, elevation
-    cam.distance = distance if distance is not None else 6.5
+    cam.distance = distance if distance is not None else 5.5
     cam.lookat[:] = lookat
     return cam
 
@@ -24,7 +22,6 @@ class StationRenderer:
     """Renders RGB frames of a model/data pair; reuse one instance for many frames."""
 
     def __init__(self, model: mujoco.MjModel, width: int = 960, height: int = 720):
-        os.environ.setdefault("MUJOCO_GL", "egl")
         try:
             self.renderer = mujoco.Renderer(model, height=height, width=width)
         except Exception as exc:  # no GL context available
