@@ -49,3 +49,29 @@ def physics_benchmark(station_ref: str = "default", repeats: int = 3, raw_steps:
         "move90_steps_per_s": round(steps_done / best_move, 1),
         "move90_vs_raw_ratio": round(steps_done / best_move / raw_rate, 3),
     }
+
+
+def restrictions_benchmark(station_ref: str = "default", repeats: int = 3, batch: int = 100_000) -> dict:
+    """Cost of the joint restrictions per configuration, batched and one at a time (best of repeats)."""
+    from .loading import load_station
+
+    cfg = load_station(station_ref)
+    rules = cfg.robots[0].restrictions
+    lim = cfg.robots[0].robot.joint_limits
+    q = np.random.default_rng(0).uniform(lim[:, 0], lim[:, 1], size=(batch, 6))
+    batched, single = [], []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        rules.allowed(q)
+        batched.append((time.perf_counter() - t0) / batch)
+        t0 = time.perf_counter()
+        for qi in q[:2000]:
+            rules.allowed(qi)
+        single.append((time.perf_counter() - t0) / 2000)
+    return {
+        "station": cfg.name,
+        "n_rules": len(rules),
+        "batched_us_per_config": round(min(batched) * 1e6, 4),
+        "single_call_us": round(min(single) * 1e6, 2),
+        "allowed_fraction_random": round(float(rules.allowed(q).mean()), 4),
+    }

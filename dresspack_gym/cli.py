@@ -97,10 +97,29 @@ def cmd_render(args) -> int:
     return 0
 
 
-def cmd_bench(args) -> int:
-    from .bench import physics_benchmark
+def cmd_restrictions(args) -> int:
+    from .loading import load_station
 
-    result = physics_benchmark(args.station, repeats=args.repeats)
+    cfg = load_station(args.station)
+    for r in cfg.robots:
+        print(f"Robot {r.name!r}: {len(r.restrictions)} joint restriction(s), combined with AND (thesis 4.7)")
+        for rule in r.restrictions.rules:
+            print(f"  - {rule.describe()}")
+    if args.plot:
+        from .restriction_plot import plot_restrictions
+
+        summary = plot_restrictions(cfg, args.plot)
+        for name, frac in summary.items():
+            print(f"{name}: {100 * frac:.1f} % of the (j5, j6) plane is forbidden at Home's j4")
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from .bench import physics_benchmark, restrictions_benchmark
+
+    bench = {"physics": physics_benchmark, "restrictions": restrictions_benchmark}[args.what]
+    result = bench(args.station, repeats=args.repeats)
     if args.json:
         print(json.dumps(result, indent=2))
     else:
@@ -125,8 +144,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--elevation", type=float, default=-22.0)
     r.add_argument("--distance", type=float, default=5.5)
     r.set_defaults(func=cmd_render)
+    x = sub.add_parser("restrictions", help="list a station's joint restrictions and plot the forbidden j5/j6 zones")
+    x.add_argument("station")
+    x.add_argument("--plot", help="output PNG path for the forbidden-zone plot (thesis Figure 4.2)")
+    x.set_defaults(func=cmd_restrictions)
     b = sub.add_parser("bench", help="benchmarks")
-    b.add_argument("what", choices=["physics"], help="which benchmark")
+    b.add_argument("what", choices=["physics", "restrictions"], help="which benchmark")
     b.add_argument("--station", default="default")
     b.add_argument("--repeats", type=int, default=3)
     b.add_argument("--json", action="store_true")

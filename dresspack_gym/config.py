@@ -338,6 +338,7 @@ class RobotPlacement:
     base_pos: tuple[float, float, float]
     base_yaw: float
     home: np.ndarray  # (6,) radians
+    restrictions: Any = None  # RestrictionSet: joint restrictions of this robot and dresspack (thesis 4.7)
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,7 @@ import yaml
 from .config import (DresspackConfig, RobotConfig, RobotPlacement, SimulationConfig, StationConfig,
                      WearCostConfig, obstacle_from_section, weld_point_from_section)
 from .errors import ConfigError
+from .restrictions import RestrictionSet
 from .validation import Section
 
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
@@ -105,8 +106,12 @@ def station_from_dict(data: Mapping[str, Any], base_dir: Path = CONFIG_DIR / "st
             raise ConfigError(f"{r.field('home_deg')}[{j}]",
                               f"{np.degrees(home[j]):.1f} deg is outside joint {j + 1}'s limits "
                               f"[{np.degrees(lim[j, 0]):.0f}, {np.degrees(lim[j, 1]):.0f}] deg")
+        restrictions = RestrictionSet.from_list(r.raw("restrictions", []), r.field("restrictions"))
+        if not restrictions.allowed(home)[0]:
+            raise ConfigError(r.field("home_deg"), f"Home violates the robot's joint restrictions: "
+                                                    f"{restrictions.violated_by(home)}")
         r.done()
-        robots.append(RobotPlacement(rname, robot, dresspack, base_pos, base_yaw, home))
+        robots.append(RobotPlacement(rname, robot, dresspack, base_pos, base_yaw, home, restrictions))
     if not robots:
         raise ConfigError("robots", "a station needs at least one robot")
     names = [r.name for r in robots]

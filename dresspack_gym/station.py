@@ -71,6 +71,10 @@ class Station:
         self.robot_dof = np.concatenate([r.dof for r in self.robots])
         self.home = np.stack([r.home for r in config.robots])
         self.weld_configurations = self._solve_welds(config)
+        self.restrictions = [r.restrictions for r in config.robots]
+        self.allowed_weld_configurations = {
+            w.name: s[self.restrictions[config.robot_index(w.robot)].allowed(s)] if len(s) else s
+            for w, s in ((w, self.weld_configurations[w.name]) for w in config.weld_points)}
         self.home_cable_shapes = self._home_shapes()
 
     def _home_shapes(self) -> list[np.ndarray]:

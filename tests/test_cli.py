@@ -53,3 +53,17 @@ def test_bench_physics_json(capsys):
 def test_console_script_module_entry():
     res = subprocess.run([sys.executable, "-m", "dresspack_gym.cli", "--help"], capture_output=True, text=True)
     assert res.returncode == 0 and "inspect" in res.stdout
+
+
+def test_restrictions_command_lists_rules_and_plots(tmp_path, capsys):
+    out = tmp_path / "zones.png"
+    assert main(["restrictions", "default", "--plot", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "support cylinder" in text and "forbidden" in text
+    assert out.stat().st_size > 10_000
+
+
+def test_bench_restrictions_json(capsys):
+    assert main(["bench", "restrictions", "--json", "--repeats", "1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert 0 < out["batched_us_per_config"] < out["single_call_us"]

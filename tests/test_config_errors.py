@@ -131,3 +131,18 @@ def test_not_yaml_mapping(tmp_path):
     p = tmp_path / "bad.yaml"
     p.write_text("- just\n- a list\n")
     expect_field(lambda: load_station(p), "station")
+
+
+def test_home_violating_a_restriction_is_rejected():
+    d = default_station_dict()
+    d["robots"][0]["restrictions"] = [{"type": "twist_sum", "upper_deg": 0}]
+    e = expect_field(lambda: station_from_dict(d), "robots[0].home_deg")
+    assert "j4 + j6" in str(e)
+
+
+def test_allowed_weld_configurations_respect_restrictions():
+    station = Station(load_station("default"))
+    for name, sols in station.allowed_weld_configurations.items():
+        assert len(sols) > 0
+        assert station.restrictions[0].allowed(sols).all()
+        assert len(sols) <= len(station.weld_configurations[name])
