@@ -75,3 +75,62 @@ def restrictions_benchmark(station_ref: str = "default", repeats: int = 3, batch
         "single_call_us": round(min(single) * 1e6, 2),
         "allowed_fraction_random": round(float(rules.allowed(q).mean()), 4),
     }
+
+
+def env_benchmark(station_ref: str = "default", repeats: int = 3, env_steps: int = 60) -> dict:
+    """Env steps/s vs raw mj_step of the same model and the same physics steps, in one run.
+
+    Every ``mj_step`` the env makes is timed, so ``raw_equivalent_steps_per_s`` (the env step rate if
+    masks, measures, observations and Python cost nothing) uses the physics actually stepped: a moving
+    cable in contact costs more per step than one at rest, which ``raw_resting_steps_per_s`` shows.
+    ``ratio`` = env_steps_per_s / raw_equivalent_steps_per_s = the share of env time spent in mj_step.
+    """
+    from .env import DresspackEnv
+
+    env = DresspackEnv(station=station_ref)
+    m, d = env.station.model, env.sim.data
+    rng = np.random.default_rng(0)
+    original = mujoco.mj_step
+    in_step = [0.0, 0]
+
+    def timed_step(model, data):
+        t = time.perf_counter()
+        original(model, data)
+        in_step[0] += time.perf_counter() - t
+        in_step[1] += 1
+
+    best = None
+    try:
+        mujoco.mj_step = timed_step
+        for rep in range(repeats):
+            env.reset(seed=rep)
+            in_step[:] = [0.0, 0]
+            t0 = time.perf_counter()
+            for _ in range(env_steps):
+                masks = env.action_masks()
+                _, _, term, trunc, _ = env.step(int(rng.choice(np.flatnonzero(masks))))
+                if term or trunc:
+                    env.reset()
+            total = time.perf_counter() - t0
+            run = (env_steps / total, in_step[1] / in_step[0], in_step[1] / env_steps)
+            best = run if best is None or run[0] > best[0] else best
+    finally:
+        mujoco.mj_step = original
+    env.reset(seed=0)
+    state = env.sim.get_state()
+    t0 = time.perf_counter()
+    for _ in range(2000):
+        mujoco.mj_step(m, d)
+    resting = 2000 / (time.perf_counter() - t0)
+    env.sim.set_state(state)
+    env_rate, raw_rate, per_step = best
+    raw_equivalent = raw_rate / per_step
+    return {
+        "station": env.station.config.name,
+        "env_steps_per_s": round(env_rate, 2),
+        "physics_steps_per_env_step": round(per_step, 1),
+        "raw_mj_step_steps_per_s": round(raw_rate, 1),
+        "raw_equivalent_steps_per_s": round(raw_equivalent, 2),
+        "ratio": round(env_rate / raw_equivalent, 3),
+        "raw_resting_steps_per_s": round(resting, 1),
+    }

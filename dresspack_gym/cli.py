@@ -116,9 +116,9 @@ def cmd_restrictions(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from .bench import physics_benchmark, restrictions_benchmark
+    from .bench import env_benchmark, physics_benchmark, restrictions_benchmark
 
-    bench = {"physics": physics_benchmark, "restrictions": restrictions_benchmark}[args.what]
+    bench = {"physics": physics_benchmark, "restrictions": restrictions_benchmark, "env": env_benchmark}[args.what]
     result = bench(args.station, repeats=args.repeats)
     if args.json:
         print(json.dumps(result, indent=2))
@@ -149,7 +149,7 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("--plot", help="output PNG path for the forbidden-zone plot (thesis Figure 4.2)")
     x.set_defaults(func=cmd_restrictions)
     b = sub.add_parser("bench", help="benchmarks")
-    b.add_argument("what", choices=["physics", "restrictions"], help="which benchmark")
+    b.add_argument("what", choices=["physics", "restrictions", "env"], help="which benchmark")
     b.add_argument("--station", default="default")
     b.add_argument("--repeats", type=int, default=3)
     b.add_argument("--json", action="store_true")

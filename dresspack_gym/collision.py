@@ -1,0 +1,82 @@
+"""Robot-to-static-geometry collision queries (the robot is kinematic, so these are checks, not contacts)."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from .station import Station
+
+# Links that stand on the floor: their contact with it is not a collision.
+FLOOR_EXEMPT_LINKS = ("base", "link1", "link2")
+
+
+class RobotCollisionChecker:
+    """``collides(q)`` for one robot of a station, with a safety ``margin`` [m].
+
+    Uses a private MjData (so it never disturbs a running simulation), ``mj_kinematics`` for the
+    link poses, a bounding-sphere filter over (robot geom, obstacle) pairs and MuJoCo's exact
+    ``mj_geomDistance`` for the pairs that can touch.
+    """
+
+    def __init__(self, station: Station, robot: int = 0, margin: float = 0.0):
+        self.station = station
+        self.model = station.model
+        self.data = mujoco.MjData(self.model)
+        self.data.qpos[:] = self.model.qpos0
+        self.data.qpos[station.robot_qpos] = station.home.ravel()
+        mujoco.mj_kinematics(self.model, self.data)
+        self.robot = station.robots[robot]
+        self.margin = float(margin)
+        m = self.model
+        floor = m.geom("floor").id if station.config.floor else -1
+        exempt = {m.body(f"{self.robot.name}/{link}").id for link in FLOOR_EXEMPT_LINKS}
+        pairs = []
+        for g in self.robot.geom_ids:
+            for o in station.obstacle_geoms:
+                if o == floor and m.geom_bodyid[g] in exempt:
+                    continue
+                pairs.append((g, o))
+        self.pairs = np.array(pairs, dtype=int).reshape(-1, 2)
+        self.plane = m.geom_type[self.pairs[:, 1]] == mujoco.mjtGeom.mjGEOM_PLANE if len(self.pairs) else np.zeros(0, bool)
+        self.rbound = m.geom_rbound
+        self._fromto = np.zeros(6)
+
+    def min_distance(self, q) -> float:
+        """Smallest robot-obstacle surface distance at configuration ``q`` (negative when penetrating)."""
+        if len(self.pairs) == 0:
+            return np.inf
+        d = self.data
+        d.qpos[self.robot.qpos] = q
+        mujoco.mj_kinematics(self.model, d)
+        g, o = self.pairs[:, 0], self.pairs[:, 1]
+        lb = np.linalg.norm(d.geom_xpos[g] - d.geom_xpos[o], axis=1) - self.rbound[g] - self.rbound[o]
+        lb[self.plane] = -np.inf
+        best = np.inf
+        for k in np.argsort(lb):
+            if lb[k] >= best or lb[k] > self.margin + 1.0 and best < np.inf:
+                break
+            dist = mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]), min(best, 10.0), self._fromto)
+            best = min(best, dist)
+            if best < self.margin:
+                break
+        return float(best)
+
+    def collides(self, q) -> bool:
+        """True if any robot geom is closer than ``margin`` to static geometry (stops at the first hit)."""
+        if len(self.pairs) == 0:
+            return False
+        d = self.data
+        d.qpos[self.robot.qpos] = q
+        mujoco.mj_kinematics(self.model, d)
+        g, o = self.pairs[:, 0], self.pairs[:, 1]
+        lb = np.linalg.norm(d.geom_xpos[g] - d.geom_xpos[o], axis=1) - self.rbound[g] - self.rbound[o]
+        lb[self.plane] = -np.inf
+        for k in np.flatnonzero(lb < self.margin):  # pairs whose bounding spheres are farther can't touch
+            if mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]), self.margin + 1e-3,
+                                      self._fromto) < self.margin:
+                return True
+        return False
+
+    def collides_batch(self, qs: np.ndarray) -> np.ndarray:
+        return np.array([self.collides(q) for q in np.atleast_2d(qs)], dtype=bool)

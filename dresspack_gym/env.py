@@ -1,0 +1,359 @@
+"""Gymnasium environment: joint-space motion of a robot carrying a simulated dresspack, masked actions.
+
+Episode: starting at Home, visit the task's weld configurations in order, then return Home. Each weld
+configuration is the restriction-passing, collision-free IK branch closest to Home (max joint change).
+
+Actions (``Discrete(13)``): action ``2 j`` moves joint ``j`` by ``+joint_step``, ``2 j + 1`` by
+``-joint_step`` (j = 0..5), action 12 holds still for ``joint_step`` worth of time. When every joint is
+within half a step of the current goal the robot finishes the move onto the goal exactly (that motion
+is simulated and timed too) and the goal is reached.
+
+Masks (``action_masks()``, sb3-contrib convention): an action is masked when the joint limits, an active
+joint restriction (thesis §4.1) or a robot-obstacle collision is violated at its resulting configuration
+or at any intermediate configuration of the move, checked every ``mask_resolution_deg`` (2 deg). Taking a
+masked action anyway: with ``invalid_action="penalize"`` (default, so generic checkers can sample actions)
+the robot stays where it is, the step costs ``invalid_penalty`` and ``info["invalid_action"]`` is True;
+with ``invalid_action="raise"`` an :class:`InvalidActionError` is raised. The robot never enters a
+forbidden configuration either way.
+
+Reward per step (every term is in ``info``; their sum is the reward)::
+
+    reward = reward_time + reward_wear + reward_progress + reward_goal + reward_invalid
+    reward_time     = -time_weight * step_time                        (Δt: simulated motion seconds)
+    reward_wear     = -wear_weight * C(γ)                              (eq. 4.10 or its normalised variant)
+    reward_progress = progress_weight * (φ(q_before) - φ(q_after)),  φ(q) = max_j |q_j - goal_j| / joint_step
+    reward_goal     = goal_reward when a weld (or the final Home) is reached
+    reward_invalid  = -invalid_penalty for a masked action
+
+``reward_progress`` is potential-based shaping (it does not change which policies are optimal);
+``reward_goal`` makes completion learnable. The episode terminates when Home is reached after the last
+weld and is truncated after ``max_steps``.
+
+Observation (float32, all roughly in [-1, 1]): joints scaled by their limits (6), goal scaled likewise (6),
+joint error to the goal / pi (6), task progress (1), ``cable_samples`` cable points in the TCP frame
+divided by the cable length (3 each), and the measures κ/κ0, F/100 N, d/c (3).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from .collision import RobotCollisionChecker
+from .errors import ConfigError, DresspackError
+from .loading import load_station
+from .simulation import CableSimulator
+from .station import Station
+from .wear_cost import normalized_wear_cost, wear_cost
+
+N_JOINT_ACTIONS = 12
+STAY = 12
+
+
+class InvalidActionError(DresspackError, ValueError):
+    """A masked or malformed action was taken with ``invalid_action="raise"``."""
+
+
+class DresspackEnv(gym.Env):
+    """Visit weld configurations and return Home; reward = -(time + wear cost) + completion terms."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(self, station: str = "default", robot: int = 0, welds: list[str] | None = None,
+                 n_welds: int | None = None, shuffle_welds: bool = False, joint_step_deg: float = 10.0,
+                 max_steps: int = 200, time_weight: float = 1.0, wear_weight: float = 1.0,
+                 cost_variant: str = "thesis", goal_reward: float = 10.0, progress_weight: float = 1.0,
+                 invalid_action: str = "penalize", invalid_penalty: float = 1.0, settle_time: float = 0.3,
+                 cable_samples: int = 8, collision_margin: float = 0.0, mask_resolution_deg: float = 2.0,
+                 render_mode: str | None = None, render_size: tuple[int, int] = (480, 360)):
+        self._kwargs = dict(locals())
+        for k in ("self", "__class__"):
+            self._kwargs.pop(k, None)
+        _check_choice("cost_variant", cost_variant, ("thesis", "normalized"))
+        _check_choice("invalid_action", invalid_action, ("penalize", "raise"))
+        _check_choice("render_mode", render_mode, (None, "rgb_array"))
+        for name, value, lo in (("joint_step_deg", joint_step_deg, 0.1), ("max_steps", max_steps, 1),
+                                ("settle_time", settle_time, 0.0), ("cable_samples", cable_samples, 2),
+                                ("mask_resolution_deg", mask_resolution_deg, 0.01)):
+            if not (isinstance(value, (int, float)) and value >= lo):
+                raise ConfigError(name, f"must be a number >= {lo}, got {value!r}")
+        self.station = station if isinstance(station, Station) else Station(load_station(station))
+        if not 0 <= robot < self.station.n_robots:
+            raise ConfigError("robot", f"robot index {robot} out of range for {self.station.n_robots} robot(s)")
+        self.robot_index = robot
+        self.robot = self.station.robots[robot]
+        self.placement = self.station.config.robots[robot]
+        self.sim = CableSimulator(self.station)
+        self.home_state = self.sim.get_state()
+        self.checker = RobotCollisionChecker(self.station, robot, collision_margin)
+        self.restrictions = self.placement.restrictions
+        self.limits = self.placement.robot.joint_limits
+        self.step_size = math.radians(joint_step_deg)
+        self.substeps = max(1, int(math.ceil(joint_step_deg / mask_resolution_deg)))
+        self.max_steps = int(max_steps)
+        self.weights = dict(time=time_weight, wear=wear_weight, goal=goal_reward, progress=progress_weight,
+                            invalid=invalid_penalty)
+        self.cost_fn = wear_cost if cost_variant == "thesis" else normalized_wear_cost
+        self.invalid_action = invalid_action
+        self.settle_time = float(settle_time)
+        self.cable_samples = int(cable_samples)
+        self.render_mode = render_mode
+        self.render_size = render_size
+        self._renderer = None
+        self.weld_goals = self._weld_goals(welds)
+        if n_welds is not None and not 1 <= n_welds <= len(self.weld_goals):
+            raise ConfigError("n_welds", f"must be in [1, {len(self.weld_goals)}], got {n_welds}")
+        self.n_welds = n_welds
+        self.shuffle_welds = bool(shuffle_welds)
+        n_obs = 6 * 3 + 1 + 3 * self.cable_samples + 3
+        self.observation_space = gym.spaces.Box(-10.0, 10.0, shape=(n_obs,), dtype=np.float32)
+        self.action_space = gym.spaces.Discrete(N_JOINT_ACTIONS + 1)
+        self._mask_cache: tuple[bytes, np.ndarray] | None = None
+        self._setup_episode(list(self.weld_goals))
+
+    # ----------------------------------------------------------------------------- task
+    def _weld_goals(self, welds: list[str] | None) -> dict[str, np.ndarray]:
+        home = self.placement.home
+        names = [w.name for w in self.station.config.weld_points if w.robot == self.placement.name]
+        if welds is not None:
+            unknown = [w for w in welds if w not in names]
+            if unknown:
+                raise ConfigError("welds", f"unknown weld point(s) {unknown}; this robot's weld points are {names}")
+            names = list(welds)
+        if not names:
+            raise ConfigError("welds", "the task has no weld points for this robot")
+        goals = {}
+        for name in names:
+            cands = self.station.allowed_weld_configurations[name]
+            free = [q for q in cands if not self.checker.collides(q)]
+            if not free:
+                raise ConfigError(f"weld_points.{name}", "no IK solution passes the joint restrictions "
+                                                          "without colliding with the station")
+            free = np.array(free)
+            goals[name] = free[np.argmin(np.max(np.abs(free - home), axis=1))]
+        return goals
+
+    def _setup_episode(self, order: list[str]) -> None:
+        self.goal_names = order + ["home"]
+        self.goals = [self.weld_goals[n] for n in order] + [self.placement.home.copy()]
+        self.goal_index = 0
+        self.steps = 0
+        self.cycle_time = 0.0
+        self._mask_cache = None
+
+    @property
+    def goal(self) -> np.ndarray:
+        return self.goals[min(self.goal_index, len(self.goals) - 1)]
+
+    @property
+    def q(self) -> np.ndarray:
+        return self.sim.q[self.robot_index].copy()
+
+    # ----------------------------------------------------------------------------- gym API
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        order = list(self.weld_goals)
+        if options and "welds" in options:
+            order = list(options["welds"])
+            unknown = [w for w in order if w not in self.weld_goals]
+            if unknown:
+                raise ConfigError("options.welds", f"unknown weld(s) {unknown}; choose from {list(self.weld_goals)}")
+        else:
+            if self.n_welds is not None:
+                order = list(self.np_random.choice(order, size=self.n_welds, replace=False))
+            if self.shuffle_welds:
+                order = list(self.np_random.permutation(order))
+        self.sim.set_state(self.home_state)
+        self._setup_episode([str(w) for w in order])
+        measures = self.sim.measures()
+        info = self._info(measures, self.cost_fn(measures, self.station.config.wear_cost), {}, 0.0, False)
+        return self._observation(measures), info
+
+    def step(self, action):
+        a = self._check_action(action)
+        masks = self.action_masks()
+        q_before = self.q
+        terms = {"time": 0.0, "wear": 0.0, "progress": 0.0, "goal": 0.0, "invalid": 0.0}
+        invalid = not masks[a]
+        if invalid and self.invalid_action == "raise":
+            raise InvalidActionError(f"action {a} ({self.describe_action(a)}) is masked at q = "
+                                     f"{np.round(np.degrees(q_before), 2).tolist()} deg: {self._why_masked(a)}")
+        t0 = self.sim.motion_time
+        reached = False
+        if invalid:
+            terms["invalid"] = -self.weights["invalid"]
+        elif a == STAY:
+            self.sim.settle(self.settle_time)
+            self.sim.motion_time += self.step_size / float(np.max(self._speeds()))  # waiting costs time
+        else:
+            target = self._target(q_before, a)
+            self._move(target)
+            if self._near_goal(target) and self._segment_valid(target, self.goal):
+                self._move(self.goal)
+                reached = True
+        if not invalid:
+            self.sim.settle(self.settle_time)
+        step_time = self.sim.motion_time - t0
+        self.cycle_time += step_time
+        measures = self.sim.measures()
+        cost = self.cost_fn(measures, self.station.config.wear_cost)
+        q_after = self.q
+        terms["time"] = -self.weights["time"] * step_time
+        terms["wear"] = -self.weights["wear"] * cost.total
+        terms["progress"] = self.weights["progress"] * (self._potential(q_before) - self._potential(q_after))
+        if reached:
+            terms["goal"] = self.weights["goal"]
+            self.goal_index += 1
+        self.steps += 1
+        self._mask_cache = None
+        terminated = self.goal_index >= len(self.goals)
+        truncated = not terminated and self.steps >= self.max_steps
+        reward = float(sum(terms.values()))
+        info = self._info(measures, cost, terms, step_time, invalid)
+        return self._observation(measures), reward, terminated, truncated, info
+
+    def action_masks(self) -> np.ndarray:
+        """Boolean mask over the 13 actions: True where the action is allowed (see module docstring)."""
+        q = self.q
+        key = q.tobytes() + bytes([self.goal_index])
+        if self._mask_cache is not None and self._mask_cache[0] == key:
+            return self._mask_cache[1].copy()
+        masks = np.ones(N_JOINT_ACTIONS + 1, dtype=bool)
+        for a in range(N_JOINT_ACTIONS):
+            masks[a] = self._segment_valid(q, self._target(q, a))
+        self._mask_cache = (key, masks)
+        return masks.copy()
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        if self._renderer is None:
+            from .rendering import StationRenderer
+
+            self._renderer = StationRenderer(self.station.model, width=self.render_size[0], height=self.render_size[1])
+        return self._renderer.render(self.sim.data)
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # ----------------------------------------------------------------------------- pickling
+    def __getstate__(self) -> dict[str, Any]:
+        return {"kwargs": self._kwargs, "sim": self.sim.get_state(), "goal_names": self.goal_names[:-1],
+                "goal_index": self.goal_index, "steps": self.steps, "cycle_time": self.cycle_time,
+                "rng": self._np_random.bit_generator.state if self._np_random is not None else None}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__init__(**state["kwargs"])
+        self.sim.set_state(state["sim"])
+        self._setup_episode(state["goal_names"])
+        self.goal_index, self.steps, self.cycle_time = state["goal_index"], state["steps"], state["cycle_time"]
+        if state["rng"] is not None:
+            self._np_random = np.random.Generator(np.random.PCG64())
+            self._np_random.bit_generator.state = state["rng"]
+
+    # ----------------------------------------------------------------------------- helpers
+    def describe_action(self, a: int) -> str:
+        if a == STAY:
+            return "stay"
+        return f"j{a // 2 + 1} {'+' if a % 2 == 0 else '-'}{math.degrees(self.step_size):g} deg"
+
+    def _check_action(self, action) -> int:
+        try:
+            a = int(np.asarray(action).item())
+        except (TypeError, ValueError):
+            raise InvalidActionError(f"action must be an integer in [0, {N_JOINT_ACTIONS}], got {action!r}") from None
+        if a != np.asarray(action).item() or not 0 <= a <= N_JOINT_ACTIONS:
+            raise InvalidActionError(f"action must be an integer in [0, {N_JOINT_ACTIONS}], got {action!r}")
+        return a
+
+    def _target(self, q: np.ndarray, a: int) -> np.ndarray:
+        target = q.copy()
+        if a != STAY:
+            target[a // 2] += self.step_size if a % 2 == 0 else -self.step_size
+        return target
+
+    def _segment_configs(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+        n = max(self.substeps, int(math.ceil(np.max(np.abs(q1 - q0)) / (self.step_size / self.substeps))))
+        s = np.linspace(0.0, 1.0, n + 1)[1:, None]
+        return q0[None, :] + s * (q1 - q0)[None, :]
+
+    def _segment_valid(self, q0: np.ndarray, q1: np.ndarray) -> bool:
+        qs = self._segment_configs(q0, q1)
+        if np.any(qs < self.limits[:, 0] - 1e-9) or np.any(qs > self.limits[:, 1] + 1e-9):
+            return False
+        if not self.restrictions.allowed(qs).all():
+            return False
+        return not any(self.checker.collides(qi) for qi in qs[::-1])  # the end point fails most often
+
+    def _why_masked(self, a: int) -> str:
+        qs = self._segment_configs(self.q, self._target(self.q, a))
+        if np.any(qs < self.limits[:, 0] - 1e-9) or np.any(qs > self.limits[:, 1] + 1e-9):
+            return "joint limit"
+        bad = ~self.restrictions.allowed(qs)
+        if bad.any():
+            return "joint restriction: " + "; ".join(self.restrictions.violated_by(qs[np.argmax(bad)]))
+        return "robot-obstacle collision"
+
+    def _near_goal(self, q: np.ndarray) -> bool:
+        return bool(np.max(np.abs(q - self.goal)) <= 0.5 * self.step_size + 1e-9)
+
+    def _potential(self, q: np.ndarray) -> float:
+        return float(np.max(np.abs(q - self.goal)) / self.step_size)
+
+    def _speeds(self) -> np.ndarray:
+        return self.placement.robot.joint_speed * self.sim.config.speed_fraction
+
+    def _move(self, target: np.ndarray) -> None:
+        q_all = self.sim.q.copy()
+        q_all[self.robot_index] = target
+        self.sim.move_to(q_all, settle=False)
+
+    def _observation(self, measures) -> np.ndarray:
+        lo, hi = self.limits[:, 0], self.limits[:, 1]
+        scale = lambda v: 2.0 * (v - lo) / (hi - lo) - 1.0  # noqa: E731
+        q = self.q
+        pts = self.sim.cable_points(self.robot_index)
+        idx = np.linspace(0, len(pts) - 1, self.cable_samples).round().astype(int)
+        tcp = self.robot.kinematics.tcp_pose(q)
+        local = (pts[idx] - tcp[:3, 3]) @ tcp[:3, :3] / self.placement.dresspack.length
+        cfg = self.station.config.wear_cost
+        meas = [measures.max_curvature / max(cfg.curvature_threshold, 1e-6), measures.max_tension / 100.0,
+                min(measures.min_clearance / max(cfg.clearance, 1e-6), 5.0)]
+        obs = np.concatenate([scale(q), scale(self.goal), (q - self.goal) / np.pi,
+                              [self.goal_index / len(self.goals)], local.ravel(), meas])
+        return np.clip(obs, -10.0, 10.0).astype(np.float32)
+
+    def _info(self, measures, cost, terms: dict, step_time: float, invalid: bool) -> dict[str, Any]:
+        info = {
+            "q": self.q,
+            "goal": self.goal.copy(),
+            "goal_name": self.goal_names[min(self.goal_index, len(self.goal_names) - 1)],
+            "max_curvature": measures.max_curvature,
+            "max_tension": measures.max_tension,
+            "min_clearance": measures.min_clearance,
+            "max_twist_rate": measures.max_twist_rate,
+            "cost": cost.total,
+            "cost_curvature": cost.curvature,
+            "cost_tension": cost.tension,
+            "cost_distance": cost.distance,
+            "step_time": step_time,
+            "cycle_time": self.cycle_time,
+            "goals_reached": self.goal_index,
+            "n_goals": len(self.goals),
+            "progress": self.goal_index / len(self.goals),
+            "is_success": self.goal_index >= len(self.goals),
+            "invalid_action": invalid,
+        }
+        for k in ("time", "wear", "progress", "goal", "invalid"):
+            info[f"reward_{k}"] = float(terms.get(k, 0.0))
+        return info
+
+
+def _check_choice(field: str, value, choices) -> None:
+    if value not in choices:
+        raise ConfigError(field, f"{value!r} is not one of the allowed values {list(choices)}")
