@@ -42,24 +42,28 @@ class RobotCollisionChecker:
         self.rbound = m.geom_rbound
         self._fromto = np.zeros(6)
 
-    def min_distance(self, q) -> float:
-        """Smallest robot-obstacle surface distance at configuration ``q`` (negative when penetrating)."""
-        if len(self.pairs) == 0:
-            return np.inf
+    def _pose(self, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pose the robot at ``q``; (robot geoms, obstacles, bounding-sphere lower bound) per pair."""
         d = self.data
         d.qpos[self.robot.qpos] = q
         mujoco.mj_kinematics(self.model, d)
         g, o = self.pairs[:, 0], self.pairs[:, 1]
         lb = np.linalg.norm(d.geom_xpos[g] - d.geom_xpos[o], axis=1) - self.rbound[g] - self.rbound[o]
         lb[self.plane] = -np.inf
+        return g, o, lb
+
+    def min_distance(self, q) -> float:
+        """Smallest robot-obstacle surface distance at configuration ``q`` (negative when penetrating)."""
+        if len(self.pairs) == 0:
+            return np.inf
+        d = self.data
+        g, o, lb = self._pose(q)
         best = np.inf
         for k in np.argsort(lb):
-            if lb[k] >= best or lb[k] > self.margin + 1.0 and best < np.inf:
+            if lb[k] >= best:  # pairs are sorted by lower bound: none of the rest can be nearer
                 break
             dist = mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]), min(best, 10.0), self._fromto)
             best = min(best, dist)
-            if best < self.margin:
-                break
         return float(best)
 
     def collides(self, q) -> bool:
@@ -67,11 +71,7 @@ class RobotCollisionChecker:
         if len(self.pairs) == 0:
             return False
         d = self.data
-        d.qpos[self.robot.qpos] = q
-        mujoco.mj_kinematics(self.model, d)
-        g, o = self.pairs[:, 0], self.pairs[:, 1]
-        lb = np.linalg.norm(d.geom_xpos[g] - d.geom_xpos[o], axis=1) - self.rbound[g] - self.rbound[o]
-        lb[self.plane] = -np.inf
+        g, o, lb = self._pose(q)
         for k in np.flatnonzero(lb < self.margin):  # pairs whose bounding spheres are farther can't touch
             if mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]), self.margin + 1e-3,
                                       self._fromto) < self.margin:
