@@ -101,3 +101,33 @@ def test_measures_are_finite_along_a_motion(sim):
     for m in trace.measures:
         values = [m.max_curvature, m.max_tension, m.min_clearance, m.max_twist_rate]
         assert all(np.isfinite(values)) and all(v >= 0 for v in values)
+
+
+def test_two_robot_station_moves_both_and_reports_the_worst_cable():
+    from dresspack_gym.loading import station_from_dict
+
+    from helpers import default_station_dict
+
+    d = default_station_dict()
+    second = dict(d["robots"][0], name="r2", base_pos=[4.5, 0.0, 0.0], base_yaw_deg=180)
+    d["robots"].append(second)
+    d["weld_points"].append({"name": "far_side", "robot": "r2", "pos": [2.85, 0.6, 0.675], "approach": [-0.3, 0, -1]})
+    station = Station(station_from_dict(d))
+    assert station.n_robots == 2 and len(station.cables) == 2
+    assert len(station.allowed_weld_configurations["far_side"]) > 0
+    sim = CableSimulator(station)
+    target = station.home.copy()
+    target[0, 0] += np.radians(20)
+    target[1, 0] -= np.radians(20)
+    sim.move_to(target)
+    np.testing.assert_allclose(sim.q, target)
+    per_cable = sim.cable_measures()
+    worst = sim.measures()
+    assert worst.max_curvature == max(m.max_curvature for m in per_cable)
+    assert worst.min_clearance == min(m.min_clearance for m in per_cable)
+    # each cable follows its own robot's tool support
+    for i, rob in enumerate(station.robots):
+        frames = rob.kinematics.link_frames(sim.q[i])
+        node = station.config.robots[i].dresspack.nodes[-1]
+        support = frames[6][:3, :3] @ np.asarray(node.pos) + frames[6][:3, 3]
+        np.testing.assert_allclose(sim.cable_points(i)[-1], support, atol=2e-3)
