@@ -14,6 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from .errors import ConfigError
+from .restrictions import RestrictionSet
 from .validation import Section
 
 ROBOT_LINKS = ("base", "link1", "link2", "link3", "link4", "link5", "link6")
@@ -338,7 +339,7 @@ class RobotPlacement:
     base_pos: tuple[float, float, float]
     base_yaw: float
     home: np.ndarray  # (6,) radians
-    restrictions: Any = None  # RestrictionSet: joint restrictions of this robot and dresspack (thesis 4.7)
+    restrictions: RestrictionSet = field(default_factory=RestrictionSet)  # thesis 4.7, AND of all rules
 
 
 @dataclass(frozen=True)
