@@ -115,6 +115,39 @@ def cmd_restrictions(args) -> int:
     return 0
 
 
+def cmd_robustness(args) -> int:
+    import math
+
+    from .loading import load_station, read_yaml, CONFIG_DIR
+    from .robustness.algorithm import RobustnessSettings
+    from .robustness.grid import RobustnessGrid
+    from .robustness.plots import plot_map
+    from .robustness.runner import run_map
+
+    grid_path = args.grid
+    from pathlib import Path
+
+    if not Path(grid_path).is_file() and (CONFIG_DIR / "grids" / f"{grid_path}.yaml").is_file():
+        grid_path = CONFIG_DIR / "grids" / f"{grid_path}.yaml"
+    grid = RobustnessGrid.from_dict(read_yaml(grid_path, "grid"))
+    settings = RobustnessSettings(threshold=args.threshold, n_samples=args.samples, n_paths=args.n_paths,
+                                  speed_fraction=args.speed_fraction, settle_time=args.settle_time,
+                                  excursion=tuple(math.radians(e) for e in args.excursion))
+    summary = run_map(grid, load_station(args.station), args.out, settings, backend=args.backend,
+                      workers=args.workers, ray_address=args.ray_address, progress=not args.json, limit=args.limit)
+    (Path(args.out) / "summary.json").write_text(json.dumps(summary, indent=2))
+    plots = plot_map(args.out, grid, settings.threshold) if summary["n_configs"] else []
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        print(f"{summary['n_non_robust']} of {summary['n_configs']} configurations non-robust "
+              f"({100 * summary['fraction_non_robust']:.1f} %), threshold {1000 * settings.threshold:.0f} mm")
+        for ry, s in summary["per_ry"].items():
+            print(f"  Ry {float(ry):7.1f} deg: {100 * s['fraction_non_robust']:5.1f} % of {s['n']}")
+        print("wrote " + ", ".join([str(Path(args.out) / "results.csv"), str(Path(args.out) / "summary.json")] + plots))
+    return 0
+
+
 def cmd_bench(args) -> int:
     from .bench import env_benchmark, physics_benchmark, restrictions_benchmark
 
@@ -148,6 +181,23 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("station")
     x.add_argument("--plot", help="output PNG path for the forbidden-zone plot (thesis Figure 4.2)")
     x.set_defaults(func=cmd_restrictions)
+    rm = sub.add_parser("robustness-map", help="map non-robust cable configurations (thesis Algorithm 1), resumable")
+    rm.add_argument("--grid", required=True, help="grid YAML or shipped grid name (thesis_24336, thesis_67500, small)")
+    rm.add_argument("--station", required=True, help="station YAML or shipped name (its robot and dresspack are mapped)")
+    rm.add_argument("--out", required=True, help="output folder; rerunning with the same folder resumes")
+    rm.add_argument("--workers", type=int, default=2)
+    rm.add_argument("--backend", choices=["serial", "process", "ray"], default="process")
+    rm.add_argument("--ray-address", default=None, help="address of an existing Ray cluster (backend ray)")
+    rm.add_argument("--threshold", type=float, default=0.1, help="d_thresh [m] (default 0.1)")
+    rm.add_argument("--samples", type=int, default=20, help="N_s shape samples (default 20)")
+    rm.add_argument("--excursion", type=float, nargs=4, default=[20, 100, 100, 100], metavar=("RY", "J4", "J5", "J6"),
+                    help="excursion sizes [deg] (default 20 100 100 100)")
+    rm.add_argument("--n-paths", type=int, default=0, help="K random approach paths instead of the thesis's two")
+    rm.add_argument("--speed-fraction", type=float, default=1.0)
+    rm.add_argument("--settle-time", type=float, default=1.0)
+    rm.add_argument("--limit", type=int, default=None, help="compute at most this many new configurations")
+    rm.add_argument("--json", action="store_true")
+    rm.set_defaults(func=cmd_robustness)
     b = sub.add_parser("bench", help="benchmarks")
     b.add_argument("what", choices=["physics", "restrictions", "env"], help="which benchmark")
     b.add_argument("--station", default="default")

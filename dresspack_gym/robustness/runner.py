@@ -1,0 +1,232 @@
+"""Runs a robustness map over a grid: backends, a resumable results file, the summary and the query API."""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import os
+from dataclasses import asdict
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from ..config import StationConfig
+from ..errors import ConfigError
+from .algorithm import RobustnessEvaluator, RobustnessSettings
+from .grid import RobustnessGrid
+
+RESULTS = "results.csv"
+META = "meta.json"
+COLUMNS = ["index", "ry_deg", "j4_deg", "j5_deg", "j6_deg", "dev_neg_m", "dev_pos_m", "max_dev_m", "robust"]
+CHUNK = 16  # configurations per work unit (same Ry: the per-Ry start state is reused inside a unit)
+BACKENDS = ("serial", "process", "ray")
+
+
+def _fingerprint(grid: RobustnessGrid, station_name: str, settings: RobustnessSettings) -> str:
+    h = hashlib.sha256()
+    for axis in (grid.ry, grid.j4, grid.j5, grid.j6):
+        h.update(np.round(axis, 12).tobytes())
+    h.update(station_name.encode())
+    h.update(json.dumps(asdict(settings), sort_keys=True, default=float).encode())
+    return h.hexdigest()[:16]
+
+
+def done_indices(out: Path) -> set[int]:
+    """Indices already in the results file (a partly written last line from an interruption is ignored)."""
+    path = out / RESULTS
+    if not path.is_file():
+        return set()
+    done = set()
+    with path.open() as f:
+        for row in csv.DictReader(f):
+            try:
+                float(row["max_dev_m"])
+                done.add(int(row["index"]))
+            except (TypeError, ValueError, KeyError):
+                continue
+    return done
+
+
+def _work_units(grid: RobustnessGrid, todo: list[int]) -> list[list[int]]:
+    """Group pending indices by Ry (the slowest grid axis), then cut into chunks of CHUNK."""
+    per_ry = len(grid) // len(grid.ry)
+    units: list[list[int]] = []
+    by_ry: dict[int, list[int]] = {}
+    for i in todo:
+        by_ry.setdefault(i // per_ry, []).append(i)
+    for _, idx in sorted(by_ry.items()):
+        units.extend(idx[k:k + CHUNK] for k in range(0, len(idx), CHUNK))
+    return units
+
+
+_WORKER: RobustnessEvaluator | None = None
+
+
+def _init_worker(config: StationConfig, settings: RobustnessSettings) -> None:
+    global _WORKER
+    _WORKER = RobustnessEvaluator(config, settings)
+
+
+def _run_unit(args) -> list[tuple[int, float, float]]:
+    indices, configs = args
+    return [(i, *_WORKER.evaluate(i, v)) for i, v in zip(indices, configs)]
+
+
+def _iterate(backend: str, workers: int, config, settings, units, configs, ray_address) -> Iterator[list]:
+    payload = [(u, configs[u]) for u in units]
+    if backend == "serial" or (backend == "process" and workers == 1):
+        _init_worker(config, settings)
+        for p in payload:
+            yield _run_unit(p)
+    elif backend == "process":
+        import multiprocessing as mp
+
+        ctx = mp.get_context("spawn")  # no inherited MuJoCo/GL state in the workers
+        with ctx.Pool(workers, initializer=_init_worker, initargs=(config, settings)) as pool:
+            yield from pool.imap_unordered(_run_unit, payload)
+    else:
+        yield from _iterate_ray(workers, config, settings, payload, ray_address)
+
+
+def _iterate_ray(workers, config, settings, payload, address):
+    try:
+        import ray
+    except ImportError:
+        raise ConfigError("backend", "the 'ray' backend needs Ray: pip install 'ray>=2'") from None
+    ray.init(address=address, ignore_reinit_error=True, include_dashboard=False, log_to_driver=False)
+
+    @ray.remote
+    class Worker:
+        def __init__(self, cfg, st):
+            _init_worker(cfg, st)
+
+        def run(self, item):
+            return _run_unit(item)
+
+    actors = [Worker.remote(config, settings) for _ in range(max(1, workers))]
+    pending = {}
+    queue = list(payload)
+    for a in actors:
+        if queue:
+            pending[a.run.remote(queue.pop(0))] = a
+    while pending:
+        ready, _ = ray.wait(list(pending), num_returns=1)
+        actor = pending.pop(ready[0])
+        if queue:
+            pending[actor.run.remote(queue.pop(0))] = actor
+        yield ray.get(ready[0])
+
+
+def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settings: RobustnessSettings, *,
+            backend: str = "process", workers: int = 2, ray_address: str | None = None,
+            progress: bool = True, limit: int | None = None) -> dict:
+    """Compute (or resume) the map in ``out``; returns the summary. Finished rows are never recomputed.
+
+    Rows are appended and flushed as work units finish, so an interruption loses at most the units in
+    flight. ``limit`` stops after that many new configurations (for trying a grid or benchmarking).
+    """
+    if backend not in BACKENDS:
+        raise ConfigError("backend", f"{backend!r} is not one of the allowed values {list(BACKENDS)}")
+    if workers < 1:
+        raise ConfigError("workers", f"must be at least 1, got {workers}")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    fp = _fingerprint(grid, config.name, settings)
+    meta_path = out / META
+    if meta_path.is_file():
+        meta = json.loads(meta_path.read_text())
+        if meta.get("fingerprint") != fp:
+            raise ConfigError("out", f"{out} holds a map of a different grid, station or settings "
+                                     f"({meta.get('grid')}, {meta.get('station')}); use another --out folder")
+    else:
+        meta_path.write_text(json.dumps({"fingerprint": fp, "grid": grid.name, "station": config.name,
+                                         "n_configs": len(grid), "settings": asdict(settings)}, indent=2,
+                                        default=float))
+    configs = grid.configurations()
+    done = done_indices(out)
+    todo = [i for i in range(len(grid)) if i not in done]
+    if limit is not None:
+        todo = todo[:limit]
+    results = out / RESULTS
+    new_file = not results.is_file() or results.stat().st_size == 0
+    if not new_file:
+        _repair_last_line(results)
+    bar = None
+    if progress and todo:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(todo), unit="config", desc=f"robustness {grid.name}", smoothing=0.05)
+    with results.open("a", newline="") as f:
+        writer = csv.writer(f)
+        if new_file:
+            writer.writerow(COLUMNS)
+        for rows in _iterate(backend, workers, config, settings, _work_units(grid, todo), configs, ray_address):
+            for i, neg, pos in rows:
+                v = np.degrees(configs[i])
+                dev = max(neg, pos)
+                writer.writerow([i, *np.round(v, 6), f"{neg:.6f}", f"{pos:.6f}", f"{dev:.6f}",
+                                 int(dev < settings.threshold)])
+            f.flush()
+            os.fsync(f.fileno())
+            if bar is not None:
+                bar.update(len(rows))
+    if bar is not None:
+        bar.close()
+    return summarize(out, grid, settings.threshold)
+
+
+def _repair_last_line(path: Path) -> None:
+    """Drop a partial last line left by a hard interruption, so appended rows start on a fresh line."""
+    data = path.read_bytes()
+    if data and not data.endswith(b"\n"):
+        path.write_bytes(data[: data.rfind(b"\n") + 1])
+
+
+def load_results(out: str | Path) -> dict[int, tuple[np.ndarray, float, bool]]:
+    rows = {}
+    with (Path(out) / RESULTS).open() as f:
+        for r in csv.DictReader(f):
+            try:
+                v = np.radians([float(r[k]) for k in ("ry_deg", "j4_deg", "j5_deg", "j6_deg")])
+                rows[int(r["index"])] = (v, float(r["max_dev_m"]), r["robust"] == "1")
+            except (TypeError, ValueError, KeyError):
+                continue
+    return rows
+
+
+def summarize(out: str | Path, grid: RobustnessGrid, threshold: float) -> dict:
+    rows = load_results(out)
+    idx = np.array(sorted(rows), dtype=int)
+    dev = np.array([rows[i][1] for i in idx]) if len(idx) else np.zeros(0)
+    non_robust = dev >= threshold
+    per_ry_axis = len(grid) // len(grid.ry)
+    per_ry = {}
+    for k, ry in enumerate(grid.ry):
+        sel = (idx // per_ry_axis) == k
+        if sel.any():
+            per_ry[f"{np.degrees(ry):g}"] = {"n": int(sel.sum()), "n_non_robust": int(non_robust[sel].sum()),
+                                            "fraction_non_robust": float(non_robust[sel].mean())}
+    return {"grid": grid.name, "n_configs": int(len(idx)), "n_grid": len(grid),
+            "n_non_robust": int(non_robust.sum()),
+            "fraction_non_robust": float(non_robust.mean()) if len(idx) else 0.0,
+            "threshold_m": threshold, "per_ry": per_ry}
+
+
+class RobustnessMap:
+    """Query a finished (or partial) map: ``is_robust(v)`` by nearest grid configuration."""
+
+    def __init__(self, out: str | Path, grid: RobustnessGrid, threshold: float | None = None):
+        self.grid = grid
+        meta = json.loads((Path(out) / META).read_text())
+        self.threshold = meta["settings"]["threshold"] if threshold is None else threshold
+        rows = load_results(out)
+        self.max_dev = np.full(len(grid), np.nan)
+        for i, (_, dev, _) in rows.items():
+            self.max_dev[i] = dev
+
+    def is_robust(self, v) -> np.ndarray:
+        """True where the nearest grid configuration was measured robust (unmeasured counts as robust)."""
+        dev = self.max_dev[self.grid.nearest_index(v)]
+        return ~(dev >= self.threshold)

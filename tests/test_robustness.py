@@ -1,0 +1,110 @@
+"""Robustness mapping (Algorithm 1): grids, backends agree, resume never recomputes, query API, CLI."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from dresspack_gym import ConfigError
+from dresspack_gym.cli import main
+from dresspack_gym.loading import CONFIG_DIR, load_station, read_yaml
+from dresspack_gym.robustness.algorithm import RobustnessEvaluator, RobustnessSettings
+from dresspack_gym.robustness.grid import RobustnessGrid
+from dresspack_gym.robustness.runner import RobustnessMap, run_map
+
+TINY = {"name": "tiny", "ry": {"start": 0, "stop": 0, "step": 1}, "j4": {"start": 0, "stop": 0, "step": 1},
+        "j5": {"start": -60, "stop": 60, "step": 120}, "j6": {"start": 0, "stop": 90, "step": 90}}
+FAST = RobustnessSettings(settle_time=0.5)
+
+
+def rows(out):
+    with open(out / "results.csv") as f:
+        return {int(r["index"]): r for r in csv.DictReader(f)}
+
+
+@pytest.fixture(scope="module")
+def station():
+    return load_station("default")
+
+
+def test_thesis_grids_have_the_thesis_sizes():
+    a = RobustnessGrid.from_dict(read_yaml(CONFIG_DIR / "grids" / "thesis_24336.yaml"))
+    b = RobustnessGrid.from_dict(read_yaml(CONFIG_DIR / "grids" / "thesis_67500.yaml"))
+    assert len(a) == 24_336 and len(b) == 67_500
+    assert np.degrees(a.ry[[0, -1]]).tolist() == pytest.approx([-225, 115])
+    assert np.degrees(b.j5).min() > -110 and np.degrees(b.j5).max() < 110
+    v = b.configurations()
+    assert np.array_equal(b.nearest_index(v[[0, 1234, 67_499]]), [0, 1234, 67_499])
+
+
+def test_serial_and_process_backends_give_the_same_map(tmp_path, station):
+    grid = RobustnessGrid.from_dict(TINY)
+    s1 = run_map(grid, station, tmp_path / "serial", FAST, backend="serial", progress=False)
+    s2 = run_map(grid, station, tmp_path / "proc", FAST, backend="process", workers=2, progress=False)
+    a, b = rows(tmp_path / "serial"), rows(tmp_path / "proc")
+    assert set(a) == set(range(4)) and {k: v["max_dev_m"] for k, v in a.items()} == {k: v["max_dev_m"] for k, v in b.items()}
+    assert s1 == s2
+
+
+def test_rerun_resumes_without_recomputing_and_survives_a_torn_line(tmp_path, station):
+    grid = RobustnessGrid.from_dict(TINY)
+    out = tmp_path / "map"
+    run_map(grid, station, out, FAST, backend="serial", progress=False, limit=2)
+    first = rows(out)
+    assert len(first) == 2
+    with open(out / "results.csv", "a") as f:
+        f.write("3,0.0,0.0,60.0,9")  # an interrupted write: partial last line, no newline
+    summary = run_map(grid, station, out, FAST, backend="serial", progress=False)
+    after = rows(out)
+    assert set(after) == set(range(4)) and summary["n_configs"] == 4
+    for i, r in first.items():
+        assert after[i] == r  # finished rows are kept as they were
+    assert len(open(out / "results.csv").read().strip().splitlines()) == 5  # header + 4, no duplicates
+
+
+def test_a_different_grid_in_the_same_folder_is_refused(tmp_path, station):
+    grid = RobustnessGrid.from_dict(TINY)
+    run_map(grid, station, tmp_path, FAST, backend="serial", progress=False, limit=1)
+    other = RobustnessGrid.from_dict(dict(TINY, j6={"start": 0, "stop": 30, "step": 30}))
+    with pytest.raises(ConfigError) as e:
+        run_map(other, station, tmp_path, FAST, backend="serial", progress=False)
+    assert e.value.field == "out"
+
+
+def test_query_api_uses_the_nearest_grid_configuration(tmp_path, station):
+    grid = RobustnessGrid.from_dict(TINY)
+    run_map(grid, station, tmp_path, FAST, backend="serial", progress=False)
+    m = RobustnessMap(tmp_path, grid)
+    v = grid.configurations()
+    measured = np.array([float(rows(tmp_path)[i]["max_dev_m"]) < FAST.threshold for i in range(4)])
+    np.testing.assert_array_equal(m.is_robust(v + np.radians(3.0)), measured)
+
+
+def test_algorithm_is_deterministic_and_holds_the_nodes(station):
+    ev = RobustnessEvaluator(station, FAST)
+    v = np.radians([20.0, 40.0, 30.0, -60.0])
+    assert ev.evaluate(5, v) == ev.evaluate(5, v)
+    q = ev.joints(v)
+    assert q[1] + q[2] == pytest.approx(v[0]) and np.allclose(q[3:], v[1:])
+
+
+def test_ry_outside_the_arm_range_wraps_and_excursions_clip(station):
+    ev = RobustnessEvaluator(station, FAST)
+    q = ev.joints(np.radians([171.0, 0, 0, 0]))
+    assert np.degrees(q[1] + q[2]) == pytest.approx(171.0 - 360.0)
+    q = ev.joints(np.radians([0, 0, 210.0, 0]))
+    assert np.degrees(q[4]) == pytest.approx(130.0)  # j5 limit
+
+
+def test_cli_json_summary(tmp_path, capsys):
+    grid = tmp_path / "tiny.yaml"
+    import yaml
+
+    grid.write_text(yaml.safe_dump(TINY))
+    assert main(["robustness-map", "--grid", str(grid), "--station", "default", "--out", str(tmp_path / "o"),
+                 "--backend", "serial", "--settle-time", "0.5", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert {"n_configs", "n_non_robust", "fraction_non_robust", "per_ry"} <= set(out)
+    assert out["n_configs"] == 4
+    assert (tmp_path / "o" / "non_robust_over_ry.png").is_file()
