@@ -134,3 +134,38 @@ def env_benchmark(station_ref: str = "default", repeats: int = 3, env_steps: int
         "ratio": round(env_rate / raw_equivalent, 3),
         "raw_resting_steps_per_s": round(resting, 1),
     }
+
+
+def robustness_benchmark(station_ref: str = "default", repeats: int = 1, n_configs: int = 24,
+                         grid_name: str = "thesis_67500") -> dict:
+    """Configurations per second with 1 and 2 process workers on the first configurations of a grid."""
+    import tempfile
+
+    from .loading import CONFIG_DIR, load_station, read_yaml
+    from .robustness.algorithm import RobustnessSettings
+    from .robustness.grid import RobustnessGrid
+    from .robustness.runner import run_map
+
+    grid = RobustnessGrid.from_dict(read_yaml(CONFIG_DIR / "grids" / f"{grid_name}.yaml"))
+    config = load_station(station_ref)
+    settings = RobustnessSettings()
+    rates = {}
+    for workers in (1, 2):
+        best = 0.0
+        for _ in range(repeats):
+            with tempfile.TemporaryDirectory() as out:
+                t0 = time.perf_counter()
+                run_map(grid, config, out, settings, backend="process", workers=workers, progress=False,
+                        limit=n_configs)
+                best = max(best, n_configs / (time.perf_counter() - t0))
+        rates[workers] = best
+    per_worker = rates[1]
+    return {
+        "grid": grid.name,
+        "configs_measured": n_configs,
+        "configs_per_s_1_worker": round(rates[1], 3),
+        "configs_per_s_2_workers": round(rates[2], 3),
+        "speedup_1_to_2": round(rates[2] / rates[1], 3),
+        "configs_per_s_per_worker": round(per_worker, 3),
+        "projected_full_grid_hours_2_workers": round(len(grid) / rates[2] / 3600, 2),
+    }

@@ -149,10 +149,11 @@ def cmd_robustness(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from .bench import env_benchmark, physics_benchmark, restrictions_benchmark
+    from .bench import env_benchmark, physics_benchmark, restrictions_benchmark, robustness_benchmark
 
-    bench = {"physics": physics_benchmark, "restrictions": restrictions_benchmark, "env": env_benchmark}[args.what]
-    result = bench(args.station, repeats=args.repeats)
+    bench = {"physics": physics_benchmark, "restrictions": restrictions_benchmark, "env": env_benchmark,
+             "robustness": robustness_benchmark}[args.what]
+    result = bench(args.station, **({} if args.repeats is None else {"repeats": args.repeats}))
     if args.json:
         print(json.dumps(result, indent=2))
     else:
@@ -199,9 +200,9 @@ def build_parser() -> argparse.ArgumentParser:
     rm.add_argument("--json", action="store_true")
     rm.set_defaults(func=cmd_robustness)
     b = sub.add_parser("bench", help="benchmarks")
-    b.add_argument("what", choices=["physics", "restrictions", "env"], help="which benchmark")
+    b.add_argument("what", choices=["physics", "restrictions", "env", "robustness"], help="which benchmark")
     b.add_argument("--station", default="default")
-    b.add_argument("--repeats", type=int, default=3)
+    b.add_argument("--repeats", type=int, default=None, help="repetitions (best is reported)")
     b.add_argument("--json", action="store_true")
     b.set_defaults(func=cmd_bench)
     return p
