@@ -185,9 +185,8 @@ class DresspackEnv(gym.Env):
         reached = False
         if invalid:
             terms["invalid"] = -self.weights["invalid"]
-        elif a == STAY:
-            self.sim.settle(self.settle_time)
-            self.sim.motion_time += self.step_size / float(np.max(self._speeds()))  # waiting costs time
+        elif a == STAY:  # waiting costs the time of one joint step; the cable settles below
+            self.sim.motion_time += self.step_size / float(np.max(self._speeds()))
         else:
             target = self._target(q_before, a)
             self._move(target)

@@ -123,6 +123,8 @@ class ClearanceProbe:
         self.is_plane = m.geom_type[self.obstacles] == mujoco.mjtGeom.mjGEOM_PLANE
         self.names = [m.geom(g).name.removeprefix("obstacle/") for g in self.obstacles]
         self._fromto = np.zeros(6)
+        self._quat = np.zeros(4)
+        self._rot = np.zeros(9)
 
     def min_distance(self, data: mujoco.MjData, cable: CableIndex, points: np.ndarray) -> tuple[float, int, str]:
         """(distance, edge index, obstacle name) of the nearest obstacle; (MAX_CLEARANCE, -1, '') if none."""
@@ -154,13 +156,10 @@ class ClearanceProbe:
             if exact_plane and self.is_plane[o]:
                 dist = lb[e, o]
             else:
-                direction = points[e + 1] - points[e]
                 data.geom_xpos[self.probe] = mids[e]
-                rot = np.zeros(9)
-                quat = np.zeros(4)
-                mujoco.mju_quatZ2Vec(quat, direction)
-                mujoco.mju_quat2Mat(rot, quat)
-                data.geom_xmat[self.probe] = rot
+                mujoco.mju_quatZ2Vec(self._quat, points[e + 1] - points[e])
+                mujoco.mju_quat2Mat(self._rot, self._quat)
+                data.geom_xmat[self.probe] = self._rot
                 size[0], size[1] = cable.radius, max(half[e], 1e-6)
                 dist = mujoco.mj_geomDistance(m, data, self.probe, int(self.obstacles[o]), best, self._fromto)
             if dist < best:

@@ -59,7 +59,9 @@ class CableSimulator:
         mujoco.mj_resetData(m, d)
         self.q = q.copy()
         self._drive(q, np.zeros_like(q))
-        for cable, shape, pos0 in zip(self.station.cables, self.station.initial_cable_shapes(q), self._body_pos0):
+        at_home = np.array_equal(q, self.station.home)
+        shapes = self.station.home_cable_shapes if at_home else self.station.initial_cable_shapes(q)
+        for cable, shape, pos0 in zip(self.station.cables, shapes, self._body_pos0):
             d.qpos[cable.vertex_qpos] = shape - pos0
         mujoco.mj_forward(m, d)
         self.motion_time = 0.0
