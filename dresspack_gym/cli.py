@@ -118,18 +118,15 @@ def cmd_restrictions(args) -> int:
 def cmd_robustness(args) -> int:
     import math
 
-    from .loading import load_station, read_yaml, CONFIG_DIR
+    from pathlib import Path
+
+    from .loading import load_station, read_yaml, resolve_shipped
     from .robustness.algorithm import RobustnessSettings
     from .robustness.grid import RobustnessGrid
     from .robustness.plots import plot_map
     from .robustness.runner import run_map
 
-    grid_path = args.grid
-    from pathlib import Path
-
-    if not Path(grid_path).is_file() and (CONFIG_DIR / "grids" / f"{grid_path}.yaml").is_file():
-        grid_path = CONFIG_DIR / "grids" / f"{grid_path}.yaml"
-    grid = RobustnessGrid.from_dict(read_yaml(grid_path, "grid"))
+    grid = RobustnessGrid.from_dict(read_yaml(resolve_shipped(args.grid, "grids", "grid"), "grid"))
     settings = RobustnessSettings(threshold=args.threshold, n_samples=args.samples, n_paths=args.n_paths,
                                   speed_fraction=args.speed_fraction, settle_time=args.settle_time,
                                   excursion=tuple(math.radians(e) for e in args.excursion))

@@ -15,7 +15,7 @@ import numpy as np
 
 from .errors import ConfigError
 from .restrictions import RestrictionSet
-from .validation import Section
+from .validation import Section, check_number, check_vector
 
 ROBOT_LINKS = ("base", "link1", "link2", "link3", "link4", "link5", "link6")
 NODE_BODIES = ROBOT_LINKS + ("world",)
@@ -82,7 +82,6 @@ class RobotConfig:
         limits = np.zeros((6, 2))
         for i, pair in enumerate(limits_raw):
             f = f"{s.field('joint_limits_deg')}[{i}]"
-            from .validation import check_vector
             lo, hi = check_vector(pair, f, 2, lo=-720.0, hi=720.0, unit="deg")
             if lo >= hi:
                 raise ConfigError(f, f"lower limit {lo} must be below upper limit {hi}")
@@ -211,7 +210,6 @@ class DresspackConfig:
             elif at == "end":
                 arc = length
             else:
-                from .validation import check_number
                 arc = check_number(at, n.field("at"), lo=0.0, hi=length, unit="m",
                                    hint="'start', 'end' or an arc length along the cable")
             n.done()
@@ -404,7 +402,6 @@ def weld_point_from_section(w: Section, robot_names: list[str]) -> WeldPoint:
     else:
         if not isinstance(spin_raw, list) or not spin_raw:
             raise ConfigError(w.field("spin_deg"), "expected a non-empty list of angles in degrees")
-        from .validation import check_number
         spin = tuple(math.radians(check_number(v, f"{w.field('spin_deg')}[{i}]", lo=-360, hi=360, unit="deg"))
                      for i, v in enumerate(spin_raw))
     w.done()

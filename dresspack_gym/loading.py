@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -46,16 +47,21 @@ def list_stations() -> list[str]:
     return sorted(p.stem for p in (CONFIG_DIR / "stations").glob("*.yaml"))
 
 
-def resolve_station_path(ref: str | Path) -> Path:
-    """Accept a YAML path or the name of a shipped station (``default``, ``thesis_curvature``...)."""
+def resolve_shipped(ref: str | Path, kind: str, field: str) -> Path:
+    """A YAML path, or the name of a file shipped in ``configs/<kind>/`` (``default``, ``thesis_67500``...)."""
     p = Path(ref)
     if p.is_file():
         return p
-    shipped = CONFIG_DIR / "stations" / f"{ref}.yaml"
+    shipped = CONFIG_DIR / kind / f"{ref}.yaml"
     if shipped.is_file():
         return shipped
-    raise ConfigError("station", f"{str(ref)!r} is neither a YAML file nor a shipped station; "
-                                 f"shipped stations: {list_stations()}")
+    names = sorted(q.stem for q in (CONFIG_DIR / kind).glob("*.yaml"))
+    raise ConfigError(field, f"{str(ref)!r} is neither a YAML file nor a shipped {kind[:-1]}; shipped: {names}")
+
+
+def resolve_station_path(ref: str | Path) -> Path:
+    """Accept a YAML path or the name of a shipped station (``default``, ``thesis_curvature``...)."""
+    return resolve_shipped(ref, "stations", "station")
 
 
 def load_robot(ref: str | Path, base_dir: Path = CONFIG_DIR, field: str = "robot") -> RobotConfig:
@@ -138,5 +144,4 @@ def _absolute_mesh(o, base_dir: Path):
         p = base_dir / p
     if not p.is_file():
         raise ConfigError(f"obstacles.{o.name}.file", f"mesh file not found: {p}")
-    from dataclasses import replace
     return replace(o, mesh_file=str(p))

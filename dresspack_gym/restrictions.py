@@ -31,7 +31,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from .errors import ConfigError
-from .validation import Section
+from .validation import Section, check_number
 
 RESTRICTION_TYPES = ("twist_sum", "support_cylinder", "support_cuboid", "support_thesis_cylinder",
                      "support_thesis_cuboid")
@@ -169,16 +169,14 @@ def restriction_from_dict(data: Mapping[str, Any], path: str):
         if abs_max is not None:
             if lower is not None or upper is not None:
                 raise ConfigError(f"{path}.abs_max_deg", "give either abs_max_deg or lower_deg/upper_deg, not both")
-            from .validation import check_number
             v = math.radians(check_number(abs_max, f"{path}.abs_max_deg", lo=0, hi=1080, unit="deg"))
             return TwistSum(-v, v, offset)
         if lower is None and upper is None:
             raise ConfigError(path, "twist_sum needs abs_max_deg, lower_deg or upper_deg")
-        from .validation import check_number
         lo = -math.inf if lower is None else math.radians(check_number(lower, f"{path}.lower_deg", unit="deg"))
         hi = math.inf if upper is None else math.radians(check_number(upper, f"{path}.upper_deg", unit="deg"))
         if lo > hi:
-            raise ConfigError(path, f"lower_deg must not exceed upper_deg")
+            raise ConfigError(path, "lower_deg must not exceed upper_deg")
         return TwistSum(lo, hi, offset)
     shape = "cylinder" if kind.endswith("cylinder") else "cuboid"
     model = "thesis" if "thesis" in kind else "exact"

@@ -60,8 +60,7 @@ def add_robot(spec: mujoco.MjSpec, placement: RobotPlacement) -> None:
                     armature=ROBOT_ARMATURE, range=list(lim[j]), limited=mujoco.mjtLimited.mjLIMITED_FALSE)
         bodies[link] = b
         parent = b
-    flange = bodies["link6"].add_site(name=f"{name}/flange", pos=[k.d6, 0, 0], size=[0.02, 0, 0])
-    del flange
+    bodies["link6"].add_site(name=f"{name}/flange", pos=[k.d6, 0, 0], size=[0.02, 0, 0])
     tcp_rot = rpy_matrix(placement.robot.tcp_rpy)
     tcp_pos = np.array([k.d6, 0, 0]) + np.asarray(placement.robot.tcp_pos)
     bodies["link6"].add_site(name=f"{name}/tcp", pos=list(tcp_pos), quat=list(mat_to_quat(tcp_rot)),

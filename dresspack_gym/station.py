@@ -144,8 +144,7 @@ class Station:
 
     def _add_obstacle(self, spec: mujoco.MjSpec, o) -> None:
         if o.type == "mesh":
-            mesh = spec.add_mesh(name=f"mesh/{o.name}", file=o.mesh_file, scale=list(o.mesh_scale))
-            del mesh
+            spec.add_mesh(name=f"mesh/{o.name}", file=o.mesh_file, scale=list(o.mesh_scale))
             g = spec.worldbody.add_geom(name=f"obstacle/{o.name}", type=mujoco.mjtGeom.mjGEOM_MESH,
                                         meshname=f"mesh/{o.name}", pos=list(o.pos),
                                         quat=list(mat_to_quat(rpy_matrix(o.rpy))))

@@ -113,3 +113,16 @@ def test_clearance_matches_brute_force_point_sampling():
     outside = np.maximum(np.abs(local) - half, 0.0)
     brute = np.linalg.norm(outside, axis=1).min() - 0.03
     assert sim.measures().min_clearance == pytest.approx(max(brute, 0.0), abs=1e-3)
+
+
+def test_clearance_to_a_mesh_obstacle(tmp_path):
+    """Mesh obstacles (e.g. a car body) load from a file next to the station and count for clearance."""
+    verts = [(x, y, z) for x in (0.35, 0.65) for y in (-0.5, 0.5) for z in (1.0, 3.0)]
+    faces = [(1, 2, 4, 3), (5, 7, 8, 6), (1, 5, 6, 2), (3, 4, 8, 7), (1, 3, 7, 5), (2, 6, 8, 4)]
+    obj = tmp_path / "slab.obj"
+    obj.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in verts) + "".join(f"f {a} {b} {c} {d}\n" for a, b, c, d in faces))
+    station = world_cable_station([{"name": "top", "body": "world", "pos": [0, 0, 3.0], "direction": [0, 0, -1]}],
+                                  obstacles=[{"name": "slab", "type": "mesh", "file": str(obj)}])
+    m = settled(station, 3.0).measures()
+    assert m.nearest_obstacle == "slab"
+    assert m.min_clearance == pytest.approx(0.35 - 0.03, abs=0.002)

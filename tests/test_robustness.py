@@ -108,3 +108,9 @@ def test_cli_json_summary(tmp_path, capsys):
     assert {"n_configs", "n_non_robust", "fraction_non_robust", "per_ry"} <= set(out)
     assert out["n_configs"] == 4
     assert (tmp_path / "o" / "non_robust_over_ry.png").is_file()
+
+
+def test_cli_resolves_shipped_grid_names_and_rejects_unknown_ones(tmp_path, capsys):
+    assert main(["robustness-map", "--grid", "no_such_grid", "--station", "default", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "grid" in err and "thesis_67500" in err
