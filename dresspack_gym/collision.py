@@ -41,6 +41,11 @@ class RobotCollisionChecker:
         self.plane = m.geom_type[self.pairs[:, 1]] == mujoco.mjtGeom.mjGEOM_PLANE if len(self.pairs) else np.zeros(0, bool)
         self.rbound = m.geom_rbound
         self._fromto = np.zeros(6)
+        # Robot geoms each joint moves: joint j moves the bodies of link j+1 .. link6.
+        chain = [m.body(f"{self.robot.name}/link{i}").id for i in range(1, 7)]
+        geom_body = m.geom_bodyid[self.robot.geom_ids]
+        self.joint_ids = [m.joint(f"{self.robot.name}/j{j + 1}").id for j in range(6)]
+        self.moved_geoms = [self.robot.geom_ids[np.isin(geom_body, chain[j:])] for j in range(6)]
 
     def _pose(self, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pose the robot at ``q``; (robot geoms, obstacles, bounding-sphere lower bound) per pair."""
@@ -65,6 +70,22 @@ class RobotCollisionChecker:
             dist = mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]), min(best, 10.0), self._fromto)
             best = min(best, dist)
         return float(best)
+
+    def joint_reach(self) -> np.ndarray:
+        """For each joint, the largest distance of a robot geom surface it moves from its axis [m].
+
+        Valid for the configuration last posed (``min_distance``/``collides``). Turning joint j by delta moves
+        no robot point farther than reach[j] * |delta| (the distance to a joint's own axis is invariant under
+        its rotation), so a move is collision-free if the clearance before it exceeds that.
+        """
+        d = self.data
+        reach = np.zeros(6)
+        for j, (jid, geoms) in enumerate(zip(self.joint_ids, self.moved_geoms)):
+            rel = d.geom_xpos[geoms] - d.xanchor[jid]
+            along = rel @ d.xaxis[jid]
+            radial = np.linalg.norm(rel - along[:, None] * d.xaxis[jid], axis=1)
+            reach[j] = float(np.max(radial + self.rbound[geoms])) if len(geoms) else 0.0
+        return reach
 
     def collides(self, q) -> bool:
         """True if any robot geom is closer than ``margin`` to static geometry (stops at the first hit)."""

@@ -28,3 +28,28 @@ def test_tool_pushed_into_an_obstacle_collides_and_margin_grows_the_robot():
     assert not checker.collides(station.home[0])
     gap = checker.min_distance(station.home[0])
     assert RobotCollisionChecker(station, margin=gap + 0.01).collides(station.home[0])
+
+
+def test_joint_reach_bounds_the_displacement_of_every_robot_geom():
+    """reach[j] * |delta| bounds how far any robot geom moves when joint j turns by delta."""
+    import mujoco
+
+    station = Station(load_station("default"))
+    checker = RobotCollisionChecker(station)
+    m, d = station.model, checker.data
+    rng = np.random.default_rng(2)
+    lim = station.config.robots[0].robot.joint_limits
+    geoms = station.robots[0].geom_ids
+    for q in rng.uniform(lim[:, 0], lim[:, 1], size=(30, 6)):
+        checker.min_distance(q)
+        reach = checker.joint_reach()
+        before = d.geom_xpos[geoms].copy()
+        for j in range(6):
+            q2 = q.copy()
+            q2[j] += 0.2
+            d.qpos[station.robots[0].qpos] = q2
+            mujoco.mj_kinematics(m, d)
+            moved = np.linalg.norm(d.geom_xpos[geoms] - before, axis=1).max()
+            assert moved <= reach[j] * 0.2 + 1e-12
+            d.qpos[station.robots[0].qpos] = q
+            mujoco.mj_kinematics(m, d)
