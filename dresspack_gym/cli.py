@@ -129,6 +129,7 @@ def cmd_robustness(args) -> int:
     grid = RobustnessGrid.from_dict(read_yaml(resolve_shipped(args.grid, "grids", "grid"), "grid"))
     settings = RobustnessSettings(threshold=args.threshold, n_samples=args.samples, n_paths=args.n_paths,
                                   speed_fraction=args.speed_fraction, settle_time=args.settle_time,
+                                  timestep=args.timestep, settle_timestep=args.settle_timestep,
                                   excursion=tuple(math.radians(e) for e in args.excursion))
     summary = run_map(grid, load_station(args.station), args.out, settings, backend=args.backend,
                       workers=args.workers, ray_address=args.ray_address, progress=not args.json, limit=args.limit)
@@ -192,7 +193,11 @@ def build_parser() -> argparse.ArgumentParser:
                     help="excursion sizes [deg] (default 20 100 100 100)")
     rm.add_argument("--n-paths", type=int, default=0, help="K random approach paths instead of the thesis's two")
     rm.add_argument("--speed-fraction", type=float, default=1.0)
-    rm.add_argument("--settle-time", type=float, default=1.0)
+    rm.add_argument("--settle-time", type=float, default=1.0, help="max relaxation after each return [s]")
+    rm.add_argument("--timestep", type=float, default=0.004,
+                    help="physics step during motions [s] (default 0.004; 0.006 is 1.5x faster, 93 %% flag agreement)")
+    rm.add_argument("--settle-timestep", type=float, default=0.008,
+                    help="physics step while the cable relaxes [s] (default 0.008)")
     rm.add_argument("--limit", type=int, default=None, help="compute at most this many new configurations")
     rm.add_argument("--json", action="store_true")
     rm.set_defaults(func=cmd_robustness)

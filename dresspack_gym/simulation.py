@@ -134,16 +134,28 @@ class CableSimulator:
                                       record_every=record_every))
         return trace
 
-    def settle(self, max_time: float | None = None) -> float:
+    def settle(self, max_time: float | None = None, *, timestep: float | None = None) -> float:
         """Hold the robots still until the cables are in equilibrium; returns the simulated seconds used.
 
         Equilibrium: every vertex slower than ``settle_speed`` and accelerating less than ``settle_accel``
-        (a slow longitudinal bounce of the cable has small speeds but large accelerations).
+        (a slow longitudinal bounce of the cable has small speeds but large accelerations). ``timestep``
+        may exceed the motion timestep: with the robots still, only the (stable) relaxation is integrated.
         """
         max_time = self.config.settle_time if max_time is None else max_time
-        dt = self.model.opt.timestep
+        dt_motion = self.model.opt.timestep
+        dt = dt_motion if timestep is None else float(timestep)
         steps = int(np.ceil(max_time / dt))
         self._drive(self.q, np.zeros_like(self.q))
+        self.model.opt.timestep = dt
+        try:
+            done = self._settle_steps(steps)
+        finally:
+            self.model.opt.timestep = dt_motion
+        self._check_finite()
+        mujoco.mj_forward(self.model, self.data)
+        return done * dt
+
+    def _settle_steps(self, steps: int) -> int:
         done = 0
         while done < steps:
             n = min(SETTLE_CHECK_EVERY, steps - done)
@@ -155,9 +167,7 @@ class CableSimulator:
             if (np.max(np.abs(self.data.qvel[self._vertex_dofs])) < self.config.settle_speed
                     and np.max(np.abs(self.data.qacc[self._vertex_dofs])) < self.config.settle_accel):
                 break
-        self._check_finite()
-        mujoco.mj_forward(self.model, self.data)
-        return done * dt
+        return done
 
     # ------------------------------------------------------------------------------ queries
     def measures(self) -> WearMeasures:

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -70,7 +71,7 @@ class RobustnessGrid:
         return np.ravel_multi_index(tuple(idx), self.shape)
 
     @staticmethod
-    def from_dict(data: Mapping[str, Any], path: str = "grid") -> "RobustnessGrid":
+    def from_dict(data: Mapping[str, Any], path: str = "grid") -> RobustnessGrid:
         s = Section(data, path)
         name = s.string("name", "grid")
         axes = [_axis(s, k) for k in AXES]

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .grid import RobustnessGrid
-from .runner import load_results
+from .store import load_results
 
 
 def plot_map(out: str | Path, grid: RobustnessGrid, threshold: float) -> list[str]:

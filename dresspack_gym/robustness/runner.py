@@ -6,9 +6,9 @@ import csv
 import hashlib
 import json
 import os
+from collections.abc import Iterator
 from dataclasses import asdict
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
@@ -16,10 +16,9 @@ from ..config import StationConfig
 from ..errors import ConfigError
 from .algorithm import RobustnessEvaluator, RobustnessSettings
 from .grid import RobustnessGrid
+from .query import RobustnessMap  # noqa: F401  (re-exported: the map API next to the runner)
+from .store import COLUMNS, META, RESULTS, done_indices, grid_to_meta, load_results, repair_last_line
 
-RESULTS = "results.csv"
-META = "meta.json"
-COLUMNS = ["index", "ry_deg", "j4_deg", "j5_deg", "j6_deg", "dev_neg_m", "dev_pos_m", "max_dev_m", "robust"]
 CHUNK = 16  # configurations per work unit (same Ry: the per-Ry start state is reused inside a unit)
 BACKENDS = ("serial", "process", "ray")
 
@@ -31,22 +30,6 @@ def _fingerprint(grid: RobustnessGrid, station_name: str, settings: RobustnessSe
     h.update(station_name.encode())
     h.update(json.dumps(asdict(settings), sort_keys=True, default=float).encode())
     return h.hexdigest()[:16]
-
-
-def done_indices(out: Path) -> set[int]:
-    """Indices already in the results file (a partly written last line from an interruption is ignored)."""
-    path = out / RESULTS
-    if not path.is_file():
-        return set()
-    done = set()
-    with path.open() as f:
-        for row in csv.DictReader(f):
-            try:
-                float(row["max_dev_m"])
-                done.add(int(row["index"]))
-            except (TypeError, ValueError, KeyError):
-                continue
-    return done
 
 
 def _work_units(grid: RobustnessGrid, todo: list[int]) -> list[list[int]]:
@@ -142,7 +125,8 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
                                      f"({meta.get('grid')}, {meta.get('station')}); use another --out folder")
     else:
         meta_path.write_text(json.dumps({"fingerprint": fp, "grid": grid.name, "station": config.name,
-                                         "n_configs": len(grid), "settings": asdict(settings)}, indent=2,
+                                         "n_configs": len(grid), "settings": asdict(settings),
+                                         "grid_axes": grid_to_meta(grid)}, indent=2,
                                         default=float))
     configs = grid.configurations()
     done = done_indices(out)
@@ -152,7 +136,7 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
     results = out / RESULTS
     new_file = not results.is_file() or results.stat().st_size == 0
     if not new_file:
-        _repair_last_line(results)
+        repair_last_line(results)
     bar = None
     if progress and todo:
         from tqdm import tqdm
@@ -177,25 +161,6 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
     return summarize(out, grid, settings.threshold)
 
 
-def _repair_last_line(path: Path) -> None:
-    """Drop a partial last line left by a hard interruption, so appended rows start on a fresh line."""
-    data = path.read_bytes()
-    if data and not data.endswith(b"\n"):
-        path.write_bytes(data[: data.rfind(b"\n") + 1])
-
-
-def load_results(out: str | Path) -> dict[int, tuple[np.ndarray, float, bool]]:
-    rows = {}
-    with (Path(out) / RESULTS).open() as f:
-        for r in csv.DictReader(f):
-            try:
-                v = np.radians([float(r[k]) for k in ("ry_deg", "j4_deg", "j5_deg", "j6_deg")])
-                rows[int(r["index"])] = (v, float(r["max_dev_m"]), r["robust"] == "1")
-            except (TypeError, ValueError, KeyError):
-                continue
-    return rows
-
-
 def summarize(out: str | Path, grid: RobustnessGrid, threshold: float) -> dict:
     rows = load_results(out)
     idx = np.array(sorted(rows), dtype=int)
@@ -208,25 +173,7 @@ def summarize(out: str | Path, grid: RobustnessGrid, threshold: float) -> dict:
         if sel.any():
             per_ry[f"{np.degrees(ry):g}"] = {"n": int(sel.sum()), "n_non_robust": int(non_robust[sel].sum()),
                                             "fraction_non_robust": float(non_robust[sel].mean())}
-    return {"grid": grid.name, "n_configs": int(len(idx)), "n_grid": len(grid),
+    return {"grid": grid.name, "n_configs": len(idx), "n_grid": len(grid),
             "n_non_robust": int(non_robust.sum()),
             "fraction_non_robust": float(non_robust.mean()) if len(idx) else 0.0,
             "threshold_m": threshold, "per_ry": per_ry}
-
-
-class RobustnessMap:
-    """Query a finished (or partial) map: ``is_robust(v)`` by nearest grid configuration."""
-
-    def __init__(self, out: str | Path, grid: RobustnessGrid, threshold: float | None = None):
-        self.grid = grid
-        meta = json.loads((Path(out) / META).read_text())
-        self.threshold = meta["settings"]["threshold"] if threshold is None else threshold
-        rows = load_results(out)
-        self.max_dev = np.full(len(grid), np.nan)
-        for i, (_, dev, _) in rows.items():
-            self.max_dev[i] = dev
-
-    def is_robust(self, v) -> np.ndarray:
-        """True where the nearest grid configuration was measured robust (unmeasured counts as robust)."""
-        dev = self.max_dev[self.grid.nearest_index(v)]
-        return ~(dev >= self.threshold)

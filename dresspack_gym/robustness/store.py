@@ -1,0 +1,62 @@
+"""The on-disk form of a robustness map: ``results.csv`` (one row per configuration) and ``meta.json``."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError
+from .grid import RobustnessGrid
+
+RESULTS = "results.csv"
+META = "meta.json"
+COLUMNS = ["index", "ry_deg", "j4_deg", "j5_deg", "j6_deg", "dev_neg_m", "dev_pos_m", "max_dev_m", "robust"]
+
+
+def grid_to_meta(grid: RobustnessGrid) -> dict:
+    """The grid's axes in degrees, so a map folder can be queried without its grid YAML."""
+    return {"name": grid.name, **{k: np.round(np.degrees(a), 9).tolist()
+                                  for k, a in zip(("ry", "j4", "j5", "j6"), (grid.ry, grid.j4, grid.j5, grid.j6))}}
+
+
+def grid_from_meta(meta: dict) -> RobustnessGrid:
+    g = meta["grid_axes"]
+    return RobustnessGrid(g["name"], *(np.radians(np.asarray(g[k], dtype=float)) for k in ("ry", "j4", "j5", "j6")))
+
+
+def read_meta(out: str | Path, field: str = "robustness_map") -> dict:
+    path = Path(out) / META
+    if not path.is_file():
+        raise ConfigError(field, f"{Path(out)} is not a robustness map folder (no {META}); "
+                                 f"create one with `dresspack robustness-map --out {out} ...`")
+    return json.loads(path.read_text())
+
+
+def done_indices(out: Path) -> set[int]:
+    """Indices already in the results file (a partly written last line from an interruption is ignored)."""
+    return set(load_results(out)) if (Path(out) / RESULTS).is_file() else set()
+
+
+def load_results(out: str | Path) -> dict[int, tuple[np.ndarray, float, bool]]:
+    """index -> (v [rad], max deviation [m], robust) for every complete row."""
+    rows = {}
+    with (Path(out) / RESULTS).open() as f:
+        for r in csv.DictReader(f):
+            if r.get("robust") not in ("0", "1"):  # a torn last line never has its final column
+                continue
+            try:
+                v = np.radians([float(r[k]) for k in ("ry_deg", "j4_deg", "j5_deg", "j6_deg")])
+                rows[int(r["index"])] = (v, float(r["max_dev_m"]), r["robust"] == "1")
+            except (TypeError, ValueError, KeyError):
+                continue
+    return rows
+
+
+def repair_last_line(path: Path) -> None:
+    """Drop a partial last line left by a hard interruption, so appended rows start on a fresh line."""
+    data = path.read_bytes()
+    if data and not data.endswith(b"\n"):
+        path.write_bytes(data[: data.rfind(b"\n") + 1])
