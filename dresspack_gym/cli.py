@@ -146,6 +146,28 @@ def cmd_robustness(args) -> int:
     return 0
 
 
+def cmd_robustness_paths(args) -> int:
+    from .loading import load_station, read_yaml, resolve_shipped
+    from .robustness.algorithm import RobustnessSettings
+    from .robustness.grid import RobustnessGrid
+    from .robustness.paths import compare_paths
+
+    grid = RobustnessGrid.from_dict(read_yaml(resolve_shipped(args.grid, "grids", "grid"), "grid"))
+    report = compare_paths(grid, load_station(args.station), args.out, RobustnessSettings(), args.k_paths,
+                           args.sample, args.seed, backend=args.backend, workers=args.workers,
+                           progress=not args.json)
+    if args.json:
+        print(json.dumps(report, indent=2))
+    else:
+        print(f"{report['n_compared']} configurations: 2-path and {args.k_paths}-path tests agree on "
+              f"{100 * report['agreement']:.1f} %")
+        print(f"  non-robust: 2-path {100 * report['fraction_non_robust_two_path']:.1f} %, "
+              f"{args.k_paths}-path {100 * report['fraction_non_robust_k_path']:.1f} %; only the K-path test flags "
+              f"{report['only_k_path_non_robust']}, only the 2-path test flags {report['only_two_path_non_robust']}")
+        print(f"wrote {args.out}/paths_report.json" + (f", {report['plot']}" if "plot" in report else ""))
+    return 0
+
+
 def cmd_bench(args) -> int:
     from .bench import env_benchmark, physics_benchmark, restrictions_benchmark, robustness_benchmark
 
@@ -201,6 +223,17 @@ def build_parser() -> argparse.ArgumentParser:
     rm.add_argument("--limit", type=int, default=None, help="compute at most this many new configurations")
     rm.add_argument("--json", action="store_true")
     rm.set_defaults(func=cmd_robustness)
+    rp = sub.add_parser("robustness-paths", help="how often the thesis's 2-path test and a K-path test disagree")
+    rp.add_argument("--grid", required=True, help="grid YAML or shipped grid name (the sample is drawn from it)")
+    rp.add_argument("--station", required=True)
+    rp.add_argument("--out", required=True, help="output folder (two resumable maps and paths_report.json)")
+    rp.add_argument("--k-paths", type=int, default=8, help="K random approach paths (default 8)")
+    rp.add_argument("--sample", type=int, default=100, help="configurations drawn from the grid (default 100)")
+    rp.add_argument("--seed", type=int, default=0)
+    rp.add_argument("--workers", type=int, default=2)
+    rp.add_argument("--backend", choices=["serial", "process", "ray"], default="process")
+    rp.add_argument("--json", action="store_true")
+    rp.set_defaults(func=cmd_robustness_paths)
     b = sub.add_parser("bench", help="benchmarks")
     b.add_argument("what", choices=["physics", "restrictions", "env", "robustness"], help="which benchmark")
     b.add_argument("--station", default="default")

@@ -338,6 +338,7 @@ class RobotPlacement:
     base_yaw: float
     home: np.ndarray  # (6,) radians
     restrictions: RestrictionSet = field(default_factory=RestrictionSet)  # thesis 4.7, AND of all rules
+    robustness_map: Any = None  # a robustness.query.RobustnessMap: weld configurations must be robust (4.2)
 
 
 @dataclass(frozen=True)

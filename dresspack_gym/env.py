@@ -130,7 +130,8 @@ class DresspackEnv(gym.Env):
             cands = self.station.allowed_weld_configurations[name]
             free = [q for q in cands if not self.checker.collides(q)]
             if not free:
-                raise ConfigError(f"weld_points.{name}", "no IK solution passes the joint restrictions "
+                robust = " and the robustness map" if self.placement.robustness_map is not None else ""
+                raise ConfigError(f"weld_points.{name}", f"no IK solution passes the joint restrictions{robust} "
                                                           "without colliding with the station")
             free = np.array(free)
             goals[name] = free[np.argmin(np.max(np.abs(free - home), axis=1))]

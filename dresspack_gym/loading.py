@@ -116,8 +116,10 @@ def station_from_dict(data: Mapping[str, Any], base_dir: Path = CONFIG_DIR / "st
         if not restrictions.allowed(home)[0]:
             raise ConfigError(r.field("home_deg"), f"Home violates the robot's joint restrictions: "
                                                     f"{restrictions.violated_by(home)}")
+        robustness_map = _robustness_map(r, base_dir)
         r.done()
-        robots.append(RobotPlacement(rname, robot, dresspack, base_pos, base_yaw, home, restrictions))
+        robots.append(RobotPlacement(rname, robot, dresspack, base_pos, base_yaw, home, restrictions,
+                                     robustness_map))
     if not robots:
         raise ConfigError("robots", "a station needs at least one robot")
     names = [r.name for r in robots]
@@ -134,6 +136,29 @@ def station_from_dict(data: Mapping[str, Any], base_dir: Path = CONFIG_DIR / "st
     floor = s.boolean("floor", True)
     s.done()
     return StationConfig(name, description, tuple(robots), obstacles, welds, wear, sim, floor)
+
+
+def _robustness_map(r: Section, base_dir: Path):
+    """``robustness_map: FOLDER`` or ``{path: FOLDER, threshold: m}``: a map from `dresspack robustness-map`."""
+    from .robustness.query import RobustnessMap
+
+    ref = r.raw("robustness_map", None)
+    if ref is None:
+        return None
+    field = r.field("robustness_map")
+    threshold = None
+    if isinstance(ref, dict):
+        m = Section(ref, field)
+        path = m.string("path")
+        if m.has("threshold"):
+            threshold = m.number("threshold", lo=0.0, lo_open=True, hi=10.0, unit="m")
+        m.done()
+    elif isinstance(ref, str):
+        path = ref
+    else:
+        raise ConfigError(field, "expected a map folder (string) or a mapping {path, threshold}")
+    p = Path(path).expanduser()
+    return RobustnessMap(p if p.is_absolute() else base_dir / p, threshold=threshold, field=field)
 
 
 def _absolute_mesh(o, base_dir: Path):

@@ -114,3 +114,32 @@ def test_cli_resolves_shipped_grid_names_and_rejects_unknown_ones(tmp_path, caps
     assert main(["robustness-map", "--grid", "no_such_grid", "--station", "default", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "grid" in err and "thesis_67500" in err
+
+
+def test_ray_backend_gives_the_same_map_as_serial(tmp_path, station):
+    ray = pytest.importorskip("ray")
+    grid = RobustnessGrid.from_dict(TINY)
+    run_map(grid, station, tmp_path / "serial", FAST, backend="serial", progress=False, limit=2)
+    try:
+        run_map(grid, station, tmp_path / "ray", FAST, backend="ray", workers=2, progress=False, limit=2)
+    finally:
+        ray.shutdown()
+    a, b = rows(tmp_path / "serial"), rows(tmp_path / "ray")
+    assert set(a) == {0, 1} and {k: v["max_dev_m"] for k, v in a.items()} == {k: v["max_dev_m"] for k, v in b.items()}
+
+
+def test_path_comparison_reports_consistent_counts(tmp_path, station):
+    from dresspack_gym.robustness.paths import compare_paths
+
+    grid = RobustnessGrid.from_dict(TINY)
+    rep = compare_paths(grid, station, tmp_path, FAST, k_paths=2, n_sample=2, seed=1, backend="serial",
+                        progress=False)
+    assert rep["n_compared"] == 2
+    assert rep["both_robust"] + rep["both_non_robust"] + rep["only_k_path_non_robust"] \
+        + rep["only_two_path_non_robust"] == 2
+    agree = (rep["both_robust"] + rep["both_non_robust"]) / 2
+    assert rep["agreement"] == pytest.approx(agree)
+    assert len(rows(tmp_path / "two_path")) == 2 and len(rows(tmp_path / "k_path")) == 2
+    assert json.loads((tmp_path / "paths_report.json").read_text())["agreement"] == rep["agreement"]
+    with pytest.raises(ConfigError, match="sample"):
+        compare_paths(grid, station, tmp_path / "x", FAST, k_paths=2, n_sample=99)

@@ -104,7 +104,7 @@ def _iterate_ray(workers, config, settings, payload, address):
 
 def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settings: RobustnessSettings, *,
             backend: str = "process", workers: int = 2, ray_address: str | None = None,
-            progress: bool = True, limit: int | None = None) -> dict:
+            progress: bool = True, limit: int | None = None, indices=None) -> dict:
     """Compute (or resume) the map in ``out``; returns the summary. Finished rows are never recomputed.
 
     Rows are appended and flushed as work units finish, so an interruption loses at most the units in
@@ -130,7 +130,10 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
                                         default=float))
     configs = grid.configurations()
     done = done_indices(out)
-    todo = [i for i in range(len(grid)) if i not in done]
+    wanted = range(len(grid)) if indices is None else sorted({int(i) for i in indices})
+    if indices is not None and wanted and not 0 <= wanted[0] <= wanted[-1] < len(grid):
+        raise ConfigError("indices", f"configuration indices must be in [0, {len(grid)})")
+    todo = [i for i in wanted if i not in done]
     if limit is not None:
         todo = todo[:limit]
     results = out / RESULTS
