@@ -136,7 +136,7 @@ def env_benchmark(station_ref: str = "default", repeats: int = 3, env_steps: int
     }
 
 
-def robustness_benchmark(station_ref: str = "default", repeats: int = 1, n_configs: int = 24,
+def robustness_benchmark(station_ref: str = "default", repeats: int = 1, n_configs: int = 48,
                          grid_name: str = "thesis_67500") -> dict:
     """Configurations per second with 1 and 2 process workers on the first configurations of a grid."""
     import tempfile

@@ -182,9 +182,13 @@ def cmd_bench(args) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(extensions=()) -> argparse.ArgumentParser:
+    """The ``dresspack`` parser; ``extensions`` add subcommands from the packages built on this one
+    (``agents`` adds ``plan``) without this package importing them."""
     p = argparse.ArgumentParser(prog="dresspack", description="Robot dresspack wear simulation and planning.")
     sub = p.add_subparsers(dest="command", required=True)
+    for add in extensions:
+        add(sub)
     q = sub.add_parser("inspect", help="build a station, settle at Home and print robot, cable and wear measures")
     q.add_argument("station", help="station YAML file or shipped station name (e.g. default)")
     q.add_argument("--json", action="store_true", help="print one JSON object")
@@ -243,8 +247,8 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def main(argv: list[str] | None = None, extensions=()) -> int:
+    args = build_parser(extensions).parse_args(argv)
     try:
         return args.func(args)
     except DresspackError as exc:

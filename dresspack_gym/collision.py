@@ -87,6 +87,27 @@ class RobotCollisionChecker:
             reach[j] = float(np.max(radial + self.rbound[geoms])) if len(geoms) else 0.0
         return reach
 
+    def chain_reach(self) -> np.ndarray:
+        """For each joint j, a bound on the distance of any robot surface it moves from its axis, valid in
+        every configuration [m]: the path along the joint anchors to the geom (distances within one link do
+        not change), so a move of several joints displaces no point more than ``chain_reach() @ |dq|``."""
+        if getattr(self, "_chain_reach", None) is None:
+            d = self.data  # anchors and geoms of the last posed configuration; the bound does not depend on it
+            m = self.model
+            anchors = d.xanchor[self.joint_ids]
+            link_len = np.linalg.norm(np.diff(anchors, axis=0), axis=1)  # anchor j -> anchor j+1
+            body_joint = {m.body(f"{self.robot.name}/link{i}").id: i - 1 for i in range(1, 7)}
+            reach = np.zeros(6)
+            for g in self.robot.geom_ids:
+                b = body_joint.get(int(m.geom_bodyid[g]))
+                if b is None:
+                    continue
+                tail = np.linalg.norm(d.geom_xpos[g] - anchors[b]) + self.rbound[g]
+                for j in range(b + 1):  # joints 0..b move this geom
+                    reach[j] = max(reach[j], float(link_len[j:b].sum()) + tail)
+            self._chain_reach = reach
+        return self._chain_reach
+
     def collides(self, q) -> bool:
         """True if any robot geom is closer than ``margin`` to static geometry (stops at the first hit)."""
         if len(self.pairs) == 0:

@@ -47,6 +47,7 @@ from .errors import ConfigError, DresspackError
 from .loading import load_station
 from .simulation import CableSimulator
 from .station import Station
+from .tasks import select_weld_goals
 from .wear_cost import normalized_wear_cost, wear_cost
 
 N_JOINT_ACTIONS = 12
@@ -116,26 +117,7 @@ class DresspackEnv(gym.Env):
 
     # ----------------------------------------------------------------------------- task
     def _weld_goals(self, welds: list[str] | None) -> dict[str, np.ndarray]:
-        home = self.placement.home
-        names = [w.name for w in self.station.config.weld_points if w.robot == self.placement.name]
-        if welds is not None:
-            unknown = [w for w in welds if w not in names]
-            if unknown:
-                raise ConfigError("welds", f"unknown weld point(s) {unknown}; this robot's weld points are {names}")
-            names = list(welds)
-        if not names:
-            raise ConfigError("welds", "the task has no weld points for this robot")
-        goals = {}
-        for name in names:
-            cands = self.station.allowed_weld_configurations[name]
-            free = [q for q in cands if not self.checker.collides(q)]
-            if not free:
-                robust = " and the robustness map" if self.placement.robustness_map is not None else ""
-                raise ConfigError(f"weld_points.{name}", f"no IK solution passes the joint restrictions{robust} "
-                                                          "without colliding with the station")
-            free = np.array(free)
-            goals[name] = free[np.argmin(np.max(np.abs(free - home), axis=1))]
-        return goals
+        return select_weld_goals(self.station, self.robot_index, self.checker.collides, welds)
 
     def _setup_episode(self, order: list[str]) -> None:
         self.goal_names = order + ["home"]

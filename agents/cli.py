@@ -1,0 +1,60 @@
+"""``dresspack plan``: the planning baselines from the command line (added to the ``dresspack`` command)."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from dresspack_gym import cli as base_cli
+
+
+def add_plan_command(sub) -> None:
+    from .planning import PLANNERS
+
+    p = sub.add_parser("plan", help="plan the station's weld cycle and measure it in the cable simulator")
+    p.add_argument("station", help="station or thesis scenario (YAML or shipped name, e.g. thesis_tension)")
+    p.add_argument("--planner", choices=list(PLANNERS), default="ompl")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--time-budget", type=float, default=20.0, help="planning time limit [s] (default 20)")
+    p.add_argument("--welds", nargs="+", default=None, help="weld point names in visiting order (default: all)")
+    p.add_argument("--plot", default=None, help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3)")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_plan)
+
+
+def cmd_plan(args) -> int:
+    from dresspack_gym.replay_plot import plot_replays
+
+    from .base import PlanningError
+    from .planning import plan_station
+
+    try:
+        run = plan_station(args.station, args.planner, seed=args.seed, time_budget=args.time_budget,
+                           welds=args.welds)
+    except PlanningError as exc:  # a failed plan is a result, not a crash
+        if args.json:
+            print(json.dumps({"method": args.planner, "success": False, "error": str(exc)}, indent=2))
+        else:
+            print(f"{args.planner}: failed: {exc}")
+        return 1
+    s = run.summary()
+    if args.plot:
+        s["plot"] = plot_replays({args.planner: run.replay}, args.plot)
+    if args.json:
+        print(json.dumps(s, indent=2, default=float))
+        return 0
+    print(f"{args.planner}: success, {s['waypoints']} waypoints, planned in {s['planning_time']:.2f} s")
+    print(f"  cycle time {s['cycle_time']:.2f} s   integrated wear cost {s['cost']:.4g}")
+    print(f"  max curvature {s['max_curvature']:.2f} 1/m   max tension {s['max_tension']:.1f} N   "
+          f"min clearance {1000 * s['min_clearance']:.0f} mm   max twist rate {s['max_twist_rate']:.3g} rad/m")
+    if args.plot:
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    return base_cli.main(argv, extensions=(add_plan_command,))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,45 @@
+"""The wear-aware objective of one leg: motion time + integral of the wear cost (4.10), by simulating the cable
+along the leg in path order from the cable state the previous legs left (thesis §5.3)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dresspack_gym.simulation import CableSimulator
+from dresspack_gym.station import Station
+from dresspack_gym.trajectory import Trajectory, replay
+
+
+class LegCost:
+    """``cost(start_state, waypoints) -> (J, end_state)`` with J = time_weight * T + wear_weight * ∫C dt."""
+
+    def __init__(self, station: Station, robot: int = 0, *, time_weight: float = 1.0, wear_weight: float = 1.0,
+                 cost_variant: str = "thesis", record_every: float = 0.05):
+        self.sim = CableSimulator(station)
+        self.robot = robot
+        self.time_weight, self.wear_weight = float(time_weight), float(wear_weight)
+        self.cost_variant = cost_variant
+        self.record_every = record_every
+        self.evaluations = 0
+        self._cache: dict[bytes, tuple[float, np.ndarray, dict]] = {}
+
+    def start_state(self, q_start: np.ndarray) -> np.ndarray:
+        q = self.sim.station.home.copy()
+        q[self.robot] = q_start
+        self.sim.reset(q)
+        return self.sim.get_state()
+
+    def cost(self, start_state: np.ndarray, waypoints: np.ndarray) -> tuple[float, np.ndarray, dict]:
+        key = start_state.tobytes() + np.round(np.asarray(waypoints), 9).tobytes()
+        hit = self._cache.get(key)
+        if hit is not None:
+            return hit
+        traj = Trajectory(np.asarray(waypoints), (len(waypoints) - 1,))
+        rep = replay(self.sim, traj, robot=self.robot, record_every=self.record_every,
+                     cost_variant=self.cost_variant, start_state=start_state)
+        self.evaluations += 1
+        s = rep.summary()
+        j = self.time_weight * rep.cycle_time + self.wear_weight * s["cost"]
+        out = (j, self.sim.get_state(), s)
+        self._cache[key] = out
+        return out

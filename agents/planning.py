@@ -1,0 +1,50 @@
+"""Plan a station's task with a named planner and measure the result by replaying it (shared by CLI and eval)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from dresspack_gym.errors import ConfigError
+from dresspack_gym.loading import load_station
+from dresspack_gym.simulation import CableSimulator
+from dresspack_gym.station import Station
+from dresspack_gym.tasks import Task, make_task
+from dresspack_gym.trajectory import Replay, replay
+
+from .base import PlanResult, Planner
+from .ompl_planner import OmplPlanner
+from .thesis_local import ThesisLocalPlanner
+from .wear_global import OmplWearPlanner
+
+PLANNERS: dict[str, type[Planner]] = {"ompl": OmplPlanner, "thesis-local": ThesisLocalPlanner,
+                                      "ompl-wear": OmplWearPlanner}
+
+
+def make_planner(name: str, station: Station, robot: int = 0, **kwargs) -> Planner:
+    if name not in PLANNERS:
+        raise ConfigError("planner", f"{name!r} is not one of the allowed values {list(PLANNERS)}")
+    return PLANNERS[name](station, robot, **kwargs)
+
+
+@dataclass
+class PlannedRun:
+    task: Task
+    plan: PlanResult
+    replay: Replay
+
+    def summary(self) -> dict:
+        s = {"method": self.plan.method, "success": True, "planning_time": round(self.plan.planning_time, 3),
+             "welds": list(self.task.weld_names), "waypoints": len(self.plan.trajectory.waypoints)}
+        s.update(self.replay.summary())
+        s["planner_info"] = self.plan.info
+        return s
+
+
+def plan_station(station_ref: str | Station, planner: str = "ompl", *, robot: int = 0, seed: int = 0,
+                 time_budget: float = 20.0, welds: list[str] | None = None) -> PlannedRun:
+    station = station_ref if isinstance(station_ref, Station) else Station(load_station(station_ref))
+    p = make_planner(planner, station, robot, seed=seed, time_budget=time_budget)
+    task = make_task(station, robot, p.validity.checker.collides, welds)
+    result = p.plan(task)
+    rep = replay(CableSimulator(station), result.trajectory, robot=robot)
+    return PlannedRun(task, result, rep)

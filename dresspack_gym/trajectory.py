@@ -1,0 +1,135 @@
+"""Joint trajectories (straight segments, stop at each waypoint) and their replay in the cable simulator.
+
+Every method (planners, policies) is judged by replaying its trajectory here, so all are measured alike.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import ConfigError
+from .simulation import CableSimulator
+from .wear_cost import normalized_wear_cost, wear_cost
+
+MEASURES = ("curvature", "tension", "clearance", "twist_rate")
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Waypoints (K, 6) [rad] joined by straight joint-space segments with the simulator's cubic time law
+    (zero speed at each waypoint, peak joint speed = ``speed_fraction`` x rated); ``stops`` are the
+    waypoint indices of the task's welds and final Home, where the robot stands still and the cable settles."""
+
+    waypoints: np.ndarray
+    stops: tuple[int, ...]
+
+    def __post_init__(self):
+        w = np.asarray(self.waypoints, dtype=float)
+        if w.ndim != 2 or w.shape[1] != 6 or len(w) < 2:
+            raise ConfigError("trajectory.waypoints", f"expected (K >= 2, 6) joint angles, got shape {w.shape}")
+        if not np.isfinite(w).all():
+            raise ConfigError("trajectory.waypoints", "waypoints must be finite")
+        if any(not 0 < s < len(w) for s in self.stops) or list(self.stops) != sorted(set(self.stops)):
+            raise ConfigError("trajectory.stops", f"must be increasing waypoint indices in [1, {len(w) - 1}]")
+        object.__setattr__(self, "waypoints", w)
+
+    def segment_durations(self, joint_speed: np.ndarray, speed_fraction: float) -> np.ndarray:
+        """Seconds per segment: the slowest joint at ``speed_fraction`` of its rated speed, x1.5 (cubic law)."""
+        dq = np.abs(np.diff(self.waypoints, axis=0))
+        return 1.5 * np.max(dq / (np.asarray(joint_speed) * speed_fraction), axis=1)
+
+    def legs(self) -> list[np.ndarray]:
+        """The waypoints of each leg (between consecutive stops, both ends included)."""
+        bounds = [0, *self.stops]
+        return [self.waypoints[a:b + 1] for a, b in zip(bounds[:-1], bounds[1:])]
+
+    @staticmethod
+    def from_legs(legs: list[np.ndarray]) -> "Trajectory":
+        """Join legs (each starting where the previous ended) into one trajectory with a stop after each."""
+        pts, stops = [np.asarray(legs[0][0], dtype=float)], []
+        for leg in legs:
+            pts.extend(np.asarray(leg[1:], dtype=float))
+            stops.append(len(pts) - 1)
+        return Trajectory(np.array(pts), tuple(stops))
+
+
+@dataclass
+class Replay:
+    """Measures sampled along a replayed trajectory (time is the robot's motion time [s])."""
+
+    time: np.ndarray
+    q: np.ndarray
+    measures: dict[str, np.ndarray]  # MEASURES -> (N,)
+    cost: np.ndarray  # (N,) C(gamma) of eq. 4.10 at each sample
+    cost_terms: dict[str, np.ndarray]
+    stop_times: list[float]
+    cycle_time: float
+    thresholds: dict[str, float] = field(default_factory=dict)
+
+    def integrated_cost(self) -> float:
+        """Integral of C over the cycle [cost x s] (trapezoid over the samples)."""
+        return float(np.trapezoid(self.cost, self.time)) if len(self.time) > 1 else 0.0
+
+    def summary(self) -> dict:
+        m = self.measures
+        return {
+            "cycle_time": round(self.cycle_time, 4),
+            "max_curvature": float(m["curvature"].max()),
+            "max_tension": float(m["tension"].max()),
+            "min_clearance": float(m["clearance"].min()),
+            "max_twist_rate": float(m["twist_rate"].max()),
+            "cost": self.integrated_cost(),
+            "max_cost": float(self.cost.max()),
+            "cost_terms": {k: float(np.trapezoid(v, self.time)) if len(self.time) > 1 else 0.0
+                           for k, v in self.cost_terms.items()},
+        }
+
+
+def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_every: float = 0.05,
+           speed_fraction: float | None = None, cost_variant: str = "thesis", start_state=None) -> Replay:
+    """Run ``traj`` in the simulator from a settled start (``start_state`` or a fresh reset at its first
+    waypoint) and record the measures every ``record_every`` s and after settling at every stop."""
+    if cost_variant not in ("thesis", "normalized"):
+        raise ConfigError("cost_variant", f"{cost_variant!r} is not one of ['thesis', 'normalized']")
+    cost_fn = wear_cost if cost_variant == "thesis" else normalized_wear_cost
+    station = sim.station
+    q_all = station.home.copy()
+
+    def full(q):
+        q_all[robot] = q
+        return q_all.copy()
+
+    if start_state is not None:
+        sim.set_state(start_state)
+        if not np.allclose(sim.q[robot], traj.waypoints[0], atol=1e-9):
+            raise ConfigError("start_state", "the start state's robot configuration is not the trajectory's start")
+    else:
+        sim.reset(full(traj.waypoints[0]))
+    sim.motion_time = 0.0
+    samples_t, samples_q, samples_m = [0.0], [traj.waypoints[0].copy()], [sim.measures()]
+    stops = set(traj.stops)
+    stop_times = []
+    for i, q in enumerate(traj.waypoints[1:], start=1):
+        trace = sim.move_to(full(q), speed_fraction=speed_fraction, settle=i in stops, record_every=record_every)
+        samples_t += trace.time
+        samples_q += [x[robot] for x in trace.q]
+        samples_m += trace.measures
+        if i in stops:
+            stop_times.append(sim.motion_time)
+            samples_t.append(sim.motion_time)
+            samples_q.append(q.copy())
+            samples_m.append(sim.measures())
+    cfg = station.config.wear_cost
+    costs = [cost_fn(m, cfg) for m in samples_m]
+    measures = {
+        "curvature": np.array([m.max_curvature for m in samples_m]),
+        "tension": np.array([m.max_tension for m in samples_m]),
+        "clearance": np.array([m.min_clearance for m in samples_m]),
+        "twist_rate": np.array([m.max_twist_rate for m in samples_m]),
+    }
+    terms = {k: np.array([getattr(c, k) for c in costs]) for k in ("curvature", "tension", "distance")}
+    return Replay(np.array(samples_t), np.array(samples_q), measures, np.array([c.total for c in costs]), terms,
+                  stop_times, sim.motion_time,
+                  {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance})

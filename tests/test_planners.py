@@ -1,0 +1,158 @@
+"""Planners: valid trajectories (brute-force checked), replay reproduces the planner's numbers, wear-aware
+planning lowers the measured wear, failures are clear and bounded in time."""
+
+import json
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+pytest.importorskip("ompl.base")
+
+from agents.base import PlanningError  # noqa: E402
+from agents.cli import main as cli_main  # noqa: E402
+from agents.ompl_planner import OmplPlanner  # noqa: E402
+from agents.planning import plan_station  # noqa: E402
+from agents.thesis_local import ThesisLocalPlanner  # noqa: E402
+from dresspack_gym.collision import RobotCollisionChecker  # noqa: E402
+from dresspack_gym.loading import load_station  # noqa: E402
+from dresspack_gym.simulation import CableSimulator  # noqa: E402
+from dresspack_gym.station import Station  # noqa: E402
+from dresspack_gym.tasks import make_task  # noqa: E402
+from dresspack_gym.trajectory import replay  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def default_station():
+    return Station(load_station("default"))
+
+
+@pytest.fixture(scope="module")
+def curvature_station():
+    return Station(load_station("thesis_curvature"))
+
+
+def brute_force_valid(station, waypoints, step_deg=0.5):
+    """Every configuration every 0.5 deg along the path: limits, restrictions, no collision."""
+    placement = station.config.robots[0]
+    lim = placement.robot.joint_limits
+    checker = RobotCollisionChecker(station)
+    for a, b in zip(waypoints[:-1], waypoints[1:]):
+        n = max(1, int(np.ceil(np.degrees(np.max(np.abs(b - a))) / step_deg)))
+        for t in np.linspace(0, 1, n + 1):
+            q = a + t * (b - a)
+            if np.any(q < lim[:, 0] - 1e-9) or np.any(q > lim[:, 1] + 1e-9):
+                return False
+            if not placement.restrictions.allowed(q)[0] or checker.collides(q):
+                return False
+    return True
+
+
+def test_ompl_baseline_is_valid_visits_the_stops_and_respects_speed_limits(default_station):
+    planner = OmplPlanner(default_station, time_budget=20, seed=0)
+    task = make_task(default_station, 0, planner.validity.checker.collides)
+    res = planner.plan(task)
+    traj = res.trajectory
+    assert brute_force_valid(default_station, traj.waypoints)
+    assert np.allclose(traj.waypoints[[0, *traj.stops]], task.waypoints())
+    # the simulator's cubic law: peak joint speed of a segment = 1.5 |dq| / T <= fraction x rated
+    speed = default_station.config.robots[0].robot.joint_speed * default_station.config.simulation.speed_fraction
+    durations = traj.segment_durations(default_station.config.robots[0].robot.joint_speed,
+                                       default_station.config.simulation.speed_fraction)
+    peak = 1.5 * np.abs(np.diff(traj.waypoints, axis=0)) / durations[:, None]
+    assert np.all(peak <= speed * (1 + 1e-9))
+    assert res.info["duration"] == pytest.approx(durations.sum())
+
+
+def test_replay_reproduces_the_wear_aware_planners_objective(curvature_station):
+    planner = ThesisLocalPlanner(curvature_station, time_budget=6, seed=1)
+    task = make_task(curvature_station, 0, planner.validity.checker.collides)
+    res = planner.plan(task)
+    rep = replay(CableSimulator(curvature_station), res.trajectory)
+    assert rep.cycle_time + rep.integrated_cost() == pytest.approx(res.info["objective"], rel=1e-6)
+    assert brute_force_valid(curvature_station, res.trajectory.waypoints)
+
+
+def test_wear_aware_planning_lowers_the_measured_curvature_cost(curvature_station):
+    base = plan_station(curvature_station, "ompl", seed=0)
+    aware = plan_station(curvature_station, "thesis-local", seed=0, time_budget=8)
+    b, a = base.summary(), aware.summary()
+    assert a["cost"] < 0.5 * b["cost"]
+    assert a["max_curvature"] < b["max_curvature"]
+    assert a["cycle_time"] < 1.25 * b["cycle_time"]
+
+
+def test_invalid_task_configuration_is_a_clear_error(default_station):
+    planner = OmplPlanner(default_station, time_budget=5)
+    task = make_task(default_station, 0, planner.validity.checker.collides)
+    bad = task.goals.copy()
+    bad[0, 4] = np.radians(500.0)  # beyond joint 5's limit
+    from dataclasses import replace
+
+    with pytest.raises(PlanningError, match="outside the joint limits"):
+        planner.plan(replace(task, goals=bad))
+
+
+def test_unreachable_goal_fails_within_the_time_budget(curvature_station):
+    planner = OmplPlanner(curvature_station, time_budget=1.5)
+    task = make_task(curvature_station, 0, planner.validity.checker.collides)
+    goal = task.goals[0]
+    real = planner.validity.checker.min_distance
+    assert planner.validity.checker.chain_reach().min() > 0.1
+
+    def caged(q):  # a shell of "obstacle" around the weld in joint space (0.1 m/rad: a Lipschitz-valid distance)
+        r = np.max(np.abs(np.asarray(q) - goal))
+        return min(real(q), 0.1 * max(0.05 - r, r - 0.3))
+
+    planner.validity.checker.min_distance = caged
+    t0 = time.perf_counter()
+    with pytest.raises(PlanningError, match="no collision-free path"):
+        planner.plan(task)
+    assert time.perf_counter() - t0 < 1.5 + 3.0
+
+
+def test_plan_cli_prints_the_measures(tmp_path, capsys):
+    assert cli_main(["plan", "thesis_curvature", "--planner", "ompl", "--json", "--plot",
+                     str(tmp_path / "p.png")]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in ("success", "cycle_time", "planning_time", "max_curvature", "max_tension", "min_clearance",
+                "max_twist_rate", "cost"):
+        assert key in out
+    assert out["success"] is True and (tmp_path / "p.png").stat().st_size > 10_000
+    with pytest.raises(SystemExit):
+        cli_main(["plan", "thesis_curvature", "--planner", "rrt-magic"])
+
+
+def test_core_package_imports_no_torch_sb3_or_ompl():
+    code = ("import sys, pkgutil, importlib, dresspack_gym\n"
+            "for m in pkgutil.walk_packages(dresspack_gym.__path__, 'dresspack_gym.'):\n"
+            "    importlib.import_module(m.name)\n"
+            "bad = [m for m in ('torch', 'stable_baselines3', 'sb3_contrib', 'ompl') if m in sys.modules]\n"
+            "print(bad)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_chain_reach_bounds_every_multi_joint_move(default_station):
+    checker = RobotCollisionChecker(default_station)
+    rng = np.random.default_rng(0)
+    lim = default_station.config.robots[0].robot.joint_limits
+    reach = checker.chain_reach()
+    import mujoco
+
+    m, d = checker.model, checker.data
+    geoms = checker.robot.geom_ids
+    for _ in range(30):
+        q0 = rng.uniform(lim[:, 0], lim[:, 1])
+        q1 = np.clip(q0 + rng.normal(0, 0.3, 6), lim[:, 0], lim[:, 1])
+        d.qpos[default_station.robots[0].qpos] = q0
+        mujoco.mj_kinematics(m, d)
+        p0 = d.geom_xpos[geoms].copy()
+        worst = 0.0
+        for t in np.linspace(0, 1, 21)[1:]:
+            d.qpos[default_station.robots[0].qpos] = q0 + t * (q1 - q0)
+            mujoco.mj_kinematics(m, d)
+            worst = max(worst, float(np.max(np.linalg.norm(d.geom_xpos[geoms] - p0, axis=1))))
+        assert worst <= reach @ np.abs(q1 - q0) + 1e-9
