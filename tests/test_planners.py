@@ -156,3 +156,13 @@ def test_chain_reach_bounds_every_multi_joint_move(default_station):
             mujoco.mj_kinematics(m, d)
             worst = max(worst, float(np.max(np.linalg.norm(d.geom_xpos[geoms] - p0, axis=1))))
         assert worst <= reach @ np.abs(q1 - q0) + 1e-9
+
+
+@pytest.mark.slow
+def test_global_wear_planner_finds_the_low_tension_route():
+    """Thesis tension case: the wear-unaware route drags the cable over the cuboid (kN peaks here); the global
+    planner must find a route that keeps the peak low (measured 110 N and 81 N for seeds 0 and 1)."""
+    base = plan_station("thesis_tension", "ompl", seed=0).summary()
+    aware = plan_station("thesis_tension", "ompl-wear", seed=0, time_budget=30).summary()
+    assert aware["max_tension"] < 0.1 * base["max_tension"] and aware["max_tension"] < 200
+    assert aware["cost"] < 0.1 * base["cost"]
