@@ -6,8 +6,6 @@ import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from dresspack_gym.errors import DresspackError
 from dresspack_gym.station import Station
 from dresspack_gym.tasks import Task
@@ -62,10 +60,9 @@ class Planner(ABC):
     def remaining(self) -> float:
         return max(0.0, self.deadline - time.perf_counter())
 
-    def duration(self, waypoints: np.ndarray) -> float:
-        """Motion time [s] of a waypoint sequence under the simulator's time law."""
-        dq = np.abs(np.diff(np.asarray(waypoints), axis=0))
-        return float(1.5 * np.max(dq / (self.joint_speed * self.speed_fraction), axis=1).sum()) if len(dq) else 0.0
+    def duration(self, traj: Trajectory) -> float:
+        """Motion time [s] of a trajectory under the simulator's time law."""
+        return float(traj.segment_durations(self.joint_speed, self.speed_fraction).sum())
 
     @abstractmethod
     def _plan(self, task: Task) -> tuple[Trajectory, dict]:

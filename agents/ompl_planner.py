@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from dresspack_gym.tasks import Task
@@ -81,8 +83,9 @@ class OmplPlanner(Planner):
         self.setup.setPlanner(getattr(self.og, planner)(self.si))
         solved = self.setup.solve(max(0.05, budget))
         if not solved or not self.setup.haveExactSolutionPath():
-            raise PlanningError(f"{self.name}: no collision-free path found within {budget:.1f} s between "
-                                f"{np.round(np.degrees(q0), 1).tolist()} and {np.round(np.degrees(q1), 1).tolist()} deg")
+            a, b = np.round(np.degrees(q0), 1).tolist(), np.round(np.degrees(q1), 1).tolist()
+            raise PlanningError(f"{self.name}: no collision-free path found within {budget:.1f} s between {a} and "
+                                f"{b} deg")
         if self.simplify:
             self.setup.simplifySolution(max(0.05, min(1.0, self.remaining())))
         path = self.setup.getSolutionPath()
@@ -102,12 +105,14 @@ class OmplPlanner(Planner):
             i = j
         return np.array(out)
 
-    def _plan(self, task: Task) -> tuple[Trajectory, dict]:
+    def connect_stops(self, task: Task, budget: float) -> list[np.ndarray]:
+        """One path per leg (start -> welds -> Home); the budget is shared out over the remaining legs."""
         stops = task.waypoints()
-        legs = []
-        for k, (a, b) in enumerate(zip(stops[:-1], stops[1:])):
-            budget = self.remaining() / (len(stops) - 1 - k)
-            legs.append(self.connect(a, b, budget))
-        traj = Trajectory.from_legs(legs)
-        return traj, {"duration": self.duration(traj.waypoints), "waypoints": len(traj.waypoints)}
+        end = min(self.deadline, time.perf_counter() + budget)
+        n = len(stops) - 1
+        return [self.connect(a, b, max(0.0, end - time.perf_counter()) / (n - k))
+                for k, (a, b) in enumerate(zip(stops[:-1], stops[1:]))]
 
+    def _plan(self, task: Task) -> tuple[Trajectory, dict]:
+        traj = Trajectory.from_legs(self.connect_stops(task, self.time_budget))
+        return traj, {"duration": self.duration(traj), "waypoints": len(traj.waypoints)}

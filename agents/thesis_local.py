@@ -3,6 +3,8 @@ with the cost time + (4.10), legs optimised in path order so the cable state car
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from dresspack_gym.tasks import Task
@@ -42,21 +44,26 @@ class ThesisLocalPlanner(OmplPlanner):
                                 cost_variant=cost_variant)
         self.rng = np.random.default_rng(self.seed)
 
-    def _nominal_legs(self, task: Task) -> list[np.ndarray]:
-        stops = task.waypoints()
-        budget = self.time_budget * self.nominal_share
-        return [self.connect(a, b, budget / (len(stops) - 1)) for a, b in zip(stops[:-1], stops[1:])]
-
     def _plan(self, task: Task) -> tuple[Trajectory, dict]:
-        legs = self._nominal_legs(task)
-        return self._optimise_legs(task, legs, {"nominal_waypoints": sum(len(g) - 1 for g in legs) + 1})
+        self._nominal = self.connect_stops(task, self.time_budget * self.nominal_share)
+        return self._optimise_legs(task, {"nominal_waypoints": sum(len(g) - 1 for g in self._nominal) + 1})
 
-    def _optimise_legs(self, task: Task, legs: list[np.ndarray], info: dict) -> tuple[Trajectory, dict]:
+    def _start_leg(self, k: int, state: np.ndarray, a: np.ndarray, b: np.ndarray,
+                   until: float) -> tuple[np.ndarray, float]:
+        """The leg the local search starts from, and the objective of the wear-unaware route (for the report)."""
+        leg = self._nominal[k]
+        return leg, self.leg_cost.cost(state, leg)[0]
+
+    def _optimise_legs(self, task: Task, info: dict) -> tuple[Trajectory, dict]:
+        """Legs in path order, each from the cable state the previous ones left; the time left is shared out."""
+        stops = task.waypoints()
+        n = len(stops) - 1
         state = self.leg_cost.start_state(task.start)
         out, before, after = [], 0.0, 0.0
-        for k, leg in enumerate(legs):
-            budget_end = self.deadline - self.remaining() * (1 - 1 / (len(legs) - k))
-            best, j0 = self.improve(state, leg, budget_end)
+        for k, (a, b) in enumerate(zip(stops[:-1], stops[1:])):
+            leg_end = self.deadline - self.remaining() * (1 - 1 / (n - k))
+            start, j0 = self._start_leg(k, state, a, b, leg_end)
+            best = self.improve(state, start, leg_end)
             j, state, _ = self.leg_cost.cost(state, best)
             out.append(best)
             before, after = before + j0, after + j
@@ -64,13 +71,11 @@ class ThesisLocalPlanner(OmplPlanner):
                      "cable_evaluations": self.leg_cost.evaluations})
         return Trajectory.from_legs(out), info
 
-    def improve(self, state: np.ndarray, leg: np.ndarray, until: float) -> tuple[np.ndarray, float]:
+    def improve(self, state: np.ndarray, leg: np.ndarray, until: float) -> np.ndarray:
         """Random-perturbation hill climbing on the interior waypoints of one leg (ends fixed) until ``until``
-        (perf_counter time); the step shrinks when a sweep finds nothing. Returns (best leg, nominal J)."""
-        import time
-
+        (perf_counter time); the step shrinks when a sweep finds nothing."""
         best = leg.copy()
-        j_best = j_nominal = self.leg_cost.cost(state, best)[0]
+        j_best = self.leg_cost.cost(state, best)[0]
         cand = densify(best, self.n_interior)
         if len(cand) > len(best) and self._leg_valid(cand):
             best, j_best = cand, self.leg_cost.cost(state, cand)[0]
@@ -89,8 +94,7 @@ class ThesisLocalPlanner(OmplPlanner):
                     best, j_best, improved = trial, j, True
             if not improved:
                 step *= 0.6
-        best = self._drop_useless(state, best, j_best)
-        return best, j_nominal
+        return self._drop_useless(state, best, j_best)
 
     def _drop_useless(self, state, leg, j_best):
         """Remove interior waypoints that do not pay for their stop (time) — keeps trajectories lean."""
@@ -104,10 +108,6 @@ class ThesisLocalPlanner(OmplPlanner):
         return leg
 
     def _leg_valid(self, leg: np.ndarray, around: int | None = None) -> bool:
-        if around is None:
-            return all(self.validity.segment_valid(a, b) for a, b in zip(leg[:-1], leg[1:]))
-        lo, hi = max(0, around - 1), min(len(leg) - 1, around + 1)
-        q = leg[around] if 0 <= around < len(leg) else None
-        if q is not None and not self.validity.valid(q):
-            return False
-        return all(self.validity.segment_valid(leg[k], leg[k + 1]) for k in range(lo, hi))
+        """All segments, or only the two touching waypoint ``around`` (a segment check covers its end points)."""
+        ks = range(len(leg) - 1) if around is None else range(max(0, around - 1), min(len(leg) - 1, around + 1))
+        return all(self.validity.segment_valid(leg[k], leg[k + 1]) for k in ks)
