@@ -3,14 +3,25 @@
 Episode: starting at Home, visit the task's weld configurations in order, then return Home. Each weld
 configuration is the restriction-passing, collision-free IK branch closest to Home (max joint change).
 
-Actions (``Discrete(13)``): action ``2 j`` moves joint ``j`` by ``+joint_step``, ``2 j + 1`` by
-``-joint_step`` (j = 0..5), action 12 holds still for ``joint_step`` worth of time. When every joint is
-within half a step of the current goal the robot finishes the move onto the goal exactly (that motion
-is simulated and timed too) and the goal is reached.
+Actions (``Discrete(13)``, or ``Discrete(14)`` with ``goal_action=True``): action ``2 j`` moves joint ``j`` by
+``+joint_step``, ``2 j + 1`` by ``-joint_step`` (j = 0..5), action 12 holds still for ``joint_step`` worth of
+time, action 13 (optional) moves all joints together straight toward the current goal, the largest joint
+change being ``joint_step`` (a straight joint-space move is what a planner's segment is, so a policy can match
+a planner's cycle time where the straight way is free). When every joint is within half a step of the
+current goal the robot finishes the move onto the goal exactly (that motion is simulated and timed too) and
+the goal is reached; the cable then settles (the robot dwells while welding, as in trajectory replay).
 
-Masks (``action_masks()``, sb3-contrib convention): an action is masked when the joint limits, an active
-joint restriction (thesis §4.1) or a robot-obstacle collision is violated at its resulting configuration
-or at any intermediate configuration of the move, checked every ``mask_resolution_deg`` (2 deg). Taking a
+Tasks: ``welds`` (all of them, in order), or each episode ``n_welds`` of them (optionally shuffled), or one
+of the weld lists in ``tasks``; ``reset(options={"welds": [...], "start": q})`` sets both explicitly. With
+``sim_timestep`` overrides the station's physics step for this env (e.g. 4 ms to train faster; evaluation
+replays the resulting trajectory at the station's own step). With ``start_noise_deg`` the episode starts at a random valid configuration within that many degrees of Home
+(drawn from ``np_random``, the cable settled there); it always ends at Home.
+
+Masks (``action_masks()``, sb3-contrib convention): an action is masked when the joint limits or an active
+joint restriction (thesis §4.1) are violated along the move (checked every ``mask_resolution_deg``), or when
+the robot comes closer to an obstacle than ``collision_margin`` (at least 2 mm) anywhere along it: collisions
+are checked continuously with the planners' :class:`~dresspack_gym.validity.MotionValidity`, so every
+trajectory a masked policy drives is valid for the planners' checker too. Taking a
 masked action anyway: with ``invalid_action="penalize"`` (default, so generic checkers can sample actions)
 the robot stays where it is, the step costs ``invalid_penalty`` and ``info["invalid_action"]`` is True;
 with ``invalid_action="raise"`` an :class:`InvalidActionError` is raised. The robot never enters a
@@ -20,13 +31,15 @@ Reward per step (every term is in ``info``; their sum is the reward)::
 
     reward = reward_time + reward_wear + reward_progress + reward_goal + reward_invalid
     reward_time     = -time_weight * step_time                        (Δt: simulated motion seconds)
-    reward_wear     = -wear_weight * C(γ)                              (eq. 4.10 or its normalised variant)
+    reward_wear     = -wear_weight * C(γ)           (eq. 4.10 or its normalised variant, after the step)
+                    = -wear_weight * C(γ) * Δt      with wear_integral=True (sums to the integrated cost ∫C dt)
     reward_progress = progress_weight * (φ(q_before) - φ(q_after)),  φ(q) = max_j |q_j - goal_j| / joint_step
     reward_goal     = goal_reward when a weld (or the final Home) is reached
     reward_invalid  = -invalid_penalty for a masked action
 
 ``reward_progress`` is potential-based shaping (it does not change which policies are optimal);
-``reward_goal`` makes completion learnable. The episode terminates when Home is reached after the last
+``reward_goal`` makes completion learnable. ``settle_time`` bounds the cable settling after each ordinary
+step (0: the cable keeps its motion into the next step, as in a continuous trajectory). The episode terminates when Home is reached after the last
 weld and is truncated after ``max_steps``.
 
 Observation (float32, all roughly in [-1, 1]): joints scaled by their limits (6), goal scaled likewise (6),
@@ -48,10 +61,12 @@ from .loading import load_station
 from .simulation import CableSimulator
 from .station import Station
 from .tasks import select_weld_goals
+from .validity import MotionValidity
 from .wear_cost import normalized_wear_cost, wear_cost
 
 N_JOINT_ACTIONS = 12
 STAY = 12
+TOWARD_GOAL = 13
 
 
 class InvalidActionError(DresspackError, ValueError):
@@ -69,6 +84,8 @@ class DresspackEnv(gym.Env):
                  cost_variant: str = "thesis", goal_reward: float = 10.0, progress_weight: float = 1.0,
                  invalid_action: str = "penalize", invalid_penalty: float = 1.0, settle_time: float = 0.3,
                  cable_samples: int = 8, collision_margin: float = 0.0, mask_resolution_deg: float = 2.0,
+                 goal_action: bool = False, wear_integral: bool = False, tasks: list[list[str]] | None = None,
+                 start_noise_deg: float = 0.0, sim_timestep: float | None = None,
                  render_mode: str | None = None, render_size: tuple[int, int] = (480, 360)):
         self._kwargs = dict(locals())
         for k in ("self", "__class__"):
@@ -78,9 +95,16 @@ class DresspackEnv(gym.Env):
         _check_choice("render_mode", render_mode, (None, "rgb_array"))
         for name, value, lo in (("joint_step_deg", joint_step_deg, 0.1), ("max_steps", max_steps, 1),
                                 ("settle_time", settle_time, 0.0), ("cable_samples", cable_samples, 2),
-                                ("mask_resolution_deg", mask_resolution_deg, 0.01)):
+                                ("mask_resolution_deg", mask_resolution_deg, 0.01),
+                                ("collision_margin", collision_margin, 0.0), ("start_noise_deg", start_noise_deg, 0.0)):
             if not (isinstance(value, (int, float)) and value >= lo):
                 raise ConfigError(name, f"must be a number >= {lo}, got {value!r}")
+        if sim_timestep is not None:
+            if not (isinstance(sim_timestep, (int, float)) and 1e-4 <= sim_timestep <= 0.01):
+                raise ConfigError("sim_timestep", f"must be a number in [0.0001, 0.01] s, got {sim_timestep!r}")
+            # a private model, so a caller's Station keeps its own timestep
+            station = Station(station.config if isinstance(station, Station) else load_station(station))
+            station.model.opt.timestep = float(sim_timestep)
         self.station = station if isinstance(station, Station) else Station(load_station(station))
         if not 0 <= robot < self.station.n_robots:
             raise ConfigError("robot", f"robot index {robot} out of range for {self.station.n_robots} robot(s)")
@@ -89,7 +113,8 @@ class DresspackEnv(gym.Env):
         self.placement = self.station.config.robots[robot]
         self.sim = CableSimulator(self.station)
         self.home_state = self.sim.get_state()
-        self.checker = RobotCollisionChecker(self.station, robot, collision_margin)
+        self.validity = MotionValidity(self.station, robot, collision_margin, mask_resolution_deg)
+        self.checker: RobotCollisionChecker = self.validity.checker
         self.restrictions = self.placement.restrictions
         self.limits = self.placement.robot.joint_limits
         self.step_size = math.radians(joint_step_deg)
@@ -109,15 +134,41 @@ class DresspackEnv(gym.Env):
             raise ConfigError("n_welds", f"must be in [1, {len(self.weld_goals)}], got {n_welds}")
         self.n_welds = n_welds
         self.shuffle_welds = bool(shuffle_welds)
+        self.tasks = self._check_tasks(tasks)
+        self.goal_action = bool(goal_action)
+        self.wear_integral = bool(wear_integral)
+        self.start_noise = math.radians(start_noise_deg)
         n_obs = 6 * 3 + 1 + 3 * self.cable_samples + 3
         self.observation_space = gym.spaces.Box(-10.0, 10.0, shape=(n_obs,), dtype=np.float32)
-        self.action_space = gym.spaces.Discrete(N_JOINT_ACTIONS + 1)
+        self.n_actions = N_JOINT_ACTIONS + (2 if self.goal_action else 1)
+        self.action_space = gym.spaces.Discrete(self.n_actions)
         self._mask_cache: tuple[bytes, np.ndarray] | None = None
         self._setup_episode(list(self.weld_goals))
 
     # ----------------------------------------------------------------------------- task
     def _weld_goals(self, welds: list[str] | None) -> dict[str, np.ndarray]:
         return select_weld_goals(self.station, self.robot_index, self.checker.collides, welds)
+
+    def _check_tasks(self, tasks) -> list[list[str]] | None:
+        if tasks is None:
+            return None
+        if not isinstance(tasks, (list, tuple)) or not tasks or not all(isinstance(t, (list, tuple)) and t
+                                                                       for t in tasks):
+            raise ConfigError("tasks", f"must be a non-empty list of non-empty weld-name lists, got {tasks!r}")
+        for t in tasks:
+            unknown = [w for w in t if w not in self.weld_goals]
+            if unknown:
+                raise ConfigError("tasks", f"unknown weld(s) {unknown}; choose from {list(self.weld_goals)}")
+        return [list(t) for t in tasks]
+
+    def _random_start(self) -> np.ndarray:
+        """A valid configuration within ``start_noise`` of Home (rejection sampling from ``np_random``)."""
+        home = self.placement.home
+        for _ in range(1000):
+            q = home + self.np_random.uniform(-self.start_noise, self.start_noise, size=6)
+            if self.validity.valid(q):
+                return q
+        return home.copy()
 
     def _setup_episode(self, order: list[str]) -> None:
         self.goal_names = order + ["home"]
@@ -138,18 +189,33 @@ class DresspackEnv(gym.Env):
     # ----------------------------------------------------------------------------- gym API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
+        options = options or {}
         order = list(self.weld_goals)
-        if options and "welds" in options:
+        if "welds" in options:
             order = list(options["welds"])
             unknown = [w for w in order if w not in self.weld_goals]
             if unknown:
                 raise ConfigError("options.welds", f"unknown weld(s) {unknown}; choose from {list(self.weld_goals)}")
+        elif self.tasks is not None:
+            order = list(self.tasks[self.np_random.integers(len(self.tasks))])
         else:
             if self.n_welds is not None:
                 order = list(self.np_random.choice(order, size=self.n_welds, replace=False))
             if self.shuffle_welds:
                 order = list(self.np_random.permutation(order))
-        self.sim.set_state(self.home_state)
+        if "start" in options:
+            start = np.asarray(options["start"], dtype=float)
+            if start.shape != (6,) or not self.validity.valid(start):
+                raise ConfigError("options.start", "must be 6 joint angles [rad] of a valid configuration: "
+                                                   f"{self.validity.why_invalid(start) if start.shape == (6,) else start.shape}")
+        else:
+            start = self._random_start() if self.start_noise > 0 else None
+        if start is None or np.allclose(start, self.placement.home):
+            self.sim.set_state(self.home_state)
+        else:
+            q_all = self.station.home.copy()
+            q_all[self.robot_index] = start
+            self.sim.reset(q_all)
         self._setup_episode([str(w) for w in order])
         measures = self.sim.measures()
         info = self._info(measures, self.cost_fn(measures, self.station.config.wear_cost), {}, 0.0, False)
@@ -168,15 +234,19 @@ class DresspackEnv(gym.Env):
         reached = False
         if invalid:
             terms["invalid"] = -self.weights["invalid"]
-        elif a == STAY:  # waiting costs the time of one joint step; the cable settles below
-            self.sim.motion_time += self.step_size / float(np.max(self._speeds()))
+        elif a == STAY:  # waiting costs the time of one joint step, while the cable swings/settles
+            wait = self.step_size / float(np.max(self._speeds()))
+            self.sim.settle(wait)
+            self.sim.motion_time += wait
         else:
             target = self._target(q_before, a)
             self._move(target)
             if self._near_goal(target) and self._segment_valid(target, self.goal):
                 self._move(self.goal)
                 reached = True
-        if not invalid:
+        if reached:
+            self.sim.settle()
+        elif not invalid and a != STAY and self.settle_time > 0:
             self.sim.settle(self.settle_time)
         step_time = self.sim.motion_time - t0
         self.cycle_time += step_time
@@ -184,7 +254,7 @@ class DresspackEnv(gym.Env):
         cost = self.cost_fn(measures, self.station.config.wear_cost)
         q_after = self.q
         terms["time"] = -self.weights["time"] * step_time
-        terms["wear"] = -self.weights["wear"] * cost.total
+        terms["wear"] = -self.weights["wear"] * cost.total * (step_time if self.wear_integral else 1.0)
         terms["progress"] = self.weights["progress"] * (self._potential(q_before) - self._potential(q_after))
         if reached:
             terms["goal"] = self.weights["goal"]
@@ -198,18 +268,22 @@ class DresspackEnv(gym.Env):
         return self._observation(measures), reward, terminated, truncated, info
 
     def action_masks(self) -> np.ndarray:
-        """Boolean mask over the 13 actions: True where the action is allowed (see module docstring)."""
+        """Boolean mask over the actions: True where the action is allowed (see module docstring)."""
         q = self.q
         key = q.tobytes() + bytes([self.goal_index])
         if self._mask_cache is not None and self._mask_cache[0] == key:
             return self._mask_cache[1].copy()
-        masks = np.ones(N_JOINT_ACTIONS + 1, dtype=bool)
-        # Moves whose largest possible robot displacement is below the current clearance cannot collide:
-        # they skip the sampled collision checks (a continuous guarantee, cheaper than sampling).
+        masks = np.ones(self.n_actions, dtype=bool)
+        # Moves whose largest possible robot displacement stays below the clearance beyond the margin cannot
+        # come closer than the margin anywhere: they skip the collision queries (a continuous guarantee that
+        # implies MotionValidity.segment_valid, so planners accept every step a masked policy takes).
         clearance = self.checker.min_distance(q) - self.checker.margin
-        safe_joint = self.checker.joint_reach() * self.step_size < clearance
-        for a in range(N_JOINT_ACTIONS):
-            masks[a] = self._segment_valid(q, self._target(q, a), check_collision=not safe_joint[a // 2])
+        reach = self.checker.chain_reach()
+        for a in range(self.n_actions):
+            if a == STAY:
+                continue
+            target = self._target(q, a)
+            masks[a] = self._segment_valid(q, target, check_collision=reach @ np.abs(target - q) >= clearance)
         self._mask_cache = (key, masks)
         return masks.copy()
 
@@ -246,19 +320,24 @@ class DresspackEnv(gym.Env):
     def describe_action(self, a: int) -> str:
         if a == STAY:
             return "stay"
+        if a == TOWARD_GOAL:
+            return f"toward goal (<= {math.degrees(self.step_size):g} deg)"
         return f"j{a // 2 + 1} {'+' if a % 2 == 0 else '-'}{math.degrees(self.step_size):g} deg"
 
     def _check_action(self, action) -> int:
         try:
             a = int(np.asarray(action).item())
         except (TypeError, ValueError):
-            raise InvalidActionError(f"action must be an integer in [0, {N_JOINT_ACTIONS}], got {action!r}") from None
-        if a != np.asarray(action).item() or not 0 <= a <= N_JOINT_ACTIONS:
-            raise InvalidActionError(f"action must be an integer in [0, {N_JOINT_ACTIONS}], got {action!r}")
+            raise InvalidActionError(f"action must be an integer in [0, {self.n_actions - 1}], got {action!r}") from None
+        if a != np.asarray(action).item() or not 0 <= a < self.n_actions:
+            raise InvalidActionError(f"action must be an integer in [0, {self.n_actions - 1}], got {action!r}")
         return a
 
     def _target(self, q: np.ndarray, a: int) -> np.ndarray:
         target = q.copy()
+        if a == TOWARD_GOAL:
+            err = self.goal - q
+            return q + err * min(1.0, self.step_size / max(float(np.max(np.abs(err))), 1e-12))
         if a != STAY:
             target[a // 2] += self.step_size if a % 2 == 0 else -self.step_size
         return target
@@ -274,9 +353,7 @@ class DresspackEnv(gym.Env):
             return False
         if not self.restrictions.allowed(qs).all():
             return False
-        if not check_collision:
-            return True
-        return not any(self.checker.collides(qi) for qi in qs[::-1])  # the end point fails most often
+        return not check_collision or self.validity.segment_valid(q0, q1)
 
     def _why_masked(self, a: int) -> str:
         qs = self._segment_configs(self.q, self._target(self.q, a))

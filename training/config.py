@@ -1,0 +1,130 @@
+"""Training-run configuration: a frozen dataclass read (strictly) from a YAML file in configs/training/."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+
+from dresspack_gym import ENV_IDS
+from dresspack_gym.errors import ConfigError
+from dresspack_gym.loading import read_yaml
+from dresspack_gym.validation import Section
+
+CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs" / "training"
+ACTIVATIONS = ("tanh", "relu")
+
+
+@dataclass(frozen=True)
+class PPOConfig:
+    """MaskablePPO hyperparameters (stable-baselines3 names)."""
+
+    learning_rate: float = 3e-4
+    n_steps: int = 512  # per environment, per update
+    batch_size: int = 256
+    n_epochs: int = 10
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    clip_range: float = 0.2
+    ent_coef: float = 0.01
+    vf_coef: float = 0.5
+    max_grad_norm: float = 0.5
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything that defines a training run (saved, resolved, into the run folder)."""
+
+    name: str
+    env_id: str = "dresspack_gym/StudWelding-v0"
+    env_kwargs: dict = field(default_factory=dict)
+    n_envs: int = 2
+    vec_env: str = "subproc"  # subproc: one process per env (both cores); dummy: in-process (tests)
+    total_timesteps: int = 100_000
+    seed: int = 0
+    net_arch: tuple[int, ...] = (128, 128)
+    activation: str = "tanh"
+    ppo: PPOConfig = PPOConfig()
+    checkpoint_every: int = 20_000  # env steps
+    eval_every: int = 20_000  # env steps; 0 disables the evaluation callback (no best model)
+    eval_episodes: int = 10
+    eval_seed: int = 10_000  # evaluation episodes use their own seeds, never the training ones
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["net_arch"] = list(self.net_arch)
+        return d
+
+    def with_overrides(self, **kw) -> "TrainConfig":
+        return replace(self, **{k: v for k, v in kw.items() if v is not None})
+
+
+def load_train_config(ref: str | Path) -> TrainConfig:
+    """Read a training config by path or by name in configs/training/ (e.g. ``stud_welding``)."""
+    path = Path(ref)
+    if not path.is_file() and (CONFIG_DIR / f"{ref}.yaml").is_file():
+        path = CONFIG_DIR / f"{ref}.yaml"
+    if not path.is_file():
+        shipped = sorted(p.stem for p in CONFIG_DIR.glob("*.yaml"))
+        raise ConfigError("config", f"no training config {str(ref)!r}: give a YAML path or one of {shipped}")
+    return train_config_from_dict(read_yaml(path, "config"), default_name=path.stem)
+
+
+def train_config_from_dict(data: dict, default_name: str = "run") -> TrainConfig:
+    s = Section(data, "")
+    d = TrainConfig(name=default_name)
+    env_id = s.string("env_id", d.env_id)
+    if env_id not in gym.registry:
+        raise ConfigError("env_id", f"{env_id!r} is not a registered environment; dresspack ids are {list(ENV_IDS)}")
+    env_kwargs = s.raw("env_kwargs", {})
+    if not isinstance(env_kwargs, dict):
+        raise ConfigError("env_kwargs", f"expected a mapping of DresspackEnv arguments, got {env_kwargs!r}")
+    net_arch = s.raw("net_arch", list(d.net_arch))
+    if not (isinstance(net_arch, list) and net_arch and all(isinstance(n, int) and n > 0 for n in net_arch)):
+        raise ConfigError("net_arch", f"expected a list of positive layer widths, got {net_arch!r}")
+    p = s.section("ppo", {})
+    dp = PPOConfig()
+    ppo = PPOConfig(
+        learning_rate=p.number("learning_rate", dp.learning_rate, lo=0.0, lo_open=True, hi=1.0),
+        n_steps=p.integer("n_steps", dp.n_steps, lo=2),
+        batch_size=p.integer("batch_size", dp.batch_size, lo=2),
+        n_epochs=p.integer("n_epochs", dp.n_epochs, lo=1),
+        gamma=p.number("gamma", dp.gamma, lo=0.0, hi=1.0),
+        gae_lambda=p.number("gae_lambda", dp.gae_lambda, lo=0.0, hi=1.0),
+        clip_range=p.number("clip_range", dp.clip_range, lo=0.0, lo_open=True, hi=1.0),
+        ent_coef=p.number("ent_coef", dp.ent_coef, lo=0.0, hi=1.0),
+        vf_coef=p.number("vf_coef", dp.vf_coef, lo=0.0, hi=10.0),
+        max_grad_norm=p.number("max_grad_norm", dp.max_grad_norm, lo=0.0, lo_open=True, hi=100.0),
+    )
+    p.done()
+    cfg = TrainConfig(
+        name=s.string("name", d.name),
+        env_id=env_id,
+        env_kwargs=dict(env_kwargs),
+        n_envs=s.integer("n_envs", d.n_envs, lo=1, hi=64),
+        vec_env=s.string("vec_env", d.vec_env, choices=("subproc", "dummy")),
+        total_timesteps=s.integer("total_timesteps", d.total_timesteps, lo=1),
+        seed=s.integer("seed", d.seed, lo=0),
+        net_arch=tuple(net_arch),
+        activation=s.string("activation", d.activation, choices=ACTIVATIONS),
+        ppo=ppo,
+        checkpoint_every=s.integer("checkpoint_every", d.checkpoint_every, lo=1),
+        eval_every=s.integer("eval_every", d.eval_every, lo=0),
+        eval_episodes=s.integer("eval_episodes", d.eval_episodes, lo=1),
+        eval_seed=s.integer("eval_seed", d.eval_seed, lo=0),
+    )
+    s.done()
+    return cfg
+
+
+def check_env_kwargs(cfg: TrainConfig) -> None:
+    """Build one environment so a wrong env argument fails now, naming the field, not in a subprocess."""
+    try:
+        env = gym.make(cfg.env_id, **cfg.env_kwargs)
+    except TypeError as exc:
+        raise ConfigError("env_kwargs", f"{exc}; see DresspackEnv's arguments") from None
+    except ConfigError as exc:
+        raise ConfigError(f"env_kwargs.{exc.field}", str(exc).split(": ", 1)[-1]) from None
+    env.close()

@@ -1,0 +1,220 @@
+"""Train MaskablePPO on a dresspack environment from a YAML config: run folder, TensorBoard, checkpoints, resume.
+
+    dresspack-train configs/training/stud_welding.yaml            # or: python -m training.train stud_welding
+    dresspack-train --resume runs/train/stud_welding               # continue after Ctrl-C or a crash
+
+Run folder: ``config.yaml`` (resolved), ``command.txt`` (every launch), ``versions.json``, ``tb/`` (TensorBoard),
+``checkpoints/`` (periodic + on Ctrl-C), ``best/best_model.zip`` (evaluation callback), ``final_model.zip``,
+``summary.json`` (wall time, steps/s, last evaluation).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import warnings
+import platform
+import re
+import shlex
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import yaml
+
+from dresspack_gym import __version__
+from dresspack_gym.errors import ConfigError, DresspackError
+
+from .config import TrainConfig, check_env_kwargs, load_train_config, train_config_from_dict
+
+CHECKPOINT_PREFIX = "ckpt"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="dresspack-train", description=__doc__.split("\n")[0])
+    p.add_argument("config", nargs="?", help="training YAML (path, or a name in configs/training/)")
+    p.add_argument("--run-dir", help="run folder (default: runs/train/<config name>)")
+    p.add_argument("--resume", metavar="RUN_DIR", help="continue the run in RUN_DIR from its newest checkpoint")
+    p.add_argument("--total-timesteps", type=int, help="override total_timesteps")
+    p.add_argument("--n-envs", type=int, help="override n_envs")
+    p.add_argument("--seed", type=int, help="override seed")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return p
+
+
+def latest_checkpoint(run_dir: Path) -> Path | None:
+    """The checkpoint with the most environment steps (periodic or saved on interrupt)."""
+    found = []
+    for path in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"):
+        m = re.fullmatch(rf"{CHECKPOINT_PREFIX}_(\d+)_steps\.zip", path.name)
+        if m:
+            found.append((int(m.group(1)), path))
+    return max(found)[1] if found else None
+
+
+def _versions() -> dict:
+    import sb3_contrib
+    import stable_baselines3
+    import torch
+
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10,
+                                cwd=Path(__file__).parent).stdout.strip() or None
+    except OSError:
+        commit = None
+    return {"dresspack_gym": __version__, "git_commit": commit, "python": platform.python_version(),
+            "torch": torch.__version__, "stable_baselines3": stable_baselines3.__version__,
+            "sb3_contrib": sb3_contrib.__version__}
+
+
+def make_vec_env(cfg: TrainConfig, seed: int, n_envs: int | None = None):
+    """Monitor-wrapped envs; subprocesses (one per core) unless ``vec_env: dummy`` or a single env."""
+    from stable_baselines3.common.env_util import make_vec_env as sb3_make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    n = cfg.n_envs if n_envs is None else n_envs
+    subproc = cfg.vec_env == "subproc" and n > 1
+    return sb3_make_vec_env(cfg.env_id, n_envs=n, seed=seed, env_kwargs=cfg.env_kwargs,
+                            vec_env_cls=SubprocVecEnv if subproc else DummyVecEnv,
+                            vec_env_kwargs={"start_method": "forkserver"} if subproc else None)
+
+
+def _new_model(cfg: TrainConfig, env, tb_dir: Path):
+    import torch
+    from sb3_contrib import MaskablePPO
+
+    act = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[cfg.activation]
+    p = cfg.ppo
+    return MaskablePPO("MlpPolicy", env, learning_rate=p.learning_rate, n_steps=p.n_steps, batch_size=p.batch_size,
+                       n_epochs=p.n_epochs, gamma=p.gamma, gae_lambda=p.gae_lambda, clip_range=p.clip_range,
+                       ent_coef=p.ent_coef, vf_coef=p.vf_coef, max_grad_norm=p.max_grad_norm,
+                       policy_kwargs={"net_arch": list(cfg.net_arch), "activation_fn": act},
+                       tensorboard_log=str(tb_dir), seed=cfg.seed, device="cpu", verbose=0)
+
+
+def train(cfg: TrainConfig, run_dir: Path, *, resume: bool = False, progress: bool = True,
+          command: str | None = None) -> dict:
+    """Train (or continue) the run in ``run_dir``; returns the summary written to ``summary.json``."""
+    import torch
+    from sb3_contrib import MaskablePPO
+    from sb3_contrib.common.maskable.callbacks import MaskableEvalCallback
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
+
+    from .callbacks import EpisodeMetricsCallback, ProgressBarCallback
+
+    torch.set_num_threads(1)  # the env subprocesses need the cores; a small MLP gains nothing from threads
+    run_dir.mkdir(parents=True, exist_ok=True)
+    ckpt_dir = run_dir / "checkpoints"
+    ckpt = latest_checkpoint(run_dir) if resume else None
+    if not resume and ckpt_dir.exists() and any(ckpt_dir.iterdir()):
+        raise ConfigError("run_dir", f"{run_dir} already holds checkpoints: continue it with --resume {run_dir} "
+                                     "or choose another --run-dir")
+    (run_dir / "config.yaml").write_text(yaml.safe_dump(cfg.to_dict(), sort_keys=False))
+    with open(run_dir / "command.txt", "a") as f:
+        f.write((command or shlex.join(sys.argv)) + "\n")
+    (run_dir / "versions.json").write_text(json.dumps(_versions(), indent=2) + "\n")
+
+    env = make_vec_env(cfg, seed=cfg.seed)
+    if ckpt is not None:
+        model = MaskablePPO.load(ckpt, env=env, device="cpu", tensorboard_log=str(run_dir / "tb"))
+        print(f"resuming from {ckpt} at {model.num_timesteps} steps", file=sys.stderr)
+    else:
+        model = _new_model(cfg, env, run_dir / "tb")
+    start_steps = model.num_timesteps
+    callbacks = [EpisodeMetricsCallback(),
+                 CheckpointCallback(max(1, cfg.checkpoint_every // cfg.n_envs), str(ckpt_dir), CHECKPOINT_PREFIX)]
+    eval_env = None
+    warnings.filterwarnings("ignore", message="Training and eval env are not of the same type")
+    if cfg.eval_every > 0:
+        eval_env = make_vec_env(cfg, seed=cfg.eval_seed, n_envs=1)
+        callbacks.append(MaskableEvalCallback(eval_env, n_eval_episodes=cfg.eval_episodes,
+                                              eval_freq=max(1, cfg.eval_every // cfg.n_envs),
+                                              best_model_save_path=str(run_dir / "best"),
+                                              log_path=str(run_dir / "eval"), deterministic=True, verbose=0))
+    if progress:  # PPO collects whole rollouts, so the run ends on a rollout boundary
+        per_rollout = cfg.ppo.n_steps * cfg.n_envs
+        callbacks.append(ProgressBarCallback(-(-cfg.total_timesteps // per_rollout) * per_rollout))
+    remaining = cfg.total_timesteps - start_steps
+    t0 = time.perf_counter()
+    interrupted = False
+    try:
+        if remaining > 0:
+            model.learn(remaining, callback=CallbackList(callbacks), reset_num_timesteps=ckpt is None,
+                        tb_log_name="MaskablePPO")
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        wall = time.perf_counter() - t0
+        if interrupted:
+            path = ckpt_dir / f"{CHECKPOINT_PREFIX}_{model.num_timesteps}_steps.zip"
+            ckpt_dir.mkdir(parents=True, exist_ok=True)
+            model.save(path)
+            print(f"\ninterrupted: saved {path}; continue with: dresspack-train --resume {run_dir}", file=sys.stderr)
+        for e in (env, eval_env):
+            try:
+                if e is not None:
+                    e.close()
+            except (EOFError, BrokenPipeError, ConnectionError):
+                pass  # subprocesses already stopped by the same Ctrl-C
+    if not interrupted:
+        model.save(run_dir / "final_model.zip")
+    steps = model.num_timesteps - start_steps
+    summary = _summary(run_dir, cfg, model.num_timesteps, steps, wall, interrupted)
+    (run_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    if interrupted:
+        raise KeyboardInterrupt
+    return summary
+
+
+def _summary(run_dir: Path, cfg: TrainConfig, total_steps: int, steps: int, wall: float, interrupted: bool) -> dict:
+    previous = {}
+    if (run_dir / "summary.json").is_file():
+        previous = json.loads((run_dir / "summary.json").read_text())
+    s = {"name": cfg.name, "timesteps": total_steps, "interrupted": interrupted,
+         "wall_time_s": round(previous.get("wall_time_s", 0.0) + wall, 1),
+         "last_session": {"steps": steps, "wall_time_s": round(wall, 1),
+                          "steps_per_s": round(steps / wall, 1) if wall > 0 else None}}
+    evals = run_dir / "eval" / "evaluations.npz"
+    if evals.is_file():
+        import numpy as np
+
+        data = np.load(evals)
+        s["evaluations"] = {"timesteps": data["timesteps"].tolist(),
+                            "mean_reward": data["results"].mean(axis=1).round(3).tolist()}
+        if "successes" in data and len(data["successes"]):
+            s["evaluations"]["success_rate"] = data["successes"].mean(axis=1).round(3).tolist()
+    return s
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        if args.resume:
+            run_dir = Path(args.resume)
+            if not (run_dir / "config.yaml").is_file():
+                raise ConfigError("--resume", f"{run_dir} is not a run folder (no config.yaml)")
+            cfg = train_config_from_dict(yaml.safe_load((run_dir / "config.yaml").read_text()))
+        elif args.config:
+            cfg = load_train_config(args.config)
+            run_dir = Path(args.run_dir) if args.run_dir else Path("runs") / "train" / cfg.name
+        else:
+            raise ConfigError("config", "give a training config (e.g. stud_welding) or --resume RUN_DIR")
+        for flag, value in (("--total-timesteps", args.total_timesteps), ("--n-envs", args.n_envs)):
+            if value is not None and value < 1:
+                raise ConfigError(flag, f"must be >= 1, got {value}")
+        cfg = cfg.with_overrides(total_timesteps=args.total_timesteps, n_envs=args.n_envs, seed=args.seed)
+        check_env_kwargs(cfg)
+        summary = train(cfg, run_dir, resume=bool(args.resume), progress=not args.no_progress)
+    except KeyboardInterrupt:
+        return 130
+    except DresspackError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(json.dumps(summary, indent=2))
+    print(f"run folder: {run_dir}  (tensorboard --logdir {run_dir / 'tb'})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
