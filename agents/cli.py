@@ -17,6 +17,8 @@ def add_plan_command(sub) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--time-budget", type=float, default=20.0, help="planning time limit [s] (default 20)")
     p.add_argument("--welds", nargs="+", default=None, help="weld point names in visiting order (default: all)")
+    p.add_argument("--policy", default=None, help="ppo only: run folder, model .zip or shipped policy name "
+                                                  "(default: stud_welding)")
     p.add_argument("--plot", default=None, help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_plan)
@@ -29,8 +31,9 @@ def cmd_plan(args) -> int:
     from .planning import plan_station
 
     try:
+        extra = {"policy": args.policy} if args.planner in ("ppo", "random") else {}
         run = plan_station(args.station, args.planner, seed=args.seed, time_budget=args.time_budget,
-                           welds=args.welds)
+                           welds=args.welds, **extra)
     except PlanningError as exc:  # a failed plan is a result, not a crash
         if args.json:
             print(json.dumps({"method": args.planner, "success": False, "error": str(exc)}, indent=2))

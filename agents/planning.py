@@ -13,11 +13,13 @@ from dresspack_gym.trajectory import Replay, replay
 
 from .base import PlanResult, Planner
 from .ompl_planner import OmplPlanner
+from .policy import PolicyPlanner, RandomMaskedPlanner
 from .thesis_local import ThesisLocalPlanner
 from .wear_global import OmplWearPlanner
 
 PLANNERS: dict[str, type[Planner]] = {"ompl": OmplPlanner, "thesis-local": ThesisLocalPlanner,
-                                      "ompl-wear": OmplWearPlanner}
+                                      "ompl-wear": OmplWearPlanner, "ppo": PolicyPlanner,
+                                      "random": RandomMaskedPlanner}
 
 
 def make_planner(name: str, station: Station, robot: int = 0, **kwargs) -> Planner:
@@ -41,10 +43,14 @@ class PlannedRun:
 
 
 def plan_station(station_ref: str | Station, planner: str = "ompl", *, robot: int = 0, seed: int = 0,
-                 time_budget: float = 20.0, welds: list[str] | None = None) -> PlannedRun:
+                 time_budget: float = 20.0, welds: list[str] | None = None, task: Task | None = None,
+                 **planner_kwargs) -> PlannedRun:
+    """Plan ``task`` (default: Home -> ``welds`` -> Home) and replay it; ``planner_kwargs`` go to the planner
+    (e.g. ``policy=`` for ``ppo``)."""
     station = station_ref if isinstance(station_ref, Station) else Station(load_station(station_ref))
-    p = make_planner(planner, station, robot, seed=seed, time_budget=time_budget)
-    task = make_task(station, robot, p.validity.checker.collides, welds)
+    p = make_planner(planner, station, robot, seed=seed, time_budget=time_budget, **planner_kwargs)
+    if task is None:
+        task = make_task(station, robot, p.validity.checker.collides, welds)
     result = p.plan(task)
     rep = replay(CableSimulator(station), result.trajectory, robot=robot)
     return PlannedRun(task, result, rep)

@@ -232,6 +232,7 @@ class DresspackEnv(gym.Env):
                                      f"{np.round(np.degrees(q_before), 2).tolist()} deg: {self._why_masked(a)}")
         t0 = self.sim.motion_time
         reached = False
+        moved_through: list[np.ndarray] = []
         if invalid:
             terms["invalid"] = -self.weights["invalid"]
         elif a == STAY:  # waiting costs the time of one joint step, while the cable swings/settles
@@ -241,8 +242,10 @@ class DresspackEnv(gym.Env):
         else:
             target = self._target(q_before, a)
             self._move(target)
+            moved_through.append(target)
             if self._near_goal(target) and self._segment_valid(target, self.goal):
                 self._move(self.goal)
+                moved_through.append(self.goal.copy())
                 reached = True
         if reached:
             self.sim.settle()
@@ -265,6 +268,7 @@ class DresspackEnv(gym.Env):
         truncated = not terminated and self.steps >= self.max_steps
         reward = float(sum(terms.values()))
         info = self._info(measures, cost, terms, step_time, invalid)
+        info["moved_through"] = np.array(moved_through).reshape(-1, 6)  # the straight segments' end points
         return self._observation(measures), reward, terminated, truncated, info
 
     def action_masks(self) -> np.ndarray:

@@ -87,11 +87,12 @@ class CableSimulator:
 
     # ------------------------------------------------------------------------------ motion
     def move_to(self, q_target, *, speed_fraction: float | None = None, settle: bool = True,
-                record_every: float | None = None) -> MotionTrace:
+                record_every: float | None = None, until: float | None = None) -> MotionTrace:
         """Move all robots along a straight joint-space segment to ``q_target`` and (optionally) settle.
 
         Duration: the slowest joint at ``speed_fraction`` of its rated speed, stretched by 1.5 for the
         cubic time law (whose peak speed is 1.5x the mean). Returns samples every ``record_every`` s.
+        With ``until`` (a motion time) the motion stops there, mid-segment, without settling.
         """
         target = self._as_q(q_target, "q_target")
         frac = self.config.speed_fraction if speed_fraction is None else float(speed_fraction)
@@ -113,6 +114,10 @@ class CableSimulator:
             mujoco.mj_step(self.model, self.data)
             if stride and (k % stride == 0 or k == steps):
                 self._record(trace, self.motion_time + k * dt, start + s * delta)
+            if until is not None and self.motion_time + k * dt >= until:  # frozen mid-motion (e.g. to render)
+                self.q = start + s * delta
+                self.motion_time += k * dt
+                return trace
         self.q = target.copy()
         self.motion_time += steps * dt
         self._drive(self.q, np.zeros_like(self.q))

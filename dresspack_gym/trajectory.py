@@ -88,9 +88,11 @@ class Replay:
 
 
 def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_every: float = 0.05,
-           speed_fraction: float | None = None, cost_variant: str = "thesis", start_state=None) -> Replay:
+           speed_fraction: float | None = None, cost_variant: str = "thesis", start_state=None,
+           until: float | None = None) -> Replay:
     """Run ``traj`` in the simulator from a settled start (``start_state`` or a fresh reset at its first
-    waypoint) and record the measures every ``record_every`` s and after settling at every stop."""
+    waypoint) and record the measures every ``record_every`` s and after settling at every stop.
+    With ``until`` the replay stops at that motion time and leaves ``sim`` in that state (to render it)."""
     if cost_variant not in ("thesis", "normalized"):
         raise ConfigError("cost_variant", f"{cost_variant!r} is not one of ['thesis', 'normalized']")
     cost_fn = wear_cost if cost_variant == "thesis" else normalized_wear_cost
@@ -112,10 +114,13 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     stops = set(traj.stops)
     stop_times = []
     for i, q in enumerate(traj.waypoints[1:], start=1):
-        trace = sim.move_to(full(q), speed_fraction=speed_fraction, settle=i in stops, record_every=record_every)
+        trace = sim.move_to(full(q), speed_fraction=speed_fraction, settle=i in stops, record_every=record_every,
+                            until=until)
         samples_t += trace.time
         samples_q += [x[robot] for x in trace.q]
         samples_m += trace.measures
+        if until is not None and sim.motion_time >= until:
+            break
         if i in stops:
             stop_times.append(sim.motion_time)
             samples_t.append(sim.motion_time)

@@ -1,0 +1,144 @@
+"""A trained MaskablePPO policy behind the Planner interface: it drives the env through a task, and the
+configurations it visits become a Trajectory that the evaluation replays exactly like a planner's."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from dresspack_gym.env import DresspackEnv
+from dresspack_gym.errors import ConfigError
+from dresspack_gym.station import Station
+from dresspack_gym.tasks import Task
+from dresspack_gym.trajectory import Trajectory
+
+from .base import Planner, PlanningError
+
+POLICY_DIR = Path(__file__).resolve().parent / "policies"
+DEFAULT_POLICY = "stud_welding"
+# Only the episode-sampling arguments differ between training and acting on a given task.
+_TRAINING_ONLY = ("tasks", "n_welds", "shuffle_welds", "welds", "start_noise_deg", "station", "render_mode")
+
+
+def resolve_policy(ref: str | Path | None) -> tuple[Path, dict]:
+    """A run folder, a shipped policy name (agents/policies/<name>) or a model .zip next to its config.yaml.
+    Returns the model file and the training config (env id and env kwargs)."""
+    ref = DEFAULT_POLICY if ref is None else ref
+    path = Path(ref)
+    if not path.exists() and (POLICY_DIR / str(ref)).is_dir():
+        path = POLICY_DIR / str(ref)
+    if path.is_dir():
+        for name in ("model.zip", "best/best_model.zip", "final_model.zip"):
+            if (path / name).is_file():
+                model, folder = path / name, path
+                break
+        else:
+            raise ConfigError("policy", f"{path} holds no model.zip, best/best_model.zip or final_model.zip")
+    elif path.is_file() and path.suffix == ".zip":
+        model, folder = path, path.parent if (path.parent / "config.yaml").is_file() else path.parent.parent
+    else:
+        shipped = sorted(p.name for p in POLICY_DIR.iterdir() if p.is_dir()) if POLICY_DIR.is_dir() else []
+        raise ConfigError("policy", f"no policy {str(ref)!r}: give a run folder, a model .zip or one of {shipped}")
+    if not (folder / "config.yaml").is_file():
+        raise ConfigError("policy", f"{folder} has no config.yaml (the training config that defines the env)")
+    return model, yaml.safe_load((folder / "config.yaml").read_text())
+
+
+class PolicyAgent:
+    """The trained network with the SB3 ``predict`` signature, always masked."""
+
+    def __init__(self, model_path: Path):
+        from sb3_contrib import MaskablePPO
+
+        self.model = MaskablePPO.load(model_path, device="cpu")
+        self.n_actions = int(self.model.action_space.n)
+
+    def reset(self, seed: int) -> None:
+        """Deterministic actions need no randomness; sampling (``deterministic=False``) uses torch's."""
+        import torch
+
+        torch.manual_seed(seed)
+
+    def predict(self, observation, action_masks, deterministic: bool = True) -> int:
+        action, _ = self.model.predict(observation, action_masks=action_masks, deterministic=deterministic)
+        return int(action)
+
+
+class RandomMaskedAgent:
+    """The floor: a uniformly random allowed action each step (same ``predict`` signature)."""
+
+    def __init__(self, n_actions: int, seed: int = 0):
+        self.n_actions = n_actions
+        self.rng = np.random.default_rng(seed)
+
+    def reset(self, seed: int) -> None:
+        self.rng = np.random.default_rng(seed)
+
+    def predict(self, observation, action_masks, deterministic: bool = True) -> int:
+        return int(self.rng.choice(np.flatnonzero(action_masks)))
+
+
+class PolicyPlanner(Planner):
+    """``ppo``: roll the policy out in the training env (on this station, from the task's start, through the
+    task's welds, deterministic actions with masks); its visited configurations are the trajectory."""
+
+    name = "ppo"
+
+    def __init__(self, station: Station, robot: int = 0, *, policy: str | Path | None = None, **kwargs):
+        super().__init__(station, robot, **kwargs)
+        model_path, config = resolve_policy(policy)
+        self.policy_path = model_path
+        env_kwargs = {k: v for k, v in (config.get("env_kwargs") or {}).items() if k not in _TRAINING_ONLY}
+        margin = float(env_kwargs.pop("collision_margin", 0.0))
+        # the planners' margin (at least): every step the masks allow then passes Planner.plan's validity check
+        self.env = DresspackEnv(station=station, robot=robot, collision_margin=max(margin, self.validity.checker.margin),
+                                **env_kwargs)
+        self.agent = self._make_agent(model_path)
+        expected = self.agent.n_actions
+        if self.env.action_space.n != expected:
+            raise ConfigError("policy", f"the model has {expected} actions but its env config gives "
+                                        f"{self.env.action_space.n}")
+
+    def _make_agent(self, model_path: Path):
+        return PolicyAgent(model_path)
+
+    def _plan(self, task: Task) -> tuple[Trajectory, dict]:
+        env = self.env
+        self.agent.reset(self.seed)
+        if not np.allclose(task.end, env.placement.home):
+            raise PlanningError("the policy's episodes end at Home; this task ends elsewhere")
+        obs, info = env.reset(seed=self.seed, options={"welds": list(task.weld_names), "start": task.start})
+        for name, goal in zip(task.weld_names, task.goals):
+            if not np.allclose(env.weld_goals[name], goal):
+                raise PlanningError(f"weld {name!r}: the task's configuration differs from the env's IK choice")
+        waypoints, stops, masked_taken = [env.q], [], 0
+        done = False
+        while not done:
+            if time.perf_counter() > self.deadline:
+                raise PlanningError(f"time budget of {self.time_budget:g} s used up after {env.steps} policy steps")
+            masks = env.action_masks()
+            action = self.agent.predict(obs, masks)
+            masked_taken += int(not masks[action])
+            reached_before = info["goals_reached"]
+            obs, _, terminated, truncated, info = env.step(action)
+            done = terminated or truncated
+            waypoints += [q for q in info["moved_through"] if not np.allclose(q, waypoints[-1], atol=1e-12)]
+            if info["goals_reached"] > reached_before:
+                stops.append(len(waypoints) - 1)
+        if not info["is_success"]:
+            raise PlanningError(f"the policy did not finish the task in {env.max_steps} steps "
+                                f"({info['goals_reached']}/{info['n_goals']} goals reached)")
+        traj = Trajectory(np.array(waypoints), tuple(stops))
+        return traj, {"policy": str(self.policy_path), "policy_steps": env.steps, "masked_actions": masked_taken}
+
+
+class RandomMaskedPlanner(PolicyPlanner):
+    """``random``: the shipped policy's env and action set, but uniformly random allowed actions (a floor)."""
+
+    name = "random"
+
+    def _make_agent(self, model_path: Path):
+        return RandomMaskedAgent(self.env.action_space.n, self.seed)

@@ -1,0 +1,31 @@
+"""The ``dresspack`` command: the core subcommands, ``plan`` (agents) and ``demo`` (the README's main job)."""
+
+from __future__ import annotations
+
+import sys
+
+from agents.cli import add_plan_command
+from dresspack_gym import cli as base_cli
+
+from .compare import add_eval_arguments, evaluate_and_report
+from .runs import EvalSpec
+
+DEMO = EvalSpec(tasks=(("sill_rear", "roof_rail_top"), ("b_pillar_outer", "sill_front"), ("floor_pan_inner",)),
+                seeds=(0, 1), time_budget=8.0)
+
+
+def add_demo_command(sub) -> None:
+    p = sub.add_parser("demo", help="the shipped policy vs the OMPL baselines on the default station: a report",
+                       description="Runs ppo (the shipped policy), ompl, thesis-local, ompl-wear and a random "
+                                   "masked floor on three tasks x two seeds, replays everything in the same "
+                                   "simulator and writes report.html / report.md (about 5-10 min on 2 cores).")
+    add_eval_arguments(p, DEMO)
+    p.set_defaults(func=evaluate_and_report, out="out/demo")
+
+
+def main(argv: list[str] | None = None) -> int:
+    return base_cli.main(argv, extensions=(add_plan_command, add_demo_command))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,235 @@
+"""Write the comparison report: results.json/CSV, PNG figures, report.md and a self-contained report.html."""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from dresspack_gym.loading import load_station
+from dresspack_gym.replay_plot import plot_replays
+from dresspack_gym.restriction_plot import plot_restrictions
+from dresspack_gym.simulation import CableSimulator
+from dresspack_gym.station import Station
+from dresspack_gym.trajectory import Replay, replay
+
+from .runs import METRICS, EvalSpec, load_trajectory
+from .summary import by_method, by_task, fmt, json_summary, rows_to_csv
+
+HEADERS = {"cycle_time": "cycle time [s]", "max_curvature": "max κ [1/m]", "max_tension": "max F [N]",
+           "min_clearance": "min d [m]", "max_twist_rate": "max twist [rad/m]", "cost": "∫C dt",
+           "planning_time": "plan/infer [s]"}
+COLORS = {"ppo": "#1b9e77", "ompl": "#d95f02", "thesis-local": "#7570b3", "ompl-wear": "#e7298a",
+          "random": "#999999"}
+
+
+def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dict[str, Replay] | None = None, *,
+                 robustness_map: str | Path | None = None, render: bool = True) -> dict:
+    """All report files into ``out``; returns {"report_md", "report_html", "results_json", "figures"}."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    out = Path(out)
+    fig_dir = out / "figures"
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    replays = dict(replays or {})
+    station = Station(load_station(spec.station))
+    methods = list(spec.methods)
+    summary = json_summary(rows, methods)
+    (out / "results.json").write_text(json.dumps({"spec": spec.to_dict(), "summary": summary, "rows": rows},
+                                                 indent=2) + "\n")
+    (out / "results.csv").write_text(rows_to_csv(rows))
+
+    blocks: list[tuple] = [("h1", f"dresspack-gym evaluation: {station.config.name}"),
+                           ("p", _intro(spec, station))]
+    blocks += [("h2", "All tasks"), ("table", _table(by_method(rows, methods)))]
+    figures = {"overview": _overview_plot(by_method(rows, methods), fig_dir / "overview.png")}
+    blocks.append(("img", figures["overview"], "Mean ± std over the successful runs; bar labels give success."))
+    sim = CableSimulator(station)
+    for task, per_method in by_task(rows, methods).items():
+        blocks += [("h2", f"Task: home → {task} → home"), ("table", _table(per_method))]
+        task_replays = {}
+        for m in methods:
+            r = next((r for r in rows if r["task"] == task and r["method"] == m and r["success"]), None)
+            if r is not None:
+                rep = replays.get(r["key"]) or _replay_saved(sim, out, r, spec.robot)
+                if rep is not None:
+                    replays[r["key"]] = rep
+                    task_replays[f"{m} (seed {r['seed']})"] = rep
+        failed = [m for m in methods if not any(r["success"] for r in rows if r["task"] == task and r["method"] == m)]
+        if task_replays:
+            name = "measures_" + _slug(task) + ".png"
+            plot_replays(task_replays, fig_dir / name)
+            figures[f"measures {task}"] = str(fig_dir / name)
+            blocks.append(("img", str(fig_dir / name), "Measures over time (thesis Figures A.1–A.3): κ with the κ0 "
+                           "line, F, d with the c line; dotted lines mark the welds and the return Home."
+                           + (f" Not shown (failed every seed): {', '.join(failed)}." if failed else "")))
+    blocks.append(("h2", "Joint restrictions"))
+    restr = fig_dir / "restrictions.png"
+    plot_restrictions(station.config, str(restr))
+    figures["restrictions"] = str(restr)
+    blocks.append(("img", str(restr), "Forbidden j5 zones over j6 (thesis Figure 4.2 style) at Home's j1–j4."))
+    if robustness_map is not None:
+        blocks += [("h2", "Robustness map")] + _robustness_blocks(robustness_map, fig_dir, figures)
+    if render:
+        blocks += [("h2", "Worst-wear moment per method")] + _worst_frames(rows, methods, replays, station, sim, out,
+                                                                          fig_dir, figures, spec.robot)
+    blocks += [("h2", "Files"), ("p", "results.json (spec, per-method summary, every row), results.csv (one row "
+                                       "per method × task × seed), results.jsonl (the resumable log), "
+                                       "trajectories/ (each trajectory, replayable), figures/.")]
+    (out / "report.md").write_text(_markdown(blocks, out))
+    (out / "report.html").write_text(_html(blocks, station.config.name))
+    return {"report_md": str(out / "report.md"), "report_html": str(out / "report.html"),
+            "results_json": str(out / "results.json"), "figures": figures}
+
+
+def _intro(spec: EvalSpec, station: Station) -> str:
+    starts = (f"each seed starts at its own valid configuration within {spec.start_noise_deg:g}° of Home"
+              if spec.start_noise_deg > 0 else "every run starts at Home")
+    return (f"Methods {', '.join(spec.methods)} on {len(spec.tasks)} task(s) × seeds {list(spec.seeds)} "
+            f"({starts}; every task ends at Home). Every trajectory is replayed in the same cable simulator "
+            f"(timestep {station.config.simulation.timestep * 1000:g} ms); wear cost C is eq. (4.10) with the "
+            f"station's weights and ∫C dt its time integral. Planners get {spec.time_budget:g} s each. "
+            "Metrics are mean ± std over the successful runs; a method that failed every run shows 'failed'.")
+
+
+def _table(per_method: dict[str, dict]) -> dict:
+    header = ["method", "success", *[HEADERS[m] for m in METRICS]]
+    body = []
+    for m, a in per_method.items():
+        body.append([m, f"{a['n_success']}/{a['n_runs']} ({a['success_rate']:.0%})",
+                     *[fmt(a[k]) for k in METRICS]])
+    return {"header": header, "rows": body}
+
+
+def _overview_plot(per_method: dict[str, dict], path: Path) -> str:
+    import matplotlib.pyplot as plt
+
+    keys = ["cycle_time", "cost", "max_curvature", "max_tension", "min_clearance", "planning_time"]
+    methods = list(per_method)
+    fig, axes = plt.subplots(2, 3, figsize=(12, 6.5))
+    for ax, k in zip(axes.ravel(), keys):
+        means = [per_method[m][k]["mean"] if per_method[m][k] else 0.0 for m in methods]
+        stds = [per_method[m][k]["std"] if per_method[m][k] else 0.0 for m in methods]
+        bars = ax.bar(methods, means, yerr=stds, capsize=3, color=[COLORS.get(m, "#444") for m in methods])
+        for b, m in zip(bars, methods):
+            a = per_method[m]
+            ax.annotate("failed" if a[k] is None else f"{a['success_rate']:.0%}", (b.get_x() + b.get_width() / 2, 0),
+                        xytext=(0, 3), textcoords="offset points", ha="center", fontsize=7, color="black")
+        if k in ("cost", "max_tension"):
+            ax.set_yscale("symlog", linthresh=1.0)
+        ax.set_title(HEADERS[k], fontsize=10)
+        ax.tick_params(axis="x", labelrotation=30, labelsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return str(path)
+
+
+def _replay_saved(sim: CableSimulator, out: Path, row: dict, robot: int) -> Replay | None:
+    traj = load_trajectory(out, row)
+    return None if traj is None else replay(sim, traj, robot=robot)
+
+
+def _robustness_blocks(folder, fig_dir: Path, figures: dict) -> list[tuple]:
+    from dresspack_gym.robustness.plots import plot_map
+    from dresspack_gym.robustness.query import RobustnessMap
+
+    rmap = RobustnessMap(folder)
+    blocks = [("p", f"Map {folder}: {rmap.n_measured} of {len(rmap.grid)} configurations measured, "
+                    f"threshold {rmap.threshold * 1000:g} mm.")]
+    for path in plot_map(folder, rmap.grid, rmap.threshold):
+        dest = fig_dir / ("robustness_" + Path(path).name)
+        shutil.copyfile(path, dest)
+        figures[dest.stem] = str(dest)
+        blocks.append(("img", str(dest), "Robustness (thesis Figures 4.5 / 4.7 style)."))
+    return blocks
+
+
+def _worst_frames(rows, methods, replays, station, sim, out, fig_dir, figures, robot) -> list[tuple]:
+    """Per method: its successful run with the highest instantaneous cost, rendered at that moment."""
+    from dresspack_gym.rendering import StationRenderer, save_png
+
+    blocks = []
+    renderer = None
+    try:
+        for m in methods:
+            ok = [r for r in rows if r["method"] == m and r["success"]]
+            if not ok:
+                blocks.append(("p", f"{m}: no successful run to render."))
+                continue
+            worst = max(ok, key=lambda r: r.get("max_cost") or 0.0)
+            rep = replays.get(worst["key"]) or _replay_saved(sim, out, worst, robot)
+            traj = load_trajectory(out, worst)
+            if rep is None or traj is None:
+                continue
+            t = float(rep.time[int(np.argmax(rep.cost))])
+            replay(sim, traj, robot=robot, until=t)
+            if renderer is None:
+                renderer = StationRenderer(station.model, width=640, height=480)
+            path = fig_dir / f"worst_{_slug(m)}.png"
+            save_png(renderer.render(sim.data), str(path))
+            figures[f"worst {m}"] = str(path)
+            i = int(np.argmax(rep.cost))
+            blocks.append(("img", str(path), f"{m}: {worst['task']} (seed {worst['seed']}) at t = {t:.2f} s, "
+                           f"C = {rep.cost[i]:.3g} (κ {rep.measures['curvature'][i]:.2f} 1/m, "
+                           f"F {rep.measures['tension'][i]:.1f} N, d {rep.measures['clearance'][i]:.3f} m)."))
+    finally:
+        if renderer is not None:
+            renderer.close()
+    return blocks
+
+
+def _slug(text: str) -> str:
+    return "".join(c if c.isalnum() else "_" for c in text).strip("_")
+
+
+def _markdown(blocks, out: Path) -> str:
+    lines = []
+    for b in blocks:
+        if b[0] == "h1":
+            lines += [f"# {b[1]}", ""]
+        elif b[0] == "h2":
+            lines += [f"## {b[1]}", ""]
+        elif b[0] == "p":
+            lines += [b[1], ""]
+        elif b[0] == "table":
+            t = b[1]
+            lines += ["| " + " | ".join(t["header"]) + " |", "|" + "---|" * len(t["header"])]
+            lines += ["| " + " | ".join(row) + " |" for row in t["rows"]] + [""]
+        elif b[0] == "img":
+            lines += [f"![{b[2]}]({Path(b[1]).relative_to(out)})", "", f"*{b[2]}*", ""]
+    return "\n".join(lines)
+
+
+CSS = """body{font-family:system-ui,sans-serif;max-width:1150px;margin:2em auto;padding:0 1em;color:#222}
+table{border-collapse:collapse;margin:1em 0;font-size:14px}th,td{border:1px solid #ccc;padding:4px 8px;
+text-align:right}th{background:#f0f0f0}td:first-child,th:first-child{text-align:left;font-weight:600}
+td.failed{color:#b00020;font-weight:600}img{max-width:100%;border:1px solid #ddd}figure{margin:1em 0}
+figcaption{font-size:13px;color:#555}"""
+
+
+def _html(blocks, title: str) -> str:
+    parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
+             f"<style>{CSS}</style></head><body>"]
+    for b in blocks:
+        if b[0] in ("h1", "h2"):
+            parts.append(f"<{b[0]}>{html.escape(b[1])}</{b[0]}>")
+        elif b[0] == "p":
+            parts.append(f"<p>{html.escape(b[1])}</p>")
+        elif b[0] == "table":
+            t = b[1]
+            head = "".join(f"<th>{html.escape(h)}</th>" for h in t["header"])
+            body = "".join("<tr>" + "".join(f"<td{' class=failed' if c == 'failed' else ''}>{html.escape(c)}</td>"
+                                            for c in row) + "</tr>" for row in t["rows"])
+            parts.append(f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
+        elif b[0] == "img":
+            data = base64.b64encode(Path(b[1]).read_bytes()).decode()
+            parts.append(f"<figure><img src='data:image/png;base64,{data}' alt='{html.escape(b[2])}'>"
+                         f"<figcaption>{html.escape(b[2])}</figcaption></figure>")
+    parts.append("</body></html>")
+    return "\n".join(parts)

@@ -1,0 +1,168 @@
+"""Run every method on the same tasks and seeds, replay each trajectory in the same simulator, keep every row.
+
+Rows go to ``results.jsonl`` as they finish (an interrupted evaluation resumes where it stopped); trajectories
+go to ``trajectories/`` so figures can be redrawn from them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from agents.base import PlanningError
+from agents.planning import PLANNERS, make_planner
+from dresspack_gym.errors import ConfigError
+from dresspack_gym.loading import load_station
+from dresspack_gym.simulation import CableSimulator
+from dresspack_gym.station import Station
+from dresspack_gym.tasks import Task, make_task
+from dresspack_gym.trajectory import Replay, Trajectory, replay
+from dresspack_gym.validity import MotionValidity
+
+METRICS = ("cycle_time", "max_curvature", "max_tension", "min_clearance", "max_twist_rate", "cost", "planning_time")
+POLICY_METHODS = ("ppo", "random")
+
+
+@dataclass(frozen=True)
+class EvalSpec:
+    """What to compare: methods x tasks (weld lists) x seeds on one station."""
+
+    station: str = "default"
+    methods: tuple[str, ...] = ("ppo", "ompl", "thesis-local", "ompl-wear", "random")
+    tasks: tuple[tuple[str, ...], ...] = (("sill_rear", "roof_rail_top"), ("b_pillar_outer", "sill_front"))
+    seeds: tuple[int, ...] = (0, 1)
+    time_budget: float = 10.0  # seconds per plan (the wear-aware planners use all of it)
+    start_noise_deg: float = 0.0  # > 0: each seed starts at its own valid configuration near Home
+    policy: str | None = None  # run folder / model / shipped name for ppo (and the random floor's env)
+    robot: int = 0
+
+    def __post_init__(self):
+        unknown = [m for m in self.methods if m not in PLANNERS]
+        if unknown or not self.methods:
+            raise ConfigError("methods", f"{unknown or 'none given'}: choose from {list(PLANNERS)}")
+        if not self.tasks or not all(self.tasks):
+            raise ConfigError("tasks", "give at least one non-empty weld list")
+        if not self.seeds:
+            raise ConfigError("seeds", "give at least one seed")
+        if not self.time_budget > 0:
+            raise ConfigError("time_budget", f"must be > 0 s, got {self.time_budget}")
+        if not 0 <= self.start_noise_deg <= 90:
+            raise ConfigError("start_noise_deg", f"must be in [0, 90] deg, got {self.start_noise_deg}")
+
+    def to_dict(self) -> dict:
+        return {**asdict(self), "methods": list(self.methods), "tasks": [list(t) for t in self.tasks],
+                "seeds": list(self.seeds)}
+
+
+def task_label(welds) -> str:
+    return " → ".join(welds)
+
+
+def run_key(method: str, welds, seed: int) -> str:
+    return f"{method}|{'+'.join(welds)}|{seed}"
+
+
+def eval_start(station: Station, robot: int, seed: int, noise_deg: float) -> np.ndarray:
+    """The seed's start configuration: Home, or a valid configuration within ``noise_deg`` of it."""
+    home = station.config.robots[robot].home.copy()
+    if noise_deg <= 0:
+        return home
+    validity = MotionValidity(station, robot, margin=0.005)
+    rng = np.random.default_rng([seed, 7919])  # not the training streams
+    for _ in range(1000):
+        q = home + rng.uniform(-1, 1, 6) * math.radians(noise_deg)
+        if validity.valid(q):
+            return q
+    return home
+
+
+def build_tasks(station: Station, spec: EvalSpec) -> dict[tuple[tuple[str, ...], int], Task]:
+    collides = MotionValidity(station, spec.robot, margin=0.005).checker.collides
+    tasks = {}
+    for welds in spec.tasks:
+        base = make_task(station, spec.robot, collides, list(welds))
+        for seed in spec.seeds:
+            start = eval_start(station, spec.robot, seed, spec.start_noise_deg)
+            tasks[(tuple(welds), seed)] = Task(base.robot, start, base.weld_names, base.goals, base.end)
+    return tasks
+
+
+def _trajectory_path(out: Path, key: str) -> Path:
+    return out / "trajectories" / (key.replace("|", "__").replace("+", "-") + ".npz")
+
+
+def load_trajectory(out: Path, row: dict) -> Trajectory | None:
+    path = _trajectory_path(out, row["key"])
+    if not row["success"] or not path.is_file():
+        return None
+    data = np.load(path)
+    return Trajectory(data["waypoints"], tuple(int(i) for i in data["stops"]))
+
+
+def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) -> tuple[list[dict], dict]:
+    """Every method x task x seed; returns the rows (in spec order) and the replays made in this call."""
+    out = Path(out)
+    (out / "trajectories").mkdir(parents=True, exist_ok=True)
+    spec_file = out / "spec.json"
+    if spec_file.is_file() and json.loads(spec_file.read_text()) != spec.to_dict():
+        raise ConfigError("out", f"{out} holds an evaluation with other settings (spec.json): choose another "
+                                 "folder, or delete it to start over")
+    spec_file.write_text(json.dumps(spec.to_dict(), indent=2) + "\n")
+    station = Station(load_station(spec.station))
+    tasks = build_tasks(station, spec)
+    done = _read_rows(out / "results.jsonl")
+    sim = CableSimulator(station)
+    planners: dict[tuple[str, int], object] = {}
+    replays: dict[str, Replay] = {}
+    todo = [(m, w, s) for w in spec.tasks for m in spec.methods for s in spec.seeds]
+    bar = tqdm(todo, desc="evaluating", unit="run", disable=not progress, dynamic_ncols=True)
+    for method, welds, seed in bar:
+        key = run_key(method, welds, seed)
+        if key in done:
+            continue
+        bar.set_postfix_str(f"{method} on {'+'.join(welds)}, seed {seed}")
+        kwargs = {"policy": spec.policy} if method in POLICY_METHODS else {}
+        if (method, seed) not in planners:  # loading a policy or building a validity checker once per seed
+            planners[(method, seed)] = make_planner(method, station, spec.robot, seed=seed,
+                                                    time_budget=spec.time_budget, **kwargs)
+        planner = planners[(method, seed)]
+        task = tasks[(tuple(welds), seed)]
+        row = {"key": key, "method": method, "task": task_label(welds), "welds": list(welds), "seed": seed,
+               "start_deg": np.round(np.degrees(task.start), 3).tolist()}
+        try:
+            result = planner.plan(task)
+        except PlanningError as exc:
+            row.update(success=False, error=str(exc), **dict.fromkeys(METRICS))
+        else:
+            rep = replay(sim, result.trajectory, robot=spec.robot)
+            replays[key] = rep
+            s = rep.summary()
+            row.update(success=True, error=None, planning_time=round(result.planning_time, 4),
+                       waypoints=len(result.trajectory.waypoints),
+                       **{k: s[k] for k in METRICS if k != "planning_time"},
+                       cost_terms=s["cost_terms"], max_cost=s["max_cost"])
+            np.savez(_trajectory_path(out, key), waypoints=result.trajectory.waypoints,
+                     stops=np.array(result.trajectory.stops))
+        with open(out / "results.jsonl", "a") as f:
+            f.write(json.dumps(row) + "\n")
+        done[key] = row
+    bar.close()
+    rows = [done[run_key(m, w, s)] for w in spec.tasks for m in spec.methods for s in spec.seeds]
+    return rows, replays
+
+
+def _read_rows(path: Path) -> dict[str, dict]:
+    rows = {}
+    if path.is_file():
+        for line in path.read_text().splitlines():
+            try:
+                row = json.loads(line)
+            except json.JSONDecodeError:
+                continue  # a line cut by an interruption: that run is simply done again
+            rows[row["key"]] = row
+    return rows

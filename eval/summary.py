@@ -1,0 +1,67 @@
+"""Aggregate evaluation rows: success rate over all runs, metrics as mean ± std over the successful ones."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+
+import numpy as np
+
+from .runs import METRICS
+
+JSON_KEYS = ("success_rate", "cycle_time", "max_curvature", "max_tension", "min_clearance", "cost")
+CSV_FIELDS = ("method", "task", "seed", "success", *METRICS, "cost_curvature", "cost_tension", "cost_distance",
+              "waypoints", "start_deg", "error")
+
+
+def aggregate(rows: list[dict]) -> dict:
+    """``{"n_runs", "n_success", "success_rate", metric: {"mean", "std"} | None}`` for a group of rows."""
+    ok = [r for r in rows if r["success"]]
+    out = {"n_runs": len(rows), "n_success": len(ok), "success_rate": len(ok) / len(rows) if rows else 0.0}
+    for m in METRICS:
+        values = np.array([r[m] for r in ok], dtype=float)
+        out[m] = {"mean": float(values.mean()), "std": float(values.std())} if len(values) else None
+    return out
+
+
+def by_method(rows: list[dict], methods) -> dict[str, dict]:
+    return {m: aggregate([r for r in rows if r["method"] == m]) for m in methods}
+
+
+def by_task(rows: list[dict], methods) -> dict[str, dict[str, dict]]:
+    tasks = list(dict.fromkeys(r["task"] for r in rows))
+    return {t: by_method([r for r in rows if r["task"] == t], methods) for t in tasks}
+
+
+def json_summary(rows: list[dict], methods) -> dict[str, dict]:
+    """Per method: success_rate and the mean of each headline metric over its successful runs (None if none)."""
+    agg = by_method(rows, methods)
+    return {m: {k: (a[k] if k == "success_rate" else (a[k]["mean"] if a[k] else None)) for k in JSON_KEYS}
+            | {"n_runs": a["n_runs"], "n_success": a["n_success"]} for m, a in agg.items()}
+
+
+def fmt(stat: dict | None, digits: int = 3) -> str:
+    """``mean ± std`` with ``digits`` significant digits; "failed" when no run succeeded."""
+    if stat is None:
+        return "failed"
+    return f"{_sig(stat['mean'], digits)} ± {_sig(stat['std'], 2)}"
+
+
+def _sig(x: float, digits: int) -> str:
+    if x == 0 or not math.isfinite(x):
+        return f"{x:g}"
+    if abs(x) < 1e-3:
+        return f"{x:.{digits - 1}e}"
+    return f"{x:.{max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))}f}" if abs(x) < 10 ** digits else f"{x:.0f}"
+
+
+def rows_to_csv(rows: list[dict]) -> str:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=CSV_FIELDS, extrasaction="ignore")
+    w.writeheader()
+    for r in rows:
+        terms = r.get("cost_terms") or {}
+        w.writerow({**r, "cost_curvature": terms.get("curvature"), "cost_tension": terms.get("tension"),
+                    "cost_distance": terms.get("distance"), "start_deg": " ".join(map(str, r.get("start_deg", [])))})
+    return buf.getvalue()

@@ -1,0 +1,118 @@
+"""Training pipeline end to end (a few hundred steps), resume, config errors, and the masked policy's safety."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("sb3_contrib")
+
+from dresspack_gym.errors import ConfigError  # noqa: E402
+from training.config import load_train_config, train_config_from_dict  # noqa: E402
+from training.train import latest_checkpoint, main, train  # noqa: E402
+
+SMOKE = {
+    "name": "smoke",
+    "env_kwargs": {"goal_action": True, "wear_integral": True, "wear_weight": 0.1, "settle_time": 0.0,
+                   "sim_timestep": 0.004, "collision_margin": 0.005, "start_noise_deg": 5.0, "max_steps": 40,
+                   "tasks": [["sill_front"], ["roof_rail_top"]]},
+    "n_envs": 2, "vec_env": "dummy", "total_timesteps": 256, "seed": 3,
+    "net_arch": [16, 16], "ppo": {"n_steps": 64, "batch_size": 64, "n_epochs": 2},
+    "checkpoint_every": 128, "eval_every": 128, "eval_episodes": 1,
+}
+
+
+def test_train_smoke_writes_run_folder_reloads_and_resumes(tmp_path):
+    from sb3_contrib import MaskablePPO
+
+    run = tmp_path / "run"
+    summary = train(train_config_from_dict(SMOKE), run, progress=False, command="pytest smoke")
+    for name in ("config.yaml", "command.txt", "versions.json", "final_model.zip", "summary.json"):
+        assert (run / name).is_file(), name
+    assert (run / "best" / "best_model.zip").is_file()
+    assert list((run / "tb").rglob("events.out.tfevents*"))
+    assert summary["timesteps"] == 256 and summary["last_session"]["steps_per_s"] > 0
+    saved = yaml.safe_load((run / "config.yaml").read_text())
+    assert saved["env_kwargs"]["tasks"] == SMOKE["env_kwargs"]["tasks"] and saved["ppo"]["n_steps"] == 64
+    assert "torch" in json.loads((run / "versions.json").read_text())
+    ckpt = latest_checkpoint(run)
+    assert ckpt is not None and ckpt.name == "ckpt_256_steps.zip"
+
+    model = MaskablePPO.load(run / "final_model.zip", device="cpu")
+    assert model.num_timesteps == 256 and model.action_space.n == 14
+
+    # resume: continues from the newest checkpoint to the new total, in the same run folder
+    cfg = train_config_from_dict({**SMOKE, "total_timesteps": 512})
+    summary = train(cfg, run, resume=True, progress=False, command="pytest resume")
+    assert summary["timesteps"] == 512 and summary["last_session"]["steps"] == 256
+    assert (run / "command.txt").read_text().splitlines() == ["pytest smoke", "pytest resume"]
+    assert latest_checkpoint(run).name == "ckpt_512_steps.zip"
+
+
+def test_a_run_folder_is_never_overwritten_silently(tmp_path):
+    run = tmp_path / "run"
+    (run / "checkpoints").mkdir(parents=True)
+    (run / "checkpoints" / "ckpt_10_steps.zip").write_bytes(b"")
+    with pytest.raises(ConfigError, match="--resume"):
+        train(train_config_from_dict(SMOKE), run, progress=False)
+
+
+@pytest.mark.parametrize("data, field", [
+    ({"n_envs": 0}, "n_envs"),
+    ({"vec_env": "threads"}, "vec_env"),
+    ({"env_id": "CartPole-v9"}, "env_id"),
+    ({"ppo": {"gamma": 2}}, "ppo.gamma"),
+    ({"ppo": {"lr": 0.1}}, "ppo.lr"),
+    ({"net_arch": [64, -1]}, "net_arch"),
+    ({"activation": "gelu"}, "activation"),
+    ({"timesteps": 5}, "timesteps"),
+])
+def test_bad_training_config_names_the_field(data, field):
+    with pytest.raises(ConfigError) as err:
+        train_config_from_dict(data)
+    assert err.value.field == field
+
+
+def test_cli_reports_bad_env_kwargs_and_unknown_config(tmp_path, capsys):
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump({**SMOKE, "env_kwargs": {"cost_variant": "fancy"}}))
+    assert main([str(path), "--run-dir", str(tmp_path / "r")]) == 2
+    assert "env_kwargs.cost_variant" in capsys.readouterr().err
+    assert main(["no_such_config"]) == 2
+    assert "stud_welding" in capsys.readouterr().err  # lists the shipped configs
+
+
+def test_shipped_training_config_loads_and_holds_out_its_evaluation_tasks():
+    cfg = load_train_config("stud_welding")
+    tasks = cfg.env_kwargs["tasks"]
+    assert ["sill_rear", "roof_rail_top"] not in tasks and ["b_pillar_outer", "sill_front"] not in tasks
+    assert cfg.eval_seed != cfg.seed
+
+
+def test_masked_policy_never_enters_a_forbidden_configuration(tmp_path):
+    """Even an untrained network, acting with masks, only visits valid configurations (asserted from info["q"])."""
+    from agents.policy import PolicyAgent
+    from dresspack_gym.env import DresspackEnv
+
+    run = tmp_path / "run"
+    train(train_config_from_dict({**SMOKE, "eval_every": 0}), run, progress=False)
+    agent = PolicyAgent(run / "final_model.zip")
+    env = DresspackEnv(**{k: v for k, v in SMOKE["env_kwargs"].items() if k != "tasks"})
+    limits = env.limits
+    for seed in range(3):
+        obs, info = env.reset(seed=seed, options={"welds": ["sill_front"]})
+        done = False
+        while not done:
+            masks = env.action_masks()
+            action = agent.predict(obs, masks, deterministic=False)
+            assert masks[action]
+            obs, _, terminated, truncated, info = env.step(action)
+            done = terminated or truncated
+            q = info["q"]
+            assert not info["invalid_action"]
+            assert np.all(q >= limits[:, 0] - 1e-9) and np.all(q <= limits[:, 1] + 1e-9)
+            assert env.restrictions.allowed(q)[0]
+            assert env.checker.min_distance(q) >= env.checker.margin
