@@ -16,6 +16,7 @@ import warnings
 import platform
 import re
 import shlex
+import signal
 import subprocess
 import sys
 import time
@@ -136,6 +137,11 @@ def train(cfg: TrainConfig, run_dir: Path, *, resume: bool = False, progress: bo
         per_rollout = cfg.ppo.n_steps * cfg.n_envs
         callbacks.append(ProgressBarCallback(-(-cfg.total_timesteps // per_rollout) * per_rollout))
     remaining = cfg.total_timesteps - start_steps
+    # Ctrl-C and SIGTERM (a job scheduler's stop) both end in a checkpoint, even when the shell started us with
+    # SIGINT ignored (background jobs)
+    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, _interrupt)
     t0 = time.perf_counter()
     interrupted = False
     try:
@@ -145,6 +151,8 @@ def train(cfg: TrainConfig, run_dir: Path, *, resume: bool = False, progress: bo
     except KeyboardInterrupt:
         interrupted = True
     finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
         wall = time.perf_counter() - t0
         if interrupted:
             path = ckpt_dir / f"{CHECKPOINT_PREFIX}_{model.num_timesteps}_steps.zip"
@@ -165,6 +173,10 @@ def train(cfg: TrainConfig, run_dir: Path, *, resume: bool = False, progress: bo
     if interrupted:
         raise KeyboardInterrupt
     return summary
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
 
 
 def _summary(run_dir: Path, cfg: TrainConfig, total_steps: int, steps: int, wall: float, interrupted: bool) -> dict:

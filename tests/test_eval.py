@@ -1,0 +1,85 @@
+"""The comparison report: built end to end on a tiny configuration; its numbers are results.json's numbers."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+
+pytest.importorskip("ompl")
+pytest.importorskip("sb3_contrib")
+
+from dresspack_gym.errors import ConfigError  # noqa: E402
+from eval.compare import main  # noqa: E402
+from eval.runs import EvalSpec  # noqa: E402
+from eval.summary import JSON_KEYS, aggregate, fmt  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def tiny_report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("report")
+    code = main(["--methods", "ompl", "random", "--tasks", "roof_rail_top", "--seeds", "0", "1",
+                 "--time-budget", "5", "--out", str(out), "--json"])
+    assert code == 0
+    return out
+
+
+def _table_rows(markdown: str, heading: str) -> dict[str, list[str]]:
+    section = markdown.split(f"## {heading}", 1)[1].split("\n## ", 1)[0]
+    rows = [line.strip("|").split(" | ") for line in section.splitlines() if line.startswith("| ")]
+    header, *body = [[c.strip() for c in r] for r in rows]
+    return {r[0]: dict(zip(header, r)) for r in body}
+
+
+def test_report_numbers_equal_results_json_and_failures_are_shown(tiny_report):
+    results = json.loads((tiny_report / "results.json").read_text())
+    rows = results["rows"]
+    assert len(rows) == 4 and {r["method"] for r in rows} == {"ompl", "random"}  # method x task x seed
+    md = (tiny_report / "report.md").read_text()
+    table = _table_rows(md, "All tasks")
+    assert set(table) == {"ompl", "random"}  # a method that failed is listed, not dropped
+    for method, shown in table.items():
+        agg = aggregate([r for r in rows if r["method"] == method])
+        assert shown["success"].startswith(f"{agg['n_success']}/{agg['n_runs']}")
+        assert shown["∫C dt"] == fmt(agg["cost"]) and shown["cycle time [s]"] == fmt(agg["cycle_time"])
+        assert shown["max κ [1/m]"] == fmt(agg["max_curvature"])
+    assert table["ompl"]["success"].startswith("2/2")
+    ompl = [r for r in rows if r["method"] == "ompl"]
+    assert all(r["cost"] > 0 and r["cycle_time"] > 0 for r in ompl)
+    # the random floor rarely completes in 100 steps; whatever it did, failures read "failed"
+    failed = [r for r in rows if not r["success"]]
+    assert all(r["error"] for r in failed)
+    if all(not r["success"] for r in rows if r["method"] == "random"):
+        assert table["random"]["∫C dt"] == "failed"
+    assert results["summary"]["ompl"]["success_rate"] == 1.0
+
+
+def test_report_files_and_embedded_figures(tiny_report):
+    for name in ("report.md", "report.html", "results.json", "results.csv", "figures/overview.png",
+                 "figures/restrictions.png", "figures/measures_roof_rail_top.png", "figures/worst_ompl.png"):
+        assert (tiny_report / name).is_file(), name
+    html = (tiny_report / "report.html").read_text()
+    assert html.count("data:image/png;base64,") >= 4 and "<table>" in html  # self-contained
+    csv_lines = (tiny_report / "results.csv").read_text().strip().splitlines()
+    assert len(csv_lines) == 1 + 4
+
+
+def test_json_summary_keys_and_resume(tiny_report, capsys):
+    code = main(["--methods", "ompl", "random", "--tasks", "roof_rail_top", "--seeds", "0", "1",
+                 "--time-budget", "5", "--out", str(tiny_report), "--json", "--no-render"])
+    assert code == 0
+    summary = json.loads(capsys.readouterr().out)
+    for method in ("ompl", "random"):
+        assert set(JSON_KEYS) <= set(summary[method])
+    results = json.loads((tiny_report / "results.json").read_text())
+    assert summary["ompl"]["cost"] == pytest.approx(aggregate([r for r in results["rows"]
+                                                              if r["method"] == "ompl"])["cost"]["mean"])
+    assert len((tiny_report / "results.jsonl").read_text().splitlines()) == 4  # resumed: nothing re-run
+
+
+def test_bad_evaluation_input_names_the_field(tmp_path, capsys):
+    with pytest.raises(ConfigError, match="methods"):
+        EvalSpec(methods=("ompl", "astar"))
+    assert main(["--tasks", "nowhere", "--methods", "ompl", "--out", str(tmp_path)]) == 2
+    assert re.search(r"welds|weld point", capsys.readouterr().err)
