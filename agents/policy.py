@@ -85,17 +85,23 @@ class PolicyPlanner(Planner):
     """``ppo``: roll the policy out in the training env (on this station, from the task's start, through the
     task's welds, with masks); its visited configurations are the trajectory.
 
-    Actions are sampled from the masked policy, seeded by the planner's seed (reproducible). The argmax action
-    (``deterministic=True``) can cycle between two configurations where the policy is undecided: with the
-    shipped policy it never finishes floor_pan_inner, which sampling finishes on every evaluation seed.
+    Actions: first a rollout with the most probable allowed action each step; if it runs out of steps (argmax
+    can cycle where the policy is undecided: the shipped policy never finishes floor_pan_inner that way), up to
+    ``attempts - 1`` rollouts with actions sampled from the masked policy, seeded by the planner's seed (runs
+    are reproducible). Sampling alone finishes every task but wanders (~20 % more wear on the held-out tasks).
+    ``deterministic=True``: argmax only; ``sample=True``: sampling only.
     """
 
     name = "ppo"
 
     def __init__(self, station: Station, robot: int = 0, *, policy: str | Path | None = None,
-                 deterministic: bool = False, **kwargs):
+                 deterministic: bool = False, sample: bool = False, attempts: int = 3, **kwargs):
         super().__init__(station, robot, **kwargs)
-        self.deterministic = bool(deterministic)
+        if deterministic and sample:
+            raise ConfigError("deterministic", "choose deterministic=True or sample=True, not both")
+        if not (isinstance(attempts, int) and attempts >= 1):
+            raise ConfigError("attempts", f"must be an integer >= 1, got {attempts!r}")
+        self.deterministic, self.sample, self.attempts = bool(deterministic), bool(sample), attempts
         model_path, config = resolve_policy(policy)
         self.policy_path = model_path
         env_kwargs = {k: v for k, v in (config.get("env_kwargs") or {}).items() if k not in _TRAINING_ONLY}
@@ -113,10 +119,23 @@ class PolicyPlanner(Planner):
         return PolicyAgent(model_path)
 
     def _plan(self, task: Task) -> tuple[Trajectory, dict]:
-        env = self.env
-        self.agent.reset(self.seed)
-        if not np.allclose(task.end, env.placement.home):
+        if not np.allclose(task.end, self.env.placement.home):
             raise PlanningError("the policy's episodes end at Home; this task ends elsewhere")
+        self.agent.reset(self.seed)
+        modes = ["argmax"] if self.deterministic else ["sample"] * self.attempts if self.sample else \
+            ["argmax"] + ["sample"] * (self.attempts - 1)
+        failures = []
+        for attempt, mode in enumerate(modes):
+            try:
+                traj, info = self._rollout(task, mode)
+            except _EpisodeFailed as exc:
+                failures.append(f"{mode}: {exc}")
+                continue
+            return traj, {**info, "mode": mode, "attempts": attempt + 1}
+        raise PlanningError("the policy did not finish the task (" + "; ".join(failures) + ")")
+
+    def _rollout(self, task: Task, mode: str) -> tuple[Trajectory, dict]:
+        env = self.env
         obs, info = env.reset(seed=self.seed, options={"welds": list(task.weld_names), "start": task.start})
         for name, goal in zip(task.weld_names, task.goals):
             if not np.allclose(env.weld_goals[name], goal):
@@ -127,7 +146,7 @@ class PolicyPlanner(Planner):
             if time.perf_counter() > self.deadline:
                 raise PlanningError(f"time budget of {self.time_budget:g} s used up after {env.steps} policy steps")
             masks = env.action_masks()
-            action = self.agent.predict(obs, masks, deterministic=self.deterministic)
+            action = self.agent.predict(obs, masks, deterministic=mode == "argmax")
             masked_taken += int(not masks[action])
             reached_before = info["goals_reached"]
             obs, _, terminated, truncated, info = env.step(action)
@@ -136,10 +155,13 @@ class PolicyPlanner(Planner):
             if info["goals_reached"] > reached_before:
                 stops.append(len(waypoints) - 1)
         if not info["is_success"]:
-            raise PlanningError(f"the policy did not finish the task in {env.max_steps} steps "
-                                f"({info['goals_reached']}/{info['n_goals']} goals reached)")
+            raise _EpisodeFailed(f"{info['goals_reached']}/{info['n_goals']} goals in {env.max_steps} steps")
         traj = Trajectory(np.array(waypoints), tuple(stops))
         return traj, {"policy": str(self.policy_path), "policy_steps": env.steps, "masked_actions": masked_taken}
+
+
+class _EpisodeFailed(Exception):
+    """One rollout ran out of steps (the planner may try again)."""
 
 
 class RandomMaskedPlanner(PolicyPlanner):

@@ -115,7 +115,8 @@ def _overview_plot(per_method: dict[str, dict], path: Path) -> str:
     for ax, k in zip(axes.ravel(), keys):
         means = [per_method[m][k]["mean"] if per_method[m][k] else 0.0 for m in methods]
         stds = [per_method[m][k]["std"] if per_method[m][k] else 0.0 for m in methods]
-        bars = ax.bar(methods, means, yerr=stds, capsize=3, color=[COLORS.get(m, "#444") for m in methods])
+        yerr = [np.minimum(stds, means), stds] if k != "min_clearance" else stds  # no error bar below 0
+        bars = ax.bar(methods, means, yerr=yerr, capsize=3, color=[COLORS.get(m, "#444") for m in methods])
         for b, m in zip(bars, methods):
             a = per_method[m]
             ax.annotate("failed" if a[k] is None else f"{a['success_rate']:.0%}", (b.get_x() + b.get_width() / 2, 0),

@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import re
 
+import numpy as np
+
 import pytest
 
 pytest.importorskip("ompl")
@@ -83,3 +85,22 @@ def test_bad_evaluation_input_names_the_field(tmp_path, capsys):
         EvalSpec(methods=("ompl", "astar"))
     assert main(["--tasks", "nowhere", "--methods", "ompl", "--out", str(tmp_path)]) == 2
     assert re.search(r"welds|weld point", capsys.readouterr().err)
+
+
+def test_report_html_renders_in_headless_chromium(tiny_report, tmp_path):
+    """A real browser: the embedded figures decode and the page has the report's height (tables + images)."""
+    import shutil
+    import subprocess
+
+    browser = shutil.which("chromium") or shutil.which("chromium-browser")
+    if browser is None:
+        pytest.skip("chromium not installed (apt install chromium)")
+    shot = tmp_path / "shot.png"
+    subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", f"--screenshot={shot}",
+                    "--window-size=1200,1600", (tiny_report / "report.html").as_uri()],
+                   capture_output=True, timeout=120, check=False)
+    from PIL import Image
+
+    image = np.asarray(Image.open(shot).convert("L"), dtype=float)
+    assert image.shape == (1600, 1200)
+    assert image.std() > 20  # not a blank page: text, tables and figures
