@@ -353,11 +353,9 @@ class DresspackEnv(gym.Env):
 
     def _segment_valid(self, q0: np.ndarray, q1: np.ndarray, check_collision: bool = True) -> bool:
         qs = self._segment_configs(q0, q1)
-        if np.any(qs < self.limits[:, 0] - 1e-9) or np.any(qs > self.limits[:, 1] + 1e-9):
+        if not (self.validity.within_limits(qs).all() and self.restrictions.allowed(qs).all()):
             return False
-        if not self.restrictions.allowed(qs).all():
-            return False
-        return not check_collision or self.validity.segment_valid(q0, q1)
+        return not check_collision or self.validity.segment_clear(q0, q1)
 
     def _why_masked(self, a: int) -> str:
         qs = self._segment_configs(self.q, self._target(self.q, a))

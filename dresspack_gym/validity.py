@@ -57,6 +57,10 @@ class MotionValidity:
         qs = q0 + np.linspace(0.0, 1.0, n + 1)[1:, None] * (q1 - q0)
         if not (self.within_limits(qs).all() and self.restrictions.allowed(qs).all()):
             return False
+        return self.segment_clear(q0, q1)
+
+    def segment_clear(self, q0: np.ndarray, q1: np.ndarray) -> bool:
+        """The collision part of :meth:`segment_valid` alone (for callers that checked limits/restrictions)."""
         reach_per_t = float(self.checker.chain_reach() @ np.abs(q1 - q0))
         margin = self.checker.margin
         t = 0.0

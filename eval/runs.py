@@ -67,12 +67,13 @@ def run_key(method: str, welds, seed: int) -> str:
     return f"{method}|{'+'.join(welds)}|{seed}"
 
 
-def eval_start(station: Station, robot: int, seed: int, noise_deg: float) -> np.ndarray:
+def eval_start(station: Station, robot: int, seed: int, noise_deg: float,
+               validity: MotionValidity | None = None) -> np.ndarray:
     """The seed's start configuration: Home, or a valid configuration within ``noise_deg`` of it."""
     home = station.config.robots[robot].home.copy()
     if noise_deg <= 0:
         return home
-    validity = MotionValidity(station, robot, margin=0.005)
+    validity = validity or MotionValidity(station, robot, margin=0.005)
     rng = np.random.default_rng([seed, 7919])  # not the training streams
     for _ in range(1000):
         q = home + rng.uniform(-1, 1, 6) * math.radians(noise_deg)
@@ -82,12 +83,12 @@ def eval_start(station: Station, robot: int, seed: int, noise_deg: float) -> np.
 
 
 def build_tasks(station: Station, spec: EvalSpec) -> dict[tuple[tuple[str, ...], int], Task]:
-    collides = MotionValidity(station, spec.robot, margin=0.005).checker.collides
+    validity = MotionValidity(station, spec.robot, margin=0.005)
     tasks = {}
     for welds in spec.tasks:
-        base = make_task(station, spec.robot, collides, list(welds))
+        base = make_task(station, spec.robot, validity.checker.collides, list(welds))
         for seed in spec.seeds:
-            start = eval_start(station, spec.robot, seed, spec.start_noise_deg)
+            start = eval_start(station, spec.robot, seed, spec.start_noise_deg, validity)
             tasks[(tuple(welds), seed)] = Task(base.robot, start, base.weld_names, base.goals, base.end)
     return tasks
 
