@@ -63,6 +63,19 @@ def test_rerun_resumes_without_recomputing_and_survives_a_torn_line(tmp_path, st
     assert len(open(out / "results.csv").read().strip().splitlines()) == 5  # header + 4, no duplicates
 
 
+def test_row_start_gives_the_same_rows_after_an_interruption_mid_row(tmp_path, station):
+    # Each configuration of a row continues from the previous one, so a resumed half row is recomputed
+    # from the row start: the results equal an uninterrupted run's.
+    grid = RobustnessGrid.from_dict(TINY)
+    assert FAST.start == "row"
+    run_map(grid, station, tmp_path / "full", FAST, backend="serial", progress=False)
+    run_map(grid, station, tmp_path / "cut", FAST, backend="serial", progress=False, limit=1)
+    run_map(grid, station, tmp_path / "cut", FAST, backend="serial", progress=False, indices=[3])
+    run_map(grid, station, tmp_path / "cut", FAST, backend="serial", progress=False)
+    full, cut = rows(tmp_path / "full"), rows(tmp_path / "cut")
+    assert {k: v["max_dev_m"] for k, v in full.items()} == {k: v["max_dev_m"] for k, v in cut.items()}
+
+
 def test_a_different_grid_in_the_same_folder_is_refused(tmp_path, station):
     grid = RobustnessGrid.from_dict(TINY)
     run_map(grid, station, tmp_path, FAST, backend="serial", progress=False, limit=1)

@@ -32,8 +32,9 @@ def compare_paths(grid: RobustnessGrid, config: StationConfig, out: str | Path, 
         raise ConfigError("k_paths", f"must be at least 1, got {k_paths}")
     out = Path(out)
     idx = sample_indices(grid, n_sample, seed)
-    two = replace(settings, n_paths=0)
-    many = replace(settings, n_paths=k_paths, seed=seed)
+    # A sample maps configurations on their own (start "ry"): a row start would compute whole rows.
+    two = replace(settings, n_paths=0, start="ry")
+    many = replace(settings, n_paths=k_paths, seed=seed, start="ry")
     run_map(grid, config, out / "two_path", two, indices=idx, **run_kwargs)
     run_map(grid, config, out / "k_path", many, indices=idx, **run_kwargs)
     a, b = load_results(out / "two_path"), load_results(out / "k_path")

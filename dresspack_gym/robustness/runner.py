@@ -19,7 +19,7 @@ from .grid import RobustnessGrid
 from .query import RobustnessMap  # noqa: F401  (re-exported: the map API next to the runner)
 from .store import COLUMNS, META, RESULTS, done_indices, grid_to_meta, load_results, repair_last_line
 
-CHUNK = 16  # configurations per work unit (same Ry: the per-Ry start state is reused inside a unit)
+CHUNK = 16  # configurations per work unit with start "ry" (same Ry: its start state is reused inside a unit)
 BACKENDS = ("serial", "process", "ray")
 
 
@@ -32,15 +32,26 @@ def _fingerprint(grid: RobustnessGrid, station_name: str, settings: RobustnessSe
     return h.hexdigest()[:16]
 
 
-def _work_units(grid: RobustnessGrid, todo: list[int]) -> list[list[int]]:
-    """Group pending indices by Ry (the slowest grid axis), then cut into chunks of CHUNK."""
+def _work_units(grid: RobustnessGrid, todo: list[int], start: str) -> list[tuple[list[int], list[int]]]:
+    """(indices to compute, indices to report) per work unit.
+
+    "row" start: one unit per grid row holding a pending index (the whole row is computed, since each
+    configuration continues from the previous one; only the pending ones are reported). "ry": pending
+    indices grouped by Ry (the per-Ry start state is reused inside a unit), in chunks of CHUNK.
+    """
+    if start == "row":
+        n = len(grid.j6)
+        rows = sorted({i // n for i in todo})
+        wanted = set(todo)
+        return [(list(range(r * n, (r + 1) * n)), [i for i in range(r * n, (r + 1) * n) if i in wanted])
+                for r in rows]
     per_ry = len(grid) // len(grid.ry)
-    units: list[list[int]] = []
+    units: list[tuple[list[int], list[int]]] = []
     by_ry: dict[int, list[int]] = {}
     for i in todo:
         by_ry.setdefault(i // per_ry, []).append(i)
     for _, idx in sorted(by_ry.items()):
-        units.extend(idx[k:k + CHUNK] for k in range(0, len(idx), CHUNK))
+        units.extend((idx[k:k + CHUNK], idx[k:k + CHUNK]) for k in range(0, len(idx), CHUNK))
     return units
 
 
@@ -53,12 +64,17 @@ def _init_worker(config: StationConfig, settings: RobustnessSettings) -> None:
 
 
 def _run_unit(args) -> list[tuple[int, float, float]]:
-    indices, configs = args
-    return [(i, *_WORKER.evaluate(i, v)) for i, v in zip(indices, configs)]
+    indices, configs, report = args
+    if _WORKER.settings.start == "row":
+        results = _WORKER.evaluate_row(indices, configs)
+    else:
+        results = [_WORKER.evaluate(i, v) for i, v in zip(indices, configs)]
+    keep = set(report)
+    return [(i, *r) for i, r in zip(indices, results) if i in keep]
 
 
 def _iterate(backend: str, workers: int, config, settings, units, configs, ray_address) -> Iterator[list]:
-    payload = [(u, configs[u]) for u in units]
+    payload = [(u, configs[u], report) for u, report in units]
     if backend == "serial" or (backend == "process" and workers == 1):
         _init_worker(config, settings)
         for p in payload:
@@ -149,7 +165,8 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
         writer = csv.writer(f)
         if new_file:
             writer.writerow(COLUMNS)
-        for rows in _iterate(backend, workers, config, settings, _work_units(grid, todo), configs, ray_address):
+        units = _work_units(grid, todo, settings.start)
+        for rows in _iterate(backend, workers, config, settings, units, configs, ray_address):
             for i, neg, pos in rows:
                 v = np.degrees(configs[i])
                 dev = max(neg, pos)
