@@ -145,7 +145,6 @@ def robustness_benchmark(station_ref: str = "default", repeats: int = 1, n_rows:
     """
     import tempfile
 
-
     from .loading import CONFIG_DIR, load_station, read_yaml
     from .robustness import runner
     from .robustness.algorithm import RobustnessSettings
