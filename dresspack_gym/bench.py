@@ -40,7 +40,7 @@ def physics_benchmark(station_ref: str = "default", repeats: int = 3, raw_steps:
     return {
         "station": station.config.name,
         "timestep_s": m.opt.timestep,
-        "cable_segments": [c.vertex_bodies.size - 1 for c in station.cables],
+        "cable_segments": [c.n_vertices - 1 for c in station.cables],
         "nv": int(m.nv),
         "raw_mj_step_steps_per_s": round(raw_rate, 1),
         "move90_wall_s": round(best_move, 4),

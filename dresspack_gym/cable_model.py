@@ -1,15 +1,27 @@
-"""Builds a dresspack as a MuJoCo 4 discrete elastic rod (1D flexcomp) attached by its nodes.
+"""Builds a dresspack as MuJoCo 4 discrete elastic rods (raw 1D flexes) held by load-cell node bodies.
 
 Mapping of the thesis Table 3.1 parameters (SPEC §2):
-- bending EI and torsion GJ -> flex ``young = EI / I`` and ``shear = GJ / J`` with the circular
-  section of the cable radius (I = pi r^4/4, J = pi r^4/2), exactly what MuJoCo's ``section="circle"`` uses;
-- tension EA -> the cable is inextensible to first order (EA = 1400 N against forces of tens of N gives
-  strains of ~1 %), modelled by ``<edge equality="true"/>``; the edge constraint forces are the tensions;
-- mass -> consistent lumped masses rho*h per vertex, rho*h/2 at both ends (flexcomp gives equal masses).
+- bending EI and torsion GJ -> flex ``young = EI / I`` and ``shear = GJ / J`` with the circular section of
+  the cable radius (I = pi r^4/4, J = pi r^4/2), exactly what MuJoCo's ``section="circle"`` uses;
+- tension EA -> the flex edge equality is a soft constraint whose static compliance is set so that every
+  edge carries tension = EA * strain, independent of the timestep (see :func:`edge_constraint`);
+- mass -> consistent lumped masses rho*h per free vertex (rho*h/2 at a free end); vertices held by a node
+  are massless points of the node body (the clamp carries that piece of cable).
 
-The rod is built straight (DER keeps any curvature present in qpos0 as rest curvature) and posed by
-setting qpos to a smooth curve through its nodes. Nodes are site-to-site ``connect`` equalities: one
-vertex for a ring (position only), two consecutive vertices for a clamp (position and tangent).
+Nodes. Every node is a small *node body* under its robot link (or the world), joined to it by a
+kinematic 6-dof load cell (3 slides + a ball) whose joint values are written every step, so the node is
+rigid and the generalised forces on the load-cell joints are exactly the force and torque the cable
+exerts on the node (the connector load). A clamp holds two cable vertices on its node body: position,
+tangent and material frame (twist) are held with no soft constraint, and the rod's reaction force and
+torque land on the body. A ring holds one vertex (position only, the cable may swivel and twist).
+The cable is split at interior clamps into separate rods, so each clamp holds the material frame on
+both sides (MuJoCo clamps a rod's first and last edge only).
+
+Rest shape. DER keeps any curvature present in ``qpos0`` as rest curvature, so in ``qpos0`` every vertex
+of the cable lies on one straight line with the node bodies' frames all parallel (no rest bend, no rest
+twist). The load-cell joint values then move each node body to its real place on the link. Each clamp's
+roll about the cable is chosen so that the cable is installed untwisted at Home (the frame of the
+previous clamp parallel-transported along the Home reference shape).
 """
 
 from __future__ import annotations
@@ -21,27 +33,91 @@ import numpy as np
 
 from .config import CableNode, DresspackConfig
 from .errors import ConfigError
-from .robot_model import OBSTACLE_BITS, ROBOT_BITS, body_name
+from .robot_model import OBSTACLE_BITS, ROBOT_ARMATURE, ROBOT_BITS, body_name, mat_to_quat
 
 CABLE_RGBA = (0.1, 0.1, 0.12, 1.0)
-# Impedance of the cable's edge and node constraints. With MuJoCo's default (0.9, 0.95) a clamp holding
-# 12 g vertices tilts by ~0.1 rad under a 2.5 N m moment; with these it holds to ~1e-4 rad (validated by
-# the cantilever test in tests/test_physics_validation.py).
-STIFF_SOLIMP = (0.9999, 0.99999, 0.001, 0.5, 2.0)
+# Constant impedance of the edge constraints: with solimp flat at d the static stiffness of an edge row
+# is -solref[0] / ((1 - d) * invweight) (MuJoCo's soft-constraint regulariser R = (1 - d)/d * invweight);
+# 0.5 keeps R comparable to the edge's own inverse mass, so the stretch mode is neither stiffer nor
+# softer than its inertia can follow at the relaxation timesteps.
+EDGE_IMPEDANCE = 0.5
+# Contacts of the cable with obstacles and links: a fixed time constant (not tied to the timestep, so
+# relaxation at larger steps sees the same contact), critically damped, MuJoCo's default impedance.
+CONTACT_SOLREF = (0.02, 1.0)
+# Node bodies are massless in effect: tiny mass and inertia so gravity on them is negligible.
+NODE_MASS = 1e-6
+NODE_INERTIA = 1e-12
+# qpos / dof layout of one load cell: 3 slides then a ball joint (quaternion).
+LOAD_CELL_NQ = 7
+LOAD_CELL_NV = 6
 
 
 @dataclass(frozen=True)
 class NodeAttachment:
-    """A compiled node: the vertex indices it holds and the site names that hold them."""
+    """A compiled node: the cable vertices it holds and how its node body sits on its holder.
+
+    ``load_qpos`` are the load-cell joint values that move the node body from its ``qpos0`` place on
+    the straight rest line to the real node pose; ``slide_to_node`` rotates slide-joint force components
+    into the node frame (x = cable direction for a clamp). ``held_mass`` [kg] and ``held_at`` (node
+    frame) are the lumped masses of the held vertices: the node carries that piece of cable's weight.
+    """
 
     node: CableNode
     vertices: tuple[int, ...]
-    robot_sites: tuple[str, ...]
-    vertex_sites: tuple[str, ...]
+    body: str
+    load_qpos: tuple[float, ...]
+    slide_to_node: tuple[tuple[float, float, float], ...]
+    held_mass: tuple[float, ...] = ()
+    held_at: tuple[tuple[float, float, float], ...] = ()
+
+    @property
+    def is_clamp(self) -> bool:
+        return self.node.direction is not None
+
+
+@dataclass(frozen=True)
+class RodPiece:
+    """One raw flex rod of a cable: global vertex indices in order and which are held by nodes."""
+
+    flex: str
+    vertices: tuple[int, ...]
+    held: tuple[bool, ...]
+    first_clamped: bool
+    last_clamped: bool
+
+    @property
+    def n_edges(self) -> int:
+        return len(self.vertices) - 1
+
+    def twist_joint(self, edge: int) -> str | None:
+        """Name of the twist hinge of local ``edge`` (None for a clamped end edge)."""
+        if (edge == 0 and self.first_clamped) or (edge == self.n_edges - 1 and self.last_clamped):
+            return None
+        return f"{self.flex}_twist" if edge == self.n_edges - 1 else f"{self.flex}_twist_{edge}"
+
+
+@dataclass(frozen=True)
+class CableLayout:
+    attachments: tuple[NodeAttachment, ...]
+    pieces: tuple[RodPiece, ...]
+    free_vertices: tuple[int, ...]  # global indices of the vertices that have their own (slider) body
 
 
 def node_vertex(dresspack: DresspackConfig, node: CableNode) -> int:
     return int(round(node.arc_length / dresspack.segment_length))
+
+
+def is_end_node(dresspack: DresspackConfig, node: CableNode) -> bool:
+    """True for a node at the far end of the cable (its clamp holds the last edge, pointing back)."""
+    return node_vertex(dresspack, node) == dresspack.segments
+
+
+def node_vertices(dresspack: DresspackConfig, node: CableNode) -> tuple[int, ...]:
+    """Cable vertices a node holds: its own, plus the next one (previous one at the end) for a clamp."""
+    v = node_vertex(dresspack, node)
+    if node.direction is None:
+        return (v,)
+    return (v, v - 1) if is_end_node(dresspack, node) else (v, v + 1)
 
 
 def node_world_points(dresspack: DresspackConfig, node: CableNode, frame: np.ndarray) -> list[np.ndarray]:
@@ -51,8 +127,37 @@ def node_world_points(dresspack: DresspackConfig, node: CableNode, frame: np.nda
     pts = [p]
     if node.direction is not None:
         d = frame[:3, :3] @ np.asarray(node.direction)
-        pts.append(p + d * h if node.arc_length < dresspack.length - 1e-9 else p - d * h)
+        pts.append(p - d * h if is_end_node(dresspack, node) else p + d * h)
     return pts
+
+
+def rod_pieces(robot: str, dresspack: DresspackConfig) -> list[RodPiece]:
+    """Split the cable at its interior clamps into rods whose end edges the clamps hold."""
+    n = dresspack.segments
+    held = {}
+    for node in dresspack.nodes:
+        for v in node_vertices(dresspack, node):
+            held[v] = True
+    cuts = [0]  # first vertex of each piece
+    for node in dresspack.nodes[1:]:
+        if node.direction is not None and not is_end_node(dresspack, node):
+            cuts.append(node_vertex(dresspack, node))
+    pieces = []
+    for p, start in enumerate(cuts):
+        stop = cuts[p + 1] + 1 if p + 1 < len(cuts) else n  # a cut clamp's edge (v, v+1) ends this piece
+        verts = tuple(range(start, stop + 1))
+        first_clamped = held.get(start, False) and held.get(start + 1, False) and any(
+            nd.direction is not None and node_vertex(dresspack, nd) == start for nd in dresspack.nodes)
+        last_clamped = p + 1 < len(cuts) or (
+            held.get(stop, False) and held.get(stop - 1, False)
+            and any(nd.direction is not None and node_vertex(dresspack, nd) == stop for nd in dresspack.nodes))
+        flags = tuple(held.get(v, False) for v in verts)
+        if all(flags) or len(verts) < 4:
+            raise ConfigError("dresspack.nodes", f"the cable between vertices {start} and {stop} has no free vertex "
+                                                 f"at {n} segments; increase 'segments' or separate the nodes")
+        name = f"{robot}/cable" if p == 0 else f"{robot}/cable_p{p}"
+        pieces.append(RodPiece(name, verts, flags, bool(first_clamped), bool(last_clamped)))
+    return pieces
 
 
 def reference_shape(dresspack: DresspackConfig, frames: list[np.ndarray], gravity_dir=(0, 0, -1)) -> np.ndarray:
@@ -69,22 +174,16 @@ def reference_shape(dresspack: DresspackConfig, frames: list[np.ndarray], gravit
     pts = np.full((n + 1, 3), np.nan)
     anchors: list[tuple[int, np.ndarray, np.ndarray | None]] = []  # (vertex, point, tangent)
     for node, frame in zip(dresspack.nodes, frames):
-        v = node_vertex(dresspack, node)
+        verts = node_vertices(dresspack, node)
         world = node_world_points(dresspack, node, frame)
-        pts[v] = world[0]
+        for v, p in zip(verts, world):
+            pts[v] = p
         if len(world) == 2:
-            is_end = node.arc_length >= dresspack.length - 1e-9
-            w = v - 1 if is_end else v + 1
-            pts[w] = world[1]
-            tangent = (world[0] - world[1]) / h if is_end else (world[1] - world[0]) / h
-            if is_end:
-                anchors.append((w, world[1], tangent))
-                anchors.append((v, world[0], tangent))
-            else:
-                anchors.append((v, world[0], tangent))
-                anchors.append((w, world[1], tangent))
+            tangent = frame[:3, :3] @ np.asarray(node.direction)
+            for v, p in sorted(zip(verts, world), key=lambda a: a[0]):
+                anchors.append((v, p, tangent))
         else:
-            anchors.append((v, world[0], None))
+            anchors.append((verts[0], world[0], None))
     anchors.sort(key=lambda a: a[0])
     for (v0, p0, t0), (v1, p1, t1) in zip(anchors, anchors[1:]):
         if v1 - v0 <= 1:
@@ -142,84 +241,173 @@ def _span(p0, t0, p1, t1, length, segments, g, dresspack) -> np.ndarray:
     return np.stack([np.interp(targets, s, dense[:, i]) for i in range(3)], axis=1)
 
 
-def flexcomp_xml(dresspack: DresspackConfig, straight: np.ndarray, *, timestep: float,
-                 bending_damping: float) -> str:
-    """MJCF of the rod as a straight ``direct`` flexcomp (zero rest curvature)."""
-    n = dresspack.segments
-    elements = " ".join(f"{i} {i + 1}" for i in range(n))
-    points = " ".join(f"{v:.9f}" for v in straight.ravel())
-    affinity = OBSTACLE_BITS | (ROBOT_BITS if dresspack.collide_with_robot else 0)
-    # Edge constraints as stiff as the step allows (time constant 2 steps, critically damped) with an
-    # impedance near 1: light vertices make default-soft constraints stretch and give at clamps.
-    solref = f"{2 * timestep:.6g} 1"
-    solimp = " ".join(map(str, STIFF_SOLIMP))
-    return f"""<mujoco>
-  <worldbody>
-    <flexcomp name="cable" type="direct" dim="1" point="{points}" element="{elements}"
-              mass="{dresspack.linear_density * dresspack.length:.9g}" radius="{dresspack.radius:.9g}"
-              rgba="{' '.join(map(str, CABLE_RGBA))}">
-      <edge equality="true" solref="{solref}" solimp="{solimp}"/>
-      <elasticity young="{dresspack.young_modulus:.9g}" shear="{dresspack.shear_modulus:.9g}"
-                  damping="{bending_damping:.6g}" section="circle"/>
-      <contact contype="0" conaffinity="{affinity}" condim="3" friction="0.5" selfcollide="none"
-               solref="{solref}"/>
-    </flexcomp>
-  </worldbody>
-</mujoco>"""
+def _frame_with_x(x: np.ndarray, up_hint: np.ndarray) -> np.ndarray:
+    """A rotation matrix whose first column is ``x`` and whose y axis is ``up_hint`` made orthogonal."""
+    x = x / np.linalg.norm(x)
+    y = up_hint - (up_hint @ x) * x
+    if np.linalg.norm(y) < 1e-6:
+        y = np.array([0.0, 0.0, 1.0]) - x[2] * x
+        if np.linalg.norm(y) < 1e-6:
+            y = np.array([0.0, 1.0, 0.0]) - x[1] * x
+    y /= np.linalg.norm(y)
+    return np.column_stack([x, y, np.cross(x, y)])
 
 
-def add_cable(spec: mujoco.MjSpec, robot: str, dresspack: DresspackConfig, start_frame: np.ndarray, *,
-              timestep: float, cable_damping: float, bending_damping: float) -> list[NodeAttachment]:
-    """Attach the dresspack of ``robot`` to ``spec``; returns its node attachments.
+def _transport(vec: np.ndarray, t0: np.ndarray, t1: np.ndarray) -> np.ndarray:
+    """Parallel transport of ``vec`` from unit tangent t0 to t1 (rotation about t0 x t1)."""
+    axis = np.cross(t0, t1)
+    s, c = np.linalg.norm(axis), float(t0 @ t1)
+    if s < 1e-12:
+        return vec
+    k = axis / s
+    return vec * c + np.cross(k, vec) * s + k * (k @ vec) * (1 - c)
 
-    The straight qpos0 rod starts at the first node and runs along its direction (any straight
-    placement works: only straightness matters for the rest shape).
+
+def clamp_rotations(dresspack: DresspackConfig, home_frames: list[np.ndarray], home_shape: np.ndarray,
+                    ) -> list[np.ndarray | None]:
+    """Node rotations relative to their holders that make the cable untwisted at Home.
+
+    The first clamp's material frame is its direction with y as close to the holder's z axis as
+    possible; every later clamp takes the frame transported twist-free along the Home reference shape.
+    Rings return None (they hold no frame).
+    """
+    tangents = np.diff(home_shape, axis=0)
+    tangents /= np.maximum(np.linalg.norm(tangents, axis=1, keepdims=True), 1e-12)
+    out: list[np.ndarray | None] = []
+    carried: tuple[int, np.ndarray] | None = None  # (edge, world material y axis on that edge)
+    for node, frame in zip(dresspack.nodes, home_frames):
+        if node.direction is None:
+            out.append(None)
+            continue
+        rot = frame[:3, :3]
+        x_world = rot @ np.asarray(node.direction)
+        verts = node_vertices(dresspack, node)
+        edge = min(verts)
+        if carried is None:
+            local = _frame_with_x(np.asarray(node.direction, dtype=float), np.array([0.0, 0.0, 1.0]))
+            y_world = rot @ local[:, 1]
+        else:
+            e0, y_world = carried
+            for e in range(e0, edge):
+                y_world = _transport(y_world, tangents[e], tangents[e + 1])
+            local = _frame_with_x(np.asarray(node.direction, dtype=float), rot.T @ y_world)
+            y_world = rot @ local[:, 1]
+        carried = (edge, y_world - (y_world @ x_world) * x_world)
+        out.append(local)
+    return out
+
+
+def edge_constraint(dresspack: DresspackConfig) -> tuple[tuple[float, float], tuple[float, ...], float]:
+    """(solref, solimp, invweight) of the edge equality giving tension = EA * strain at rest.
+
+    Static stiffness of a soft equality row = -solref[0] / ((1 - d) * invweight) (checked in
+    tests/test_physics_validation.py at several timesteps and segment counts). Every stretchable edge
+    gets the same invweight (set on the compiled model by :func:`apply_edge_invweight`), so every edge
+    has k = EA / h exactly; solref[1] damps the two-vertex stretch mode critically.
+    """
+    h = dresspack.segment_length
+    m = dresspack.linear_density * h
+    invweight = 2.0 / m
+    k_edge = dresspack.tensile_stiffness / h
+    b_edge = 2.0 * np.sqrt(k_edge * m / 2.0)
+    scale = (1.0 - EDGE_IMPEDANCE) * invweight
+    d = EDGE_IMPEDANCE
+    return (-k_edge * scale, -b_edge * scale), (d, d, 0.001, 0.5, 2.0), invweight
+
+
+def apply_edge_invweight(model: mujoco.MjModel, flex_ids, invweight: float) -> None:
+    """Give every stretchable edge of the flexes the same constraint invweight (see edge_constraint)."""
+    for f in flex_ids:
+        adr, num = model.flex_edgeadr[f], model.flex_edgenum[f]
+        w = model.flexedge_invweight0[adr:adr + num]
+        w[w > 0] = invweight  # rigid edges (both vertices on one node body) have no constraint row
+
+
+def add_cable(spec: mujoco.MjSpec, robot: str, dresspack: DresspackConfig, *, zero_frames: list[np.ndarray],
+              home_frames: list[np.ndarray], home_shape: np.ndarray, cable_damping: float,
+              bending_damping: float) -> CableLayout:
+    """Add the dresspack of ``robot`` to ``spec``.
+
+    ``zero_frames`` / ``home_frames``: world pose of each node's holder with the robot at qpos0 (all
+    joints zero) and at Home; ``home_shape``: the Home reference shape (for the untwisted install).
     """
     n = dresspack.segments
     h = dresspack.segment_length
-    first = dresspack.nodes[0]
-    origin = start_frame[:3, :3] @ np.asarray(first.pos) + start_frame[:3, 3]
-    direction = (start_frame[:3, :3] @ np.asarray(first.direction)) if first.direction else np.array([1.0, 0, 0])
-    straight = origin[None, :] + np.arange(n + 1)[:, None] * h * direction[None, :]
-    child = mujoco.MjSpec.from_string(flexcomp_xml(dresspack, straight, timestep=timestep,
-                                                   bending_damping=bending_damping))
-    # Consistent lumped masses: rho*h per vertex, half at the two ends. Cable damping (air and
-    # contact losses) comes from MuJoCo's inertia-box fluid model with viscosity 1 (set by the
-    # station): f = -6 pi r v, so an inertia box of half-size r = c m / (6 pi) damps at rate c [1/s].
     rho_h = dresspack.linear_density * h
-    for i in range(n + 1):
-        b = child.body(f"cable_{i}")
-        mass = rho_h * (0.5 if i in (0, n) else 1.0)
-        r_box = cable_damping * mass / (6.0 * np.pi)
-        b.mass = mass
-        b.inertia = [2.0 / 3.0 * mass * r_box ** 2] * 3
-        b.explicitinertial = True
+    # The straight rest line: it starts where the first node's body sits at qpos0, along its direction.
+    first = dresspack.nodes[0]
+    f0 = zero_frames[0]
+    origin = f0[:3, :3] @ np.asarray(first.pos) + f0[:3, 3]
+    line_dir = f0[:3, :3] @ np.asarray(first.direction) if first.direction is not None else np.array([1.0, 0, 0])
+    line_rot = _frame_with_x(line_dir, np.array([0.0, 0.0, 1.0]))
+
+    def on_line(v: int) -> np.ndarray:
+        return origin + v * h * line_dir
+
+    rotations = clamp_rotations(dresspack, home_frames, home_shape)
     attachments = []
-    for k, node in enumerate(dresspack.nodes):
-        v = node_vertex(dresspack, node)
-        is_end = node.arc_length >= dresspack.length - 1e-9
-        verts = [v] if node.direction is None else ([v, v - 1] if is_end else [v, v + 1])
-        vsites, rsites = [], []
-        for j, vert in enumerate(verts):
-            vs = f"node{k}_v{j}"
-            child.body(f"cable_{vert}").add_site(name=vs, pos=[0, 0, 0], size=[0.01, 0, 0])
-            vsites.append(f"{robot}/{vs}")
-            rsites.append(f"{robot}/cable_node{k}_{j}")
-        attachments.append(NodeAttachment(node, tuple(verts), tuple(rsites), tuple(vsites)))
-    frame = spec.worldbody.add_frame()
-    spec.attach(child, frame=frame, prefix=f"{robot}/")
-    for att in attachments:
-        node = att.node
+    vertex_holder: dict[int, tuple[str, np.ndarray]] = {}  # vertex -> (body, coordinates in that body)
+    for k, (node, zf, rot_node) in enumerate(zip(dresspack.nodes, zero_frames, rotations)):
         holder = spec.worldbody if node.body == "world" else spec.body(body_name(robot, node.body))
-        points = [np.asarray(node.pos, dtype=float)]
-        if node.direction is not None:
-            is_end = node.arc_length >= dresspack.length - 1e-9
-            points.append(points[0] + (-1 if is_end else 1) * h * np.asarray(node.direction))
-        for site, p in zip(att.robot_sites, points):
-            holder.add_site(name=site, pos=list(p), size=[0.012, 0, 0], rgba=[0.1, 0.6, 1.0, 1.0])
-        for rs, vs in zip(att.robot_sites, att.vertex_sites):
-            # One-step time constant (the station disables MuJoCo's 2-step "refsafe" floor): the clamp
-            # moment arm is a single short edge, so any softness shows up as a tilted clamp.
-            spec.add_equality(name=f"{vs}_connect", type=mujoco.mjtEq.mjEQ_CONNECT, objtype=mujoco.mjtObj.mjOBJ_SITE,
-                              name1=vs, name2=rs, solref=[timestep, 1.0], solimp=list(STIFF_SOLIMP))
-    return attachments
+        verts = node_vertices(dresspack, node)
+        bname = f"{robot}/node_{node.name}"
+        # qpos0 pose of the node body, relative to its holder: on the rest line, frames parallel.
+        rest_rot = zf[:3, :3].T @ line_rot
+        rest_pos = zf[:3, :3].T @ (on_line(verts[0]) - zf[:3, 3])
+        body = holder.add_body(name=bname, pos=list(rest_pos), quat=list(mat_to_quat(rest_rot)))
+        body.mass, body.inertia, body.explicitinertial = NODE_MASS, [NODE_INERTIA] * 3, True
+        for axis, jn in zip(np.eye(3), "xyz"):
+            body.add_joint(name=f"{bname}_load_{jn}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=list(axis),
+                           armature=ROBOT_ARMATURE)
+        body.add_joint(name=f"{bname}_load_r", type=mujoco.mjtJoint.mjJNT_BALL, armature=ROBOT_ARMATURE)
+        node_rot = rest_rot if rot_node is None else rot_node  # rings keep their rest orientation
+        slide = rest_rot.T @ (np.asarray(node.pos) - rest_pos)
+        ball = mat_to_quat(rest_rot.T @ node_rot)
+        body.add_site(name=f"{bname}_site", size=[0.012, 0, 0], rgba=[0.1, 0.6, 1.0, 1.0])
+        for j, v in enumerate(verts):
+            sign = -1.0 if (j == 1 and v < verts[0]) else 1.0
+            vertex_holder[v] = (bname, np.array([sign * h * j, 0.0, 0.0]))
+        held_mass = tuple(rho_h * (0.5 if v in (0, n) else 1.0) for v in verts)
+        held_at = tuple(tuple(map(float, vertex_holder[v][1])) for v in verts)
+        attachments.append(NodeAttachment(node, verts, bname, tuple(slide) + tuple(ball),
+                                          tuple(map(tuple, node_rot.T @ rest_rot)), held_mass, held_at))
+    free = []
+    for v in range(n + 1):
+        if v in vertex_holder:
+            continue
+        mass = rho_h * (0.5 if v == n else 1.0)
+        b = spec.worldbody.add_body(name=f"{robot}/cable_{v}", pos=list(on_line(v)))
+        b.mass, b.inertia, b.explicitinertial = mass, [mass * 1e-4] * 3, True
+        for axis in np.eye(3):
+            b.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=list(axis))
+        vertex_holder[v] = (f"{robot}/cable_{v}", np.zeros(3))
+        free.append(v)
+    pieces = rod_pieces(robot, dresspack)
+    solref, solimp, _ = edge_constraint(dresspack)
+    affinity = OBSTACLE_BITS | (ROBOT_BITS if dresspack.collide_with_robot else 0)
+    polar = 0.5 * rho_h * dresspack.radius ** 2  # per-edge polar moment of inertia (solid circle)
+    for piece in pieces:
+        for e in range(piece.n_edges):  # twist hinges in edge order (MuJoCo binds them by name)
+            jname = piece.twist_joint(e)
+            if jname is None:
+                continue
+            # Mass rho*h with the polar inertia on all axes keeps the body physically sized (no model-wide
+            # force may treat it as a huge box); it sits on the world origin and never translates.
+            tb = spec.worldbody.add_body(name=jname)
+            tb.mass, tb.inertia, tb.explicitinertial = rho_h, [polar] * 3, True
+            tb.add_joint(name=jname, type=mujoco.mjtJoint.mjJNT_HINGE, axis=[1, 0, 0])
+        f = spec.add_flex()
+        f.name, f.dim, f.radius = piece.flex, 1, dresspack.radius
+        f.vertbody = [vertex_holder[v][0] for v in piece.vertices]
+        f.vert = list(np.concatenate([vertex_holder[v][1] for v in piece.vertices]))
+        f.elem = [i for e in range(piece.n_edges) for i in (e, e + 1)]
+        f.young, f.shear, f.damping = dresspack.young_modulus, dresspack.shear_modulus, bending_damping
+        f.rgba = list(CABLE_RGBA)
+        f.contype, f.conaffinity, f.condim = 0, affinity, 3
+        f.friction = [0.5, 0.005, 0.0001]
+        f.selfcollide = mujoco.mjtFlexSelf.mjFLEXSELF_NONE
+        f.solref = list(CONTACT_SOLREF)
+        spec.add_equality(name=f"{piece.flex}_edges", type=mujoco.mjtEq.mjEQ_FLEX, name1=piece.flex,
+                          solref=list(solref), solimp=list(solimp))
+    del cable_damping  # applied by the simulator as explicit viscous drag (flex vertices cannot have joint damping)
+    return CableLayout(tuple(attachments), tuple(pieces), tuple(free))

@@ -278,9 +278,12 @@ class SimulationConfig:
     speed_fraction: float = 0.5  # fraction of the robot's rated joint speeds used for motions
     cable_damping: float = 5.0  # viscous damping rate of the cable's motion [1/s] (air/contact losses)
     bending_damping: float = 0.02  # Rayleigh damping time of the rod elasticity [s]
-    settle_time: float = 1.5  # max seconds of simulated settling after a motion
-    settle_speed: float = 0.005  # settled when every vertex moves slower than this [m/s] ...
-    settle_accel: float = 0.05  # ... and accelerates less than this [m/s^2] (no force imbalance left)
+    settle_time: float = 5.0  # max seconds of simulated settling; a settle that needs more is flagged unconverged
+    settle_timestep: float = 0.008  # relaxation step with the robots still [s]
+    # Static equilibrium: the largest net force on a free vertex below this fraction of its weight (and the
+    # net twist torque below this fraction of rho h g r) ...
+    equilibrium_tolerance: float = 0.02
+    equilibrium_speed: float = 0.002  # ... and the cable's kinetic energy below 1/2 M v^2 at this speed [m/s]
     gravity: float = 9.81
 
     @staticmethod
@@ -293,8 +296,11 @@ class SimulationConfig:
             cable_damping=s.number("cable_damping", d.cable_damping, lo=0.0, hi=200.0, unit="1/s"),
             bending_damping=s.number("bending_damping", d.bending_damping, lo=0.0, hi=10.0, unit="s"),
             settle_time=s.number("settle_time", d.settle_time, lo=0.0, hi=60.0, unit="s"),
-            settle_speed=s.number("settle_speed", d.settle_speed, lo=0.0, lo_open=True, hi=10.0, unit="m/s"),
-            settle_accel=s.number("settle_accel", d.settle_accel, lo=0.0, lo_open=True, hi=100.0, unit="m/s^2"),
+            settle_timestep=s.number("settle_timestep", d.settle_timestep, lo=1e-5, hi=0.05, unit="s"),
+            equilibrium_tolerance=s.number("equilibrium_tolerance", d.equilibrium_tolerance, lo=0.0, lo_open=True,
+                                           hi=1.0, hint="fraction of a vertex's weight"),
+            equilibrium_speed=s.number("equilibrium_speed", d.equilibrium_speed, lo=0.0, lo_open=True, hi=1.0,
+                                       unit="m/s"),
             gravity=s.number("gravity", d.gravity, lo=0.0, hi=100.0, unit="m/s^2"),
         )
         s.done()

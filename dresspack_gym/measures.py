@@ -1,4 +1,4 @@
-"""Wear measures of a settled cable (thesis §4.3): curvature, tension, clearance, plus twist rate.
+"""Wear measures of a settled cable (thesis §4.3): curvature, tension, clearance, twist and node loads.
 
 All functions read a compiled :class:`~dresspack_gym.station.Station` and an ``MjData`` after
 ``mj_forward``/``mj_step`` (so ``xpos`` and constraint forces are current).
@@ -23,13 +23,17 @@ class WearMeasures:
     """The measures of one cable configuration; ``*_at`` are arc lengths [m] along the cable."""
 
     max_curvature: float  # kappa [1/m]
-    max_tension: float  # F [N]
+    max_tension: float  # F [N], largest pull in an edge or at a node
     min_clearance: float  # d [m], 0 in contact
-    max_twist_rate: float  # [rad/m]
+    max_twist_rate: float  # [rad/m], largest material twist per unit length
     curvature_at: float = 0.0
     tension_at: float = 0.0
     clearance_at: float = 0.0
     nearest_obstacle: str = ""
+    total_twist: float = 0.0  # [rad], largest |twist| accumulated between two clamps
+    max_compression: float = 0.0  # [N], largest push in an edge (reported apart from the tension)
+    max_node_force: float = 0.0  # [N], largest force a node (clamp/ring) carries
+    max_node_torque: float = 0.0  # [N m], largest torque a clamp carries
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -40,14 +44,16 @@ class WearMeasures:
         kc = max(items, key=lambda m: m.max_curvature)
         kt = max(items, key=lambda m: m.max_tension)
         kd = min(items, key=lambda m: m.min_clearance)
-        kw = max(items, key=lambda m: m.max_twist_rate)
-        return WearMeasures(kc.max_curvature, kt.max_tension, kd.min_clearance, kw.max_twist_rate,
-                            kc.curvature_at, kt.tension_at, kd.clearance_at, kd.nearest_obstacle)
+        return WearMeasures(kc.max_curvature, kt.max_tension, kd.min_clearance,
+                            max(m.max_twist_rate for m in items), kc.curvature_at, kt.tension_at, kd.clearance_at,
+                            kd.nearest_obstacle, max(m.total_twist for m in items),
+                            max(m.max_compression for m in items), max(m.max_node_force for m in items),
+                            max(m.max_node_torque for m in items))
 
 
 def cable_points(data: mujoco.MjData, cable: CableIndex) -> np.ndarray:
-    """World positions of the cable vertices, shape (n+1, 3)."""
-    return data.xpos[cable.vertex_bodies].copy()
+    """World positions of the cable vertices, shape (n+1, 3) (free vertices and those nodes hold)."""
+    return data.flexvert_xpos[cable.point_rows].copy()
 
 
 def vertex_curvatures(points: np.ndarray) -> np.ndarray:
@@ -63,48 +69,82 @@ def vertex_curvatures(points: np.ndarray) -> np.ndarray:
 
 
 def edge_tensions(model: mujoco.MjModel, data: mujoco.MjData, cable: CableIndex) -> np.ndarray:
-    """Tension of each edge [N] from the flex edge-equality constraint forces (positive = pulled)."""
-    rows = (data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (data.efc_id == cable.edge_eq_id)
-    return -data.efc_force[rows]
+    """Axial force of each cable edge [N] (positive = pulled, negative = pushed), NaN for rigid clamp edges.
+
+    The force of an edge's equality row: with the edge compliance of cable_model.edge_constraint it is
+    EA * strain. A clamp's own edge lies on one rigid node body and carries no row.
+    """
+    out = np.full(cable.n_vertices - 1, np.nan)
+    eq_rows = data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY
+    for p in cable.pieces:
+        forces = -data.efc_force[eq_rows & (data.efc_id == p.edge_eq_id)]
+        stretchable = np.where(~p.rigid_edge)[0]
+        if len(forces) != len(stretchable):
+            raise SimulationError(f"cable of robot {cable.robot!r}: {len(forces)} edge constraint rows for "
+                                  f"{len(stretchable)} stretchable edges")
+        out[np.asarray(p.piece.vertices[:-1])[stretchable]] = forces
+    return out
 
 
-def node_tensions(model: mujoco.MjModel, data: mujoco.MjData, cable: CableIndex, points: np.ndarray) -> np.ndarray:
-    """Tension where the cable enters each node [N]: the node's reaction force along the cable.
+def node_loads(model: mujoco.MjModel, data: mujoco.MjData, cable: CableIndex) -> tuple[np.ndarray, np.ndarray]:
+    """(forces, torques), each (n_nodes, 3): what the cable exerts on each node, in the node's frame.
 
-    The connect forces (``efc_force``, the force on the cable vertex) of all vertices a node holds add
-    up to the force the node applies to the cable; its component pulling the cable towards the node is
-    the continuum tension at the attachment (for a hanging cable: its whole weight, rho g L).
+    Read from the node's kinematic load cell: the generalised forces on its three slides (along the
+    node body's rest axes, rotated into the node frame) and its ball joint (torque in the node frame,
+    about the node point). Elastic, damping and constraint (edge, contact) forces are included, plus the
+    weight of the cable piece the node holds (its lumped vertex masses); the node body's own (negligible)
+    gravity is not. For a clamp, x is the cable direction.
+    """
+    gen = data.qfrc_spring + data.qfrc_damper + data.qfrc_constraint
+    gravity = np.asarray(model.opt.gravity, dtype=float)
+    forces = np.zeros((len(cable.attachments), 3))
+    torques = np.zeros((len(cable.attachments), 3))
+    for k, att in enumerate(cable.attachments):
+        f = gen[cable.load_dof[k]]
+        rot = data.xmat[cable.node_bodies[k]].reshape(3, 3)
+        g_local = rot.T @ gravity
+        forces[k] = np.asarray(att.slide_to_node) @ f[:3] + sum(att.held_mass) * g_local
+        torques[k] = f[3:] + sum(np.cross(np.asarray(r), m * g_local) for m, r in zip(att.held_mass, att.held_at))
+    return forces, torques
+
+
+def node_tensions(data: mujoco.MjData, cable: CableIndex, points: np.ndarray, forces: np.ndarray,
+                  body_rot: list[np.ndarray]) -> np.ndarray:
+    """Tension where the cable enters each node [N]: the node load's component pulling into the cable.
+
+    For a hanging cable clamped at its top this is the weight of the free cable below the clamp.
     """
     out = np.zeros(len(cable.attachments))
-    eq_rows = data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY
     n = len(points) - 1
-    for k, (att, eq_ids) in enumerate(zip(cable.attachments, cable.node_eq_ids)):
-        force = np.zeros(3)
-        for eq in eq_ids:
-            force += data.efc_force[eq_rows & (data.efc_id == eq)]
-        v = att.vertices[0]
-        # Unit vector from the cable into the node: against the arc-length direction at a start
-        # node, along it at an end node; interior nodes pull both ways, use the larger side.
-        if v == 0:
-            toward = [points[0] - points[1]]
-        elif v == n:
-            toward = [points[n] - points[n - 1]]
-        else:
-            toward = [points[v] - points[v + 1], points[v] - points[v - 1]]
-        out[k] = max(float(force @ (t / max(np.linalg.norm(t), 1e-12))) for t in toward)
+    for k, att in enumerate(cable.attachments):
+        f_world = body_rot[k] @ forces[k]
+        outer = max(att.vertices) if min(att.vertices) == att.vertices[0] else min(att.vertices)
+        sides = [s for s in (outer + 1, outer - 1) if 0 <= s <= n and s not in att.vertices]
+        out[k] = max((float(f_world @ ((points[s] - points[outer]) / max(np.linalg.norm(points[s] - points[outer]),
+                                                                        1e-12))) for s in sides), default=0.0)
+    return out
+
+
+def vertex_twists(model: mujoco.MjModel, data: mujoco.MjData, cable: CableIndex) -> list[np.ndarray]:
+    """Material twist [rad] at each interior vertex of each rod: theta_e - theta_(e-1) + reference twist.
+
+    theta_e is the angle of edge e's twist hinge (0 for an edge a clamp holds: its material frame is the
+    node body's); the reference twist is the twist of the time-parallel reference frames that MuJoCo
+    keeps in ``mjData.plastic`` after the 6 numbers per edge of the frames themselves (DER, Bergou et al.).
+    """
+    out = []
+    for p in cable.pieces:
+        ne = p.piece.n_edges
+        theta = np.where(p.twist_qpos >= 0, data.qpos[np.maximum(p.twist_qpos, 0)], 0.0)
+        ref = data.plastic[p.plastic_adr + 6 * ne:p.plastic_adr + 6 * ne + ne - 1]
+        out.append(np.diff(theta) + ref)
     return out
 
 
 def twist_rates(model: mujoco.MjModel, data: mujoco.MjData, cable: CableIndex) -> np.ndarray:
-    """Material twist per unit length at each interior vertex [rad/m]: (theta_e - theta_{e-1}) / h.
-
-    theta_e is the DER material angle of edge e relative to its time-parallel-transported reference
-    frame (the ``<flex>_twist*`` hinge joints; 0 for a clamped edge). The extra numbers MuJoCo keeps
-    after the frames in ``mjData.plastic`` carry no torque (checked: bent, writhed cables with free
-    ends show zero twist torque), so they are not part of the material twist.
-    """
-    theta = np.where(cable.twist_qpos >= 0, data.qpos[np.maximum(cable.twist_qpos, 0)], 0.0)
-    return np.abs(np.diff(theta)) / cable.segment_length
+    """|material twist| per unit length [rad/m] at every interior vertex of every rod."""
+    tw = vertex_twists(model, data, cable)
+    return np.abs(np.concatenate(tw)) / cable.segment_length if tw else np.zeros(0)
 
 
 class ClearanceProbe:
@@ -171,18 +211,27 @@ def measure_cable(station: Station, data: mujoco.MjData, cable: CableIndex, prob
     points = cable_points(data, cable)
     if not np.isfinite(points).all():
         raise SimulationError(f"cable of robot {cable.robot!r} has non-finite vertex positions")
+    m = station.model
     h = cable.segment_length
     kappa = vertex_curvatures(points)
-    tension = np.concatenate([edge_tensions(station.model, data, cable),
-                              node_tensions(station.model, data, cable, points)])
-    twist = twist_rates(station.model, data, cable)
+    edges = edge_tensions(m, data, cable)
+    forces, torques = node_loads(m, data, cable)
+    rot = [data.xmat[b].reshape(3, 3) for b in cable.node_bodies]
+    tension = np.concatenate([np.nan_to_num(edges, nan=-np.inf), node_tensions(data, cable, points, forces, rot)])
+    twists = vertex_twists(m, data, cable)
+    twist = np.abs(np.concatenate(twists)) / h if twists else np.zeros(0)
     dist, edge, obstacle = probe.min_distance(data, cable, points)
     ik, it = int(np.argmax(kappa)), int(np.argmax(tension))
     n_edges = len(points) - 1
     tension_at = (it + 0.5) * h if it < n_edges else cable.attachments[it - n_edges].node.arc_length
     values = (float(kappa[ik]), float(max(tension.max(), 0.0)), float(dist),
               float(twist.max()) if len(twist) else 0.0)
-    if not all(np.isfinite(values)):
-        raise SimulationError(f"wear measures of robot {cable.robot!r} are not finite: {values}")
+    extra = (max((abs(float(t.sum())) for t in twists), default=0.0),
+             float(max(0.0, -np.nanmin(edges))) if np.isfinite(edges).any() else 0.0,
+             float(np.linalg.norm(forces, axis=1).max()), float(np.linalg.norm(torques, axis=1).max()))
+    if not all(np.isfinite(values + extra)):
+        raise SimulationError(f"wear measures of robot {cable.robot!r} are not finite: {values + extra}")
     return WearMeasures(*values, curvature_at=(ik + 1) * h, tension_at=tension_at,
-                        clearance_at=(edge + 0.5) * h if edge >= 0 else 0.0, nearest_obstacle=obstacle)
+                        clearance_at=(edge + 0.5) * h if edge >= 0 else 0.0, nearest_obstacle=obstacle,
+                        total_twist=extra[0], max_compression=extra[1], max_node_force=extra[2],
+                        max_node_torque=extra[3])

@@ -1,9 +1,10 @@
 """Quasi-static simulation of robots carrying dresspacks: kinematic joint motion plus cable settling.
 
-The robots are position-driven: their joint positions and velocities are written before every
-physics step, so the cable never pushes them. Motions follow straight joint-space segments with a
-smooth (cubic) time law at a fraction of the rated joint speeds; the cable is damped so that its
-shape stays near equilibrium while still depending on the path travelled.
+The robots (and the nodes' load cells) are position-driven: their joint positions and velocities are
+written before every physics step, so the cable never pushes them. Motions follow straight joint-space
+segments with a smooth (cubic) time law at a fraction of the rated joint speeds; the cable is damped
+(viscous drag on its free vertices) so that its shape stays near equilibrium while still depending on
+the path travelled. A settle ends when the equilibrium residual says so, never on time alone.
 """
 
 from __future__ import annotations
@@ -14,12 +15,41 @@ import mujoco
 import numpy as np
 
 from .errors import ConfigError, SimulationError
-from .measures import ClearanceProbe, WearMeasures, cable_points, measure_cable
+from .measures import ClearanceProbe, WearMeasures, cable_points, measure_cable, node_loads
 from .station import Station
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_INTEGRATION | mujoco.mjtState.mjSTATE_PLASTIC
-# Settling checks vertex speeds every this many steps (cheap, and settling is never shorter).
+# Settling checks the equilibrium residual every this many steps (one extra forward pass each).
 SETTLE_CHECK_EVERY = 10
+
+
+@dataclass(frozen=True)
+class Equilibrium:
+    """How far a cable state is from static equilibrium.
+
+    ``force_residual``: the largest net static force (elastic, gravity, contact, constraint; velocities
+    zeroed) on any free vertex divided by that vertex's weight; ``torque_residual``: the largest net
+    torque on a twist hinge divided by the weight torque of one segment at the cable radius
+    (rho h g r); ``kinetic_energy`` [J] of the cables. ``converged`` when all are within the station's
+    tolerances (``simulation.equilibrium_tolerance`` and ``simulation.equilibrium_speed``).
+    """
+
+    force_residual: float
+    torque_residual: float
+    kinetic_energy: float
+    converged: bool
+
+
+@dataclass(frozen=True)
+class SettleResult:
+    """What a settle did: simulated seconds, and the equilibrium it ended in (``converged`` or not)."""
+
+    time: float
+    equilibrium: Equilibrium
+
+    @property
+    def converged(self) -> bool:
+        return self.equilibrium.converged
 
 
 @dataclass
@@ -51,15 +81,36 @@ class CableSimulator:
         self.station = station
         self.model = station.model
         self.data = mujoco.MjData(self.model)
+        self._scratch = mujoco.MjData(self.model)  # static-force evaluations for the equilibrium residual
         self.config = station.config.simulation
         self.probe = ClearanceProbe(station)
         self.q = station.home.copy()  # commanded robot joints, (n_robots, 6)
         self.motion_time = 0.0  # simulated seconds spent in robot motion (the cycle time)
-        self._vertex_dofs = np.concatenate([c.vertex_dof.ravel() for c in station.cables])
+        self.last_settle: SettleResult | None = None
+        cables = station.cables
+        self._free_dof = np.concatenate([c.free_dof.ravel() for c in cables])
+        self._free_dof_mass = np.concatenate([np.repeat(c.free_mass, 3) for c in cables])
+        self._free_weight = np.concatenate([c.free_mass for c in cables]) * max(self.config.gravity, 1e-9)
+        self._twist_dof = np.concatenate([p.twist_dof[p.twist_dof >= 0] for c in cables for p in c.pieces])
+        self._twist_scale = np.concatenate([
+            np.full(int((p.twist_dof >= 0).sum()), self._torque_scale(station, i))
+            for i, c in enumerate(cables) for p in c.pieces])
+        self._twist_inertia = self.model.dof_M0[self._twist_dof].copy() if len(self._twist_dof) else np.zeros(0)
+        self._drag = -self.config.cable_damping * self._free_dof_mass  # f = -c m v on every free vertex dof
         self._robot_qpos = _as_slice(station.robot_qpos)  # a slice writes faster than an index array
         self._robot_dof = _as_slice(station.robot_dof)
-        self._body_pos0 = [self.model.body_pos[c.vertex_bodies].copy() for c in station.cables]
+        self._load_qpos = _as_slice(station.load_qpos)
+        self._load_dof = _as_slice(station.load_dof)
+        self._load_values = station.load_values
+        self._free_dof_idx = _as_slice(self._free_dof)
+        self._cable_mass = float(self._free_dof_mass.sum() / 3.0)
+        self._body_pos0 = [self.model.body_pos[c.free_bodies].copy() for c in cables]
         self.reset()
+
+    @staticmethod
+    def _torque_scale(station: Station, robot: int) -> float:
+        dp = station.config.robots[robot].dresspack
+        return dp.linear_density * dp.segment_length * max(station.config.simulation.gravity, 1e-9) * dp.radius
 
     # ------------------------------------------------------------------------------ state
     def reset(self, q=None, *, settle: bool = True) -> None:
@@ -75,9 +126,10 @@ class CableSimulator:
         at_home = np.array_equal(q, self.station.home)
         shapes = self.station.home_cable_shapes if at_home else self.station.initial_cable_shapes(q)
         for cable, shape, pos0 in zip(self.station.cables, shapes, self._body_pos0):
-            d.qpos[cable.vertex_qpos] = shape - pos0
+            d.qpos[cable.free_qpos] = shape[cable.free_vertices] - pos0
         mujoco.mj_forward(m, d)
         self.motion_time = 0.0
+        self.last_settle = None
         if settle:
             self.settle()
 
@@ -106,6 +158,7 @@ class CableSimulator:
         Duration: the slowest joint at ``speed_fraction`` of its rated speed, stretched by 1.5 for the
         cubic time law (whose peak speed is 1.5x the mean). Returns samples every ``record_every`` s.
         With ``until`` (a motion time) the motion stops there, mid-segment, without settling.
+        The settle's outcome is kept in ``last_settle``.
         """
         target = self._as_q(q_target, "q_target")
         frac = self.config.speed_fraction if speed_fraction is None else float(speed_fraction)
@@ -123,12 +176,8 @@ class CableSimulator:
         taus = [k / steps for k in range(1, steps + 1)]
         path = start.ravel() + np.array([3 * t**2 - 2 * t**3 for t in taus])[:, None] * delta.ravel()
         vel = np.array([(6 * t - 6 * t**2) / duration for t in taus])[:, None] * delta.ravel()
-        qpos, qvel = self.data.qpos, self.data.qvel
-        iq, iv = self._robot_qpos, self._robot_dof
         for k in range(1, steps + 1):
-            qpos[iq] = path[k - 1]
-            qvel[iv] = vel[k - 1]
-            mujoco.mj_step(self.model, self.data)
+            self._step(path[k - 1], vel[k - 1])
             if stride and (k % stride == 0 or k == steps):
                 self._record(trace, self.motion_time + k * dt, path[k - 1].reshape(start.shape))
             if until is not None and self.motion_time + k * dt >= until:  # frozen mid-motion (e.g. to render)
@@ -156,43 +205,85 @@ class CableSimulator:
                                       record_every=record_every))
         return trace
 
-    def settle(self, max_time: float | None = None, *, timestep: float | None = None) -> float:
-        """Hold the robots still until the cables are in equilibrium; returns the simulated seconds used.
+    def settle(self, max_time: float | None = None, *, timestep: float | None = None) -> SettleResult:
+        """Hold the robots still until the cables are in static equilibrium (or ``max_time`` runs out).
 
-        Equilibrium: every vertex slower than ``settle_speed`` and accelerating less than ``settle_accel``
-        (a slow longitudinal bounce of the cable has small speeds but large accelerations). ``timestep``
-        may exceed the motion timestep: with the robots still, only the (stable) relaxation is integrated.
+        Equilibrium is checked by its residual (:meth:`equilibrium`) every few steps; the result says
+        whether it was reached (``converged``) and is kept in ``last_settle``. ``timestep`` (default
+        ``simulation.settle_timestep``) may exceed the motion timestep: with the robots still, only the
+        relaxation is integrated, and no model parameter depends on the timestep.
         """
-        max_time = self.config.settle_time if max_time is None else max_time
+        max_time = self.config.settle_time if max_time is None else float(max_time)
         dt_motion = self.model.opt.timestep
-        dt = dt_motion if timestep is None else float(timestep)
+        dt = self.config.settle_timestep if timestep is None else float(timestep)
         steps = int(np.ceil(max_time / dt))
         self._drive(self.q, np.zeros_like(self.q))
         self.model.opt.timestep = dt
         try:
-            done = self._settle_steps(steps)
+            done, eq = self._settle_steps(steps, dt)
         finally:
             self.model.opt.timestep = dt_motion
         self._check_finite()
         mujoco.mj_forward(self.model, self.data)
-        return done * dt
+        self.last_settle = SettleResult(done * dt, eq)
+        return self.last_settle
 
-    def _settle_steps(self, steps: int) -> int:
+    def _settle_steps(self, steps: int, dt: float) -> tuple[int, Equilibrium]:
         done = 0
-        while done < steps:
+        q = self.q.ravel()
+        zero = np.zeros_like(q)
+        eq = self.equilibrium(timestep=dt)
+        while done < steps and not eq.converged:
             n = min(SETTLE_CHECK_EVERY, steps - done)
-            q = self.q.ravel()
             for _ in range(n):
-                self.data.qpos[self._robot_qpos] = q
-                self.data.qvel[self._robot_dof] = 0.0
-                mujoco.mj_step(self.model, self.data)
+                self._step(q, zero)
             done += n
-            if (np.max(np.abs(self.data.qvel[self._vertex_dofs])) < self.config.settle_speed
-                    and np.max(np.abs(self.data.qacc[self._vertex_dofs])) < self.config.settle_accel):
-                break
-        return done
+            eq = self.equilibrium(timestep=dt)
+        return done, eq
+
+    def _step(self, q_flat: np.ndarray, qdot_flat: np.ndarray) -> None:
+        """One physics step with the robots at ``q_flat`` moving at ``qdot_flat`` (load cells held)."""
+        d = self.data
+        d.qpos[self._robot_qpos] = q_flat
+        d.qvel[self._robot_dof] = qdot_flat
+        d.qpos[self._load_qpos] = self._load_values
+        d.qvel[self._load_dof] = 0.0
+        d.qfrc_applied[self._free_dof_idx] = self._drag * d.qvel[self._free_dof_idx]
+        mujoco.mj_step(self.model, d)
 
     # ------------------------------------------------------------------------------ queries
+    def equilibrium(self, *, timestep: float | None = None) -> Equilibrium:
+        """The equilibrium residual of the current state (see :class:`Equilibrium`).
+
+        Static friction holds a resting cable only through the integrator's discrete-time contact model
+        (MuJoCo's soft friction creeps in continuous time), so the static forces are evaluated at the
+        relaxation timestep (``simulation.settle_timestep`` unless given): a state is an equilibrium when
+        one relaxation step would leave it at rest.
+        """
+        m, s = self.model, self._scratch
+        state = np.empty(mujoco.mj_stateSize(m, STATE_SPEC))
+        mujoco.mj_getState(m, self.data, state, STATE_SPEC)
+        mujoco.mj_setState(m, s, state, STATE_SPEC)
+        s.qvel[:] = 0.0
+        s.qfrc_applied[:] = 0.0
+        dt_before = m.opt.timestep
+        m.opt.timestep = self.config.settle_timestep if timestep is None else float(timestep)
+        try:
+            mujoco.mj_forward(m, s)
+        finally:
+            m.opt.timestep = dt_before
+        net = s.qfrc_spring + s.qfrc_constraint - s.qfrc_bias
+        force = np.linalg.norm(net[self._free_dof].reshape(-1, 3), axis=1) / self._free_weight
+        torque = np.abs(net[self._twist_dof]) / self._twist_scale if len(self._twist_dof) else np.zeros(1)
+        v = self.data.qvel
+        kinetic = 0.5 * float(self._free_dof_mass @ v[self._free_dof] ** 2)
+        if len(self._twist_dof):
+            kinetic += 0.5 * float(self._twist_inertia @ v[self._twist_dof] ** 2)
+        tol = self.config.equilibrium_tolerance
+        kinetic_tol = 0.5 * self._cable_mass * self.config.equilibrium_speed ** 2
+        f, t = float(force.max()), float(torque.max())
+        return Equilibrium(f, t, kinetic, bool(f < tol and t < tol and kinetic < kinetic_tol))
+
     def measures(self) -> WearMeasures:
         """Station-level wear measures of the current configuration (worst over all cables)."""
         return WearMeasures.worst(self.cable_measures())
@@ -200,16 +291,22 @@ class CableSimulator:
     def cable_measures(self) -> list[WearMeasures]:
         return [measure_cable(self.station, self.data, c, self.probe) for c in self.station.cables]
 
+    def node_loads(self, robot: int = 0):
+        """Force [N] and torque [N m] each node of a cable carries, in the node frame (see measures.node_loads)."""
+        return node_loads(self.model, self.data, self.station.cables[robot])
+
     def cable_points(self, robot: int = 0) -> np.ndarray:
         return cable_points(self.data, self.station.cables[robot])
 
     def max_vertex_speed(self) -> float:
-        return float(np.max(np.abs(self.data.qvel[self._vertex_dofs])))
+        return float(np.max(np.abs(self.data.qvel[self._free_dof])))
 
     # ------------------------------------------------------------------------------ internals
     def _drive(self, q: np.ndarray, qdot: np.ndarray) -> None:
         self.data.qpos[self._robot_qpos] = q.ravel()
         self.data.qvel[self._robot_dof] = qdot.ravel()
+        self.data.qpos[self._load_qpos] = self._load_values
+        self.data.qvel[self._load_dof] = 0.0
 
     def _record(self, trace: MotionTrace, t: float, q: np.ndarray) -> None:
         mujoco.mj_forward(self.model, self.data)

@@ -7,13 +7,29 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from .cable_model import NodeAttachment, add_cable, reference_shape
+from .cable_model import (LOAD_CELL_NQ, LOAD_CELL_NV, CableLayout, NodeAttachment, RodPiece, add_cable,
+                          apply_edge_invweight, edge_constraint, reference_shape)
 from .config import StationConfig
 from .errors import ConfigError, KinematicsError
 from .kinematics import RobotKinematics, rpy_matrix, weld_configurations
 from .robot_model import OBSTACLE_BITS, _set_primitive, add_robot, body_name, joint_name, mat_to_quat
 
+SOLVER_TOLERANCE = 1e-10
 LINK_INDEX = {"base": 0, "link1": 1, "link2": 2, "link3": 3, "link4": 4, "link5": 5, "link6": 6}
+
+
+@dataclass
+class PieceIndex:
+    """Addresses of one rod (raw flex) of a cable."""
+
+    piece: RodPiece
+    flex_id: int
+    edge_eq_id: int  # equality id of its edge constraint
+    twist_qpos: np.ndarray  # qpos address per edge twist hinge (-1 for a clamped edge)
+    twist_dof: np.ndarray  # dof address per edge twist hinge (-1 for a clamped edge)
+    rigid_edge: np.ndarray  # True where both vertices sit on one node body (no stretch, no tension row)
+    plastic_adr: int  # start of the rod's DER state in mjData.plastic (frames, then reference twist)
+    vert_adr: int  # first row of the rod's vertices in mjData.flexvert_xpos
 
 
 @dataclass
@@ -21,16 +37,27 @@ class CableIndex:
     """Addresses of one dresspack inside the compiled model."""
 
     robot: str
-    flex_id: int
-    vertex_bodies: np.ndarray  # body id per vertex
-    vertex_qpos: np.ndarray  # (n+1, 3) qpos addresses of the vertex slide joints
-    vertex_dof: np.ndarray  # (n+1, 3) dof addresses
-    twist_qpos: np.ndarray  # qpos address per edge twist joint (-1 where the edge has none)
-    edge_eq_id: int  # equality id of the flex edge constraint
-    attachments: tuple[NodeAttachment, ...]
-    node_eq_ids: tuple[tuple[int, ...], ...]  # connect equality ids holding each node's vertices
+    layout: CableLayout
+    pieces: list[PieceIndex]
+    point_rows: np.ndarray  # (n+1,) row of each cable vertex in mjData.flexvert_xpos
+    free_vertices: np.ndarray  # global indices of vertices with their own slider body
+    free_bodies: np.ndarray  # their body ids
+    free_qpos: np.ndarray  # (n_free, 3) qpos addresses of their slide joints
+    free_dof: np.ndarray  # (n_free, 3) dof addresses
+    free_mass: np.ndarray  # (n_free,) kg
+    load_qpos: np.ndarray  # (n_nodes, 7) qpos addresses of each node's load cell
+    load_dof: np.ndarray  # (n_nodes, 6) dof addresses of each node's load cell
+    node_bodies: np.ndarray  # (n_nodes,) body id of each node body
     segment_length: float
     radius: float
+
+    @property
+    def attachments(self) -> tuple[NodeAttachment, ...]:
+        return self.layout.attachments
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.point_rows)
 
 
 @dataclass
@@ -56,6 +83,11 @@ class Station:
         m = self.model
         m.opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
         m.opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
+        # MuJoCo's default 1e-8 lets the warm-started solver stop with ~1 % of a vertex weight of imbalance
+        # that the dynamics never removes; 1e-10 lets settled states reach the equilibrium residual.
+        m.opt.tolerance = SOLVER_TOLERANCE
+        for r, layout in zip(config.robots, self._attachments):
+            apply_edge_invweight(m, [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, p.flex) for p in layout.pieces], edge_constraint(r.dresspack)[2])
         self.robots = []
         for r in config.robots:
             qpos = np.array([m.jnt_qposadr[m.joint(joint_name(r.name, j)).id] for j in range(6)])
@@ -69,6 +101,11 @@ class Station:
                                        + ([m.geom("floor").id] if config.floor else []), dtype=int)
         self.robot_qpos = np.concatenate([r.qpos for r in self.robots])
         self.robot_dof = np.concatenate([r.dof for r in self.robots])
+        # Load cells are kinematic like the robot joints: written every step with these constant values.
+        self.load_qpos = np.concatenate([c.load_qpos.ravel() for c in self.cables])
+        self.load_dof = np.concatenate([c.load_dof.ravel() for c in self.cables])
+        self.load_values = np.concatenate([np.asarray(a.load_qpos, dtype=float) for c in self.cables
+                                           for a in c.attachments])
         self.home = np.stack([r.home for r in config.robots])
         self.weld_configurations = self._solve_welds(config)
         self.restrictions = [r.restrictions for r in config.robots]
@@ -122,8 +159,9 @@ class Station:
         spec.option.timestep = sim.timestep
         spec.option.gravity = [0, 0, -sim.gravity]
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
-        spec.option.viscosity = 1.0  # cable damping via the inertia-box fluid model (see cable_model)
-        spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_REFSAFE  # allow 1-step clamp constraints
+        # No model-wide fluid: cable damping is explicit viscous drag on the free vertices (simulation.py),
+        # so no option acts on the rod's twist bodies or the node bodies.
+        spec.option.viscosity = 0.0
         spec.visual.global_.offwidth = 1280
         spec.visual.global_.offheight = 960
         spec.worldbody.add_light(pos=[0, 0, 6], dir=[0, 0, -1], diffuse=[0.8, 0.8, 0.8])
@@ -142,12 +180,16 @@ class Station:
         self._attachments = []
         for r in config.robots:
             add_robot(spec, r)
-        for r in config.robots:
+        for i, r in enumerate(config.robots):
             kin = RobotKinematics(r.robot, r.base_pos, r.base_yaw)
-            frames = kin.link_frames(r.home)
-            first = r.dresspack.nodes[0]
-            start_frame = np.eye(4) if first.body == "world" else frames[LINK_INDEX[first.body]]
-            self._attachments.append(add_cable(spec, r.name, r.dresspack, start_frame, timestep=sim.timestep,
+            zero_frames = _node_frames(r, kin.link_frames(np.zeros(6)))
+            home_frames = _node_frames(r, kin.link_frames(r.home))
+            try:  # the Home reference shape fixes the clamps' roll (installed untwisted at Home)
+                home_shape = reference_shape(r.dresspack, home_frames, np.array([0.0, 0.0, -1.0]))
+            except ConfigError as exc:
+                raise ConfigError(f"robots[{i}].{exc.field}", str(exc).split(": ", 1)[1]) from None
+            self._attachments.append(add_cable(spec, r.name, r.dresspack, zero_frames=zero_frames,
+                                               home_frames=home_frames, home_shape=home_shape,
                                                cable_damping=sim.cable_damping,
                                                bending_damping=sim.bending_damping))
         return spec
@@ -164,31 +206,42 @@ class Station:
         g.rgba = list(o.rgba)
         g.contype, g.conaffinity = OBSTACLE_BITS, 0
 
-    def _cable_index(self, placement, attachments) -> CableIndex:
+    def _cable_index(self, placement, layout: CableLayout) -> CableIndex:
         m = self.model
         name = placement.name
         dp = placement.dresspack
-        n = dp.segments
-        flex_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, f"{name}/cable")
-        bodies = np.array([m.body(f"{name}/cable_{i}").id for i in range(n + 1)])
-        qpos = np.zeros((n + 1, 3), dtype=int)
-        dof = np.zeros((n + 1, 3), dtype=int)
-        for i, b in enumerate(bodies):
-            j0 = m.body_jntadr[b]
-            if m.body_jntnum[b] != 3:
-                raise ConfigError("dresspack", f"cable vertex {i} has {m.body_jntnum[b]} joints, expected 3")
-            qpos[i] = m.jnt_qposadr[j0:j0 + 3]
-            dof[i] = m.jnt_dofadr[j0:j0 + 3]
-        twist = np.full(n, -1, dtype=int)
-        for e in range(n):
-            jname = f"{name}/cable_twist" if e == n - 1 else f"{name}/cable_twist_{e}"
-            try:
-                twist[e] = m.jnt_qposadr[m.joint(jname).id]
-            except KeyError:
-                pass
-        eq = [i for i in range(m.neq) if m.eq_type[i] == mujoco.mjtEq.mjEQ_FLEX and m.eq_obj1id[i] == flex_id]
-        node_eqs = tuple(tuple(m.equality(f"{vs}_connect").id for vs in att.vertex_sites) for att in attachments)
-        return CableIndex(name, flex_id, bodies, qpos, dof, twist, eq[0], tuple(attachments), node_eqs,
+        pieces, point_rows = [], np.full(dp.segments + 1, -1, dtype=int)
+        for piece in layout.pieces:
+            fid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, piece.flex)
+            twist_q = np.full(piece.n_edges, -1, dtype=int)
+            twist_v = np.full(piece.n_edges, -1, dtype=int)
+            for e in range(piece.n_edges):
+                jn = piece.twist_joint(e)
+                if jn is not None:
+                    twist_q[e] = m.jnt_qposadr[m.joint(jn).id]
+                    twist_v[e] = m.jnt_dofadr[m.joint(jn).id]
+            vadr = int(m.flex_vertadr[fid])
+            for j, v in enumerate(piece.vertices):
+                if point_rows[v] < 0:
+                    point_rows[v] = vadr + j
+            held = np.array(piece.held)
+            pieces.append(PieceIndex(piece, fid, m.equality(f"{piece.flex}_edges").id, twist_q, twist_v,
+                                     held[:-1] & held[1:] & _same_node(layout, piece), int(m.flex_plasticadr[fid]),
+                                     vadr))
+        free = np.array(layout.free_vertices, dtype=int)
+        bodies = np.array([m.body(f"{name}/cable_{v}").id for v in free], dtype=int)
+        fq = np.array([m.jnt_qposadr[m.body_jntadr[b]:m.body_jntadr[b] + 3] for b in bodies], dtype=int)
+        fv = np.array([m.jnt_dofadr[m.body_jntadr[b]:m.body_jntadr[b] + 3] for b in bodies], dtype=int)
+        lq, lv = [], []
+        for att in layout.attachments:
+            j0 = m.body_jntadr[m.body(att.body).id]
+            lq.append(np.concatenate([np.arange(m.jnt_qposadr[j0], m.jnt_qposadr[j0] + 3),
+                                      np.arange(m.jnt_qposadr[j0 + 3], m.jnt_qposadr[j0 + 3] + 4)]))
+            lv.append(np.arange(m.jnt_dofadr[j0], m.jnt_dofadr[j0] + LOAD_CELL_NV))
+        return CableIndex(name, layout, pieces, point_rows, free, bodies, fq, fv, m.body_mass[bodies].copy(),
+                          np.array(lq, dtype=int).reshape(-1, LOAD_CELL_NQ),
+                          np.array(lv, dtype=int).reshape(-1, LOAD_CELL_NV),
+                          np.array([m.body(a.body).id for a in layout.attachments], dtype=int),
                           dp.segment_length, dp.radius)
 
     # ------------------------------------------------------------------------------ helpers
@@ -203,3 +256,15 @@ class Station:
         frames = rob.kinematics.link_frames(q)
         node_frames = [np.eye(4) if nd.body == "world" else frames[LINK_INDEX[nd.body]] for nd in r.dresspack.nodes]
         return reference_shape(r.dresspack, node_frames, gdir)
+
+
+def _node_frames(placement, link_frames: list[np.ndarray]) -> list[np.ndarray]:
+    """World pose of the body holding each node of the robot's dresspack."""
+    return [np.eye(4) if nd.body == "world" else link_frames[LINK_INDEX[nd.body]] for nd in placement.dresspack.nodes]
+
+
+def _same_node(layout: CableLayout, piece: RodPiece) -> np.ndarray:
+    """Per edge of ``piece``: both vertices held by the same node (a clamp's rigid edge)."""
+    owner = {v: k for k, att in enumerate(layout.attachments) for v in att.vertices}
+    o = [owner.get(v, -1 - i) for i, v in enumerate(piece.vertices)]
+    return np.array([a == b for a, b in zip(o[:-1], o[1:])])
