@@ -44,6 +44,8 @@ EDGE_IMPEDANCE = 0.5
 # Contacts of the cable with obstacles and links: a fixed time constant (not tied to the timestep, so
 # relaxation at larger steps sees the same contact), critically damped, MuJoCo's default impedance.
 CONTACT_SOLREF = (0.02, 1.0)
+# A span whose chord is within this fraction of its cable length is laid straight (taut) at build time.
+TAUT_SLACK = 1e-6
 # Node bodies are massless in effect: tiny mass and inertia so gravity on them is negligible.
 NODE_MASS = 1e-6
 NODE_INERTIA = 1e-12
@@ -212,8 +214,10 @@ def _too_short(dresspack, p0, p1, length):
 
 def _span(p0, t0, p1, t1, length, segments, g, dresspack) -> np.ndarray:
     chord = np.linalg.norm(p1 - p0)
-    if chord > length * 0.999:
+    if chord > length * (1.0 + TAUT_SLACK):
         _too_short(dresspack, p0, p1, length)
+    if chord > length * (1.0 - TAUT_SLACK):  # an exactly taut span: the straight line between its ends
+        return p0 + np.linspace(0.0, 1.0, segments + 1)[:, None] * (p1 - p0)
     u = np.linspace(0.0, 1.0, 2001)[:, None]
     h00, h10, h01, h11 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2, u**3 - u**2
     c = (p1 - p0) / max(chord, 1e-12)

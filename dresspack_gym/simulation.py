@@ -30,7 +30,7 @@ class Equilibrium:
     ``force_residual``: the largest net static force (elastic, gravity, contact, constraint; velocities
     zeroed) on any free vertex divided by that vertex's weight; ``torque_residual``: the largest net
     torque on a twist hinge divided by the weight torque of one segment at the cable radius
-    (rho h g r); ``kinetic_energy`` [J] of the cables. ``converged`` when all are within the station's
+    (rho h g r; g taken as at least 1 m/s^2 so that a weightless cable has a scale too); ``kinetic_energy`` [J] of the cables. ``converged`` when all are within the station's
     tolerances (``simulation.equilibrium_tolerance`` and ``simulation.equilibrium_speed``).
     """
 
@@ -66,6 +66,12 @@ class MotionTrace:
         self.measures += other.measures
 
 
+def _residual_gravity(gravity: float) -> float:
+    """The acceleration that turns masses into the residual's force scale: g, or 1 m/s^2 when g is smaller
+    (a weightless cable still needs a scale to call a force small)."""
+    return max(float(gravity), 1.0)
+
+
 def _as_slice(index: np.ndarray):
     """``index`` as a slice when it is a contiguous ascending range, else unchanged."""
     index = np.asarray(index)
@@ -90,7 +96,7 @@ class CableSimulator:
         cables = station.cables
         self._free_dof = np.concatenate([c.free_dof.ravel() for c in cables])
         self._free_dof_mass = np.concatenate([np.repeat(c.free_mass, 3) for c in cables])
-        self._free_weight = np.concatenate([c.free_mass for c in cables]) * max(self.config.gravity, 1e-9)
+        self._free_weight = np.concatenate([c.free_mass for c in cables]) * _residual_gravity(self.config.gravity)
         self._twist_dof = np.concatenate([p.twist_dof[p.twist_dof >= 0] for c in cables for p in c.pieces])
         self._twist_scale = np.concatenate([
             np.full(int((p.twist_dof >= 0).sum()), self._torque_scale(station, i))
@@ -110,7 +116,7 @@ class CableSimulator:
     @staticmethod
     def _torque_scale(station: Station, robot: int) -> float:
         dp = station.config.robots[robot].dresspack
-        return dp.linear_density * dp.segment_length * max(station.config.simulation.gravity, 1e-9) * dp.radius
+        return dp.linear_density * dp.segment_length * _residual_gravity(station.config.simulation.gravity) * dp.radius
 
     # ------------------------------------------------------------------------------ state
     def reset(self, q=None, *, settle: bool = True) -> None:
@@ -252,13 +258,15 @@ class CableSimulator:
         mujoco.mj_step(self.model, d)
 
     # ------------------------------------------------------------------------------ queries
-    def equilibrium(self, *, timestep: float | None = None) -> Equilibrium:
-        """The equilibrium residual of the current state (see :class:`Equilibrium`).
+    def static_forces(self, *, timestep: float | None = None) -> mujoco.MjData:
+        """The current configuration's static forces: a forward pass with every velocity zeroed.
 
-        Static friction holds a resting cable only through the integrator's discrete-time contact model
-        (MuJoCo's soft friction creeps in continuous time), so the static forces are evaluated at the
-        relaxation timestep (``simulation.settle_timestep`` unless given): a state is an equilibrium when
-        one relaxation step would leave it at rest.
+        Returns a scratch ``MjData`` (same positions and DER frames as ``data``) whose constraint and
+        elastic forces are those of the cable at rest in this shape: what the equilibrium residual, the
+        tensions and the node loads are read from. Stiff soft constraints and static friction act through
+        MuJoCo's discrete-time model, so the pass uses the relaxation timestep (``simulation.settle_timestep``
+        unless given), the step at which settled shapes are found: a state is an equilibrium when one
+        relaxation step would leave it at rest.
         """
         m, s = self.model, self._scratch
         state = np.empty(mujoco.mj_stateSize(m, STATE_SPEC))
@@ -272,6 +280,11 @@ class CableSimulator:
             mujoco.mj_forward(m, s)
         finally:
             m.opt.timestep = dt_before
+        return s
+
+    def equilibrium(self, *, timestep: float | None = None) -> Equilibrium:
+        """The equilibrium residual of the current state (see :class:`Equilibrium` and :meth:`static_forces`)."""
+        s = self.static_forces(timestep=timestep)
         net = s.qfrc_spring + s.qfrc_constraint - s.qfrc_bias
         force = np.linalg.norm(net[self._free_dof].reshape(-1, 3), axis=1) / self._free_weight
         torque = np.abs(net[self._twist_dof]) / self._twist_scale if len(self._twist_dof) else np.zeros(1)
@@ -289,11 +302,13 @@ class CableSimulator:
         return WearMeasures.worst(self.cable_measures())
 
     def cable_measures(self) -> list[WearMeasures]:
-        return [measure_cable(self.station, self.data, c, self.probe) for c in self.station.cables]
+        """Wear measures of every cable in its current shape; forces are the shape's static forces."""
+        static = self.static_forces()
+        return [measure_cable(self.station, static, c, self.probe) for c in self.station.cables]
 
     def node_loads(self, robot: int = 0):
         """Force [N] and torque [N m] each node of a cable carries, in the node frame (see measures.node_loads)."""
-        return node_loads(self.model, self.data, self.station.cables[robot])
+        return node_loads(self.model, self.static_forces(), self.station.cables[robot])
 
     def cable_points(self, robot: int = 0) -> np.ndarray:
         return cable_points(self.data, self.station.cables[robot])
@@ -309,7 +324,6 @@ class CableSimulator:
         self.data.qvel[self._load_dof] = 0.0
 
     def _record(self, trace: MotionTrace, t: float, q: np.ndarray) -> None:
-        mujoco.mj_forward(self.model, self.data)
         trace.time.append(t)
         trace.q.append(np.array(q, dtype=float))
         trace.measures.append(self.measures())

@@ -15,7 +15,7 @@ def test_hanging_cable_top_tension_is_rho_g_L():
     station = world_cable_station([{"name": "top", "body": "world", "pos": [0, 0, 3.0], "direction": [0, 0, -1]}])
     sim = settled(station)
     cable = station.cables[0]
-    tension = edge_tensions(station.model, sim.data, cable)
+    tension = edge_tensions(station.model, sim.static_forces(), cable)
     rho, length = 1.25, 1.74
     assert sim.measures().max_tension == pytest.approx(rho * G * length, rel=0.03)
     # Every free edge (below the clamped first edge) carries the weight below its midpoint.
