@@ -164,3 +164,39 @@ def test_cantilever_clamp_moment():
         assert np.linalg.norm(forces[0]) == pytest.approx(w * length, rel=0.01)
         # the moment about the clamp point of the (slightly deflected) cable's weight: ~ w L^2 / 2
         assert np.linalg.norm(torques[0]) == pytest.approx(w * length ** 2 / 2, rel=0.02)
+
+
+@pytest.mark.parametrize("segments", [20, 40])
+def test_twisted_rod_buckles_near_greenhill_moment(segments):
+    """Clamped-clamped straight rod, no tension, twisted by turning one clamp: it stays straight (a lateral
+    push dies out) below the critical twisting moment M = 2.86 pi EI / L (Greenhill; Timoshenko & Gere) and
+    buckles above it. The onset is found from the post-buckling amplitude (amplitude^2 grows linearly
+    with the twist past a supercritical bifurcation) and must be within 10 % of Greenhill's moment."""
+    length, ei, gj = 1.0, 0.01, 0.1
+    h = length / segments
+    station = _wrist_axis_station(length, segments, gj=gj, ei=ei, simulation=TIGHT)
+    sim = CableSimulator(station)
+    cable = station.cables[0]
+    axis = sim.cable_points()
+    mid = len(cable.free_vertices) // 2
+    m_crit = 2.86 * math.pi * ei / (length - h)  # bending length between the clamped edges' outer vertices
+    thetas, amplitudes, moments = [], [], []
+    for deg in range(34, 79, 4):
+        q = station.home.copy()
+        q[0, 5] = math.radians(deg)
+        sim.move_to(q)
+        sim.data.qpos[cable.free_qpos[mid][1]] += 0.003  # a 3 mm lateral push at mid-span
+        sim.settle(5.0)
+        amplitudes.append(np.linalg.norm((sim.cable_points() - axis)[:, 1:], axis=1).max())
+        moments.append(abs(sim.node_loads()[1][0][0]))
+        thetas.append(math.radians(deg))
+    thetas, amplitudes, moments = map(np.array, (thetas, amplitudes, moments))
+    np.testing.assert_allclose(moments, gj * thetas / (length - h), rtol=0.02)  # torsion stays linear
+    stable = moments < 0.85 * m_crit
+    assert stable.any() and (amplitudes[stable] < 1e-4).all()  # the push dies out well below the critical moment
+    buckled = amplitudes > 2e-3
+    assert buckled.sum() >= 4 and (moments[buckled] > 0.95 * m_crit).all()
+    slope, intercept = np.polyfit(thetas[buckled], amplitudes[buckled] ** 2, 1)
+    onset_moment = gj * (-intercept / slope) / (length - h)
+    print(f"segments {segments}: onset {onset_moment:.4f} N m, Greenhill {m_crit:.4f} N m")
+    assert onset_moment == pytest.approx(m_crit, rel=0.10)
