@@ -40,7 +40,32 @@ def _measure_report(sim) -> dict:
         "tension_at": m.tension_at,
         "clearance_at": m.clearance_at,
         "nearest_obstacle": m.nearest_obstacle,
+        "total_twist": m.total_twist,
+        "max_compression": m.max_compression,
+        "max_node_force": m.max_node_force,
+        "max_node_torque": m.max_node_torque,
+        "nodes": _node_report(sim),
+        "equilibrium": _equilibrium_report(sim),
     }
+
+
+def _node_report(sim) -> dict:
+    """Per node: the force [N] and torque [N m] it carries, in its frame (x = cable direction of a clamp)."""
+    out = {}
+    for i, cable in enumerate(sim.station.cables):
+        forces, torques = sim.node_loads(i)
+        for att, f, t in zip(cable.attachments, forces, torques):
+            out[f"{cable.robot}/{att.node.name}"] = {"force": [round(float(v), 6) for v in f],
+                                                     "torque": [round(float(v), 6) for v in t]}
+    return out
+
+
+def _equilibrium_report(sim) -> dict:
+    """The last settle's equilibrium residual (a settled shape carries its proof)."""
+    r = sim.last_settle
+    eq = r.equilibrium if r is not None else sim.equilibrium()
+    return {"converged": eq.converged, "force_residual": eq.force_residual, "torque_residual": eq.torque_residual,
+            "kinetic_energy": eq.kinetic_energy, "settle_time": r.time if r is not None else None}
 
 
 def cmd_inspect(args) -> int:
@@ -63,7 +88,7 @@ def cmd_inspect(args) -> int:
         print(f"  Dresspack {dp.name!r}: L={dp.length} m, r={dp.radius} m, rho={dp.linear_density} kg/m, "
               f"EI={dp.bending_stiffness} N m^2, GJ={dp.torsional_stiffness} N m^2, EA={dp.tensile_stiffness} N")
         print(f"    MuJoCo DER: {dp.segments} segments of {dp.segment_length * 1000:.1f} mm, young={dp.young_modulus:.4g} "
-              f"Pa, shear={dp.shear_modulus:.4g} Pa, inextensible edges")
+              f"Pa, shear={dp.shear_modulus:.4g} Pa, edges stretch with EA")
         for n in dp.nodes:
             kind = "clamp" if n.direction is not None else "ring"
             print(f"    node {n.name!r}: {kind} on {n.body} at {n.pos} (arc {n.arc_length:.3f} m)")
@@ -78,10 +103,19 @@ def cmd_inspect(args) -> int:
     print(f"  max curvature  {report['max_curvature']:8.3f} 1/m   (at {report['curvature_at']:.2f} m along the cable)")
     print(f"  max tension    {report['max_tension']:8.3f} N     (at {report['tension_at']:.2f} m)")
     print(f"  min clearance  {report['min_clearance']:8.3f} m     (to {report['nearest_obstacle'] or '-'})")
-    print(f"  max twist rate {report['max_twist_rate']:8.3f} rad/m")
+    print(f"  max twist rate {report['max_twist_rate']:8.3f} rad/m (total twist between clamps "
+          f"{report['total_twist']:.3f} rad)")
+    for name, load in report["nodes"].items():
+        f, t = np.array(load["force"]), np.array(load["torque"])
+        print(f"  node {name}: force {np.linalg.norm(f):7.2f} N (axial {f[0]:7.2f}), torque {np.linalg.norm(t):6.3f} N m "
+              f"(twist {t[0]:6.3f})")
+    eq = report["equilibrium"]
+    print(f"  equilibrium: {'converged' if eq['converged'] else 'NOT CONVERGED'} (force residual "
+          f"{eq['force_residual']:.4f} of a vertex weight, kinetic energy {eq['kinetic_energy']:.2e} J)")
     terms = report["cost_terms"]
     print(f"  wear cost (4.10) {report['cost']:.4f} = curvature {terms['curvature']:.4f} + tension "
-          f"{terms['tension']:.4f} + distance {terms['distance']:.4f}; normalized {report['normalized_cost']:.4f}")
+          f"{terms['tension']:.4f} + distance {terms['distance']:.4f} + twist {terms['twist']:.4f}; "
+          f"normalized {report['normalized_cost']:.4f}")
     return 0
 
 

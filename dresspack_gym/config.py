@@ -239,12 +239,18 @@ class WearCostConfig:
     w_tension: float = 1e-5
     w_distance: float = 100.0
     clearance: float = 1.0  # c [m]
+    # Optional twist term (not in the thesis's 4.10, which has no torsion): w_t max(0, tau - tau_0)^2 on the
+    # largest twist rate. Robot-cable data sheets commonly rate torsion at +-180 deg/m, hence tau_0 = pi.
+    w_twist: float = 0.0
+    twist_threshold: float = math.pi  # tau_0 [rad/m]
     # Reference scales of the normalised variant: each term is 1 when its measure is one scale
     # beyond its threshold, so equal weights penalise the three causes of wear about equally.
     curvature_scale: float = 8.0  # 1/m
     tension_scale: float = 100.0  # N
     clearance_scale: float = 0.1  # m
+    twist_scale: float = math.pi  # rad/m
     normalized_weights: tuple[float, float, float] = (1.0, 1.0, 1.0)  # curvature, tension, distance
+    normalized_twist_weight: float = 0.0  # the normalised variant's twist term (optional, like w_twist)
 
     @staticmethod
     def from_dict(data: Mapping[str, Any], path: str = "wear_cost") -> "WearCostConfig":
@@ -256,10 +262,14 @@ class WearCostConfig:
             w_tension=s.number("w_tension", d.w_tension, lo=0.0),
             w_distance=s.number("w_distance", d.w_distance, lo=0.0),
             clearance=s.number("clearance", d.clearance, lo=0.0, hi=100.0, unit="m"),
+            w_twist=s.number("w_twist", d.w_twist, lo=0.0),
+            twist_threshold=s.number("twist_threshold", d.twist_threshold, lo=0.0, hi=1e3, unit="rad/m"),
             curvature_scale=s.number("curvature_scale", d.curvature_scale, lo=0.0, lo_open=True, unit="1/m"),
             tension_scale=s.number("tension_scale", d.tension_scale, lo=0.0, lo_open=True, unit="N"),
             clearance_scale=s.number("clearance_scale", d.clearance_scale, lo=0.0, lo_open=True, unit="m"),
+            twist_scale=s.number("twist_scale", d.twist_scale, lo=0.0, lo_open=True, hi=1e3, unit="rad/m"),
             normalized_weights=s.vector("normalized_weights", 3, d.normalized_weights, lo=0.0),
+            normalized_twist_weight=s.number("normalized_twist_weight", d.normalized_twist_weight, lo=0.0),
         )
         s.done()
         return out

@@ -134,7 +134,7 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
         "clearance": np.array([m.min_clearance for m in samples_m]),
         "twist_rate": np.array([m.max_twist_rate for m in samples_m]),
     }
-    terms = {k: np.array([getattr(c, k) for c in costs]) for k in ("curvature", "tension", "distance")}
+    terms = {k: np.array([getattr(c, k) for c in costs]) for k in ("curvature", "tension", "distance", "twist")}
     return Replay(np.array(samples_t), np.array(samples_q), measures, np.array([c.total for c in costs]), terms,
                   stop_times, sim.motion_time,
                   {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance})

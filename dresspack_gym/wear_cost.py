@@ -10,26 +10,28 @@ from .measures import WearMeasures
 
 @dataclass(frozen=True)
 class WearCost:
-    """C = C_kappa + C_F + C_d for one configuration; ``normalized`` is the equal-weight variant."""
+    """C = C_kappa + C_F + C_d (+ the optional twist term C_t) for one configuration."""
 
     curvature: float
     tension: float
     distance: float
+    twist: float = 0.0
 
     @property
     def total(self) -> float:
-        return self.curvature + self.tension + self.distance
+        return self.curvature + self.tension + self.distance + self.twist
 
     def terms(self) -> dict[str, float]:
-        return {"curvature": self.curvature, "tension": self.tension, "distance": self.distance}
+        return {"curvature": self.curvature, "tension": self.tension, "distance": self.distance, "twist": self.twist}
 
 
 def wear_cost(m: WearMeasures, cfg: WearCostConfig) -> WearCost:
-    """Eq. (4.10): w_k max(0, k - k0)^2 + w_F F^2 + w_d min(0, d - c)^2."""
+    """Eq. (4.10): w_k max(0, k - k0)^2 + w_F F^2 + w_d min(0, d - c)^2, plus w_t max(0, tau - tau0)^2."""
     return WearCost(
         curvature=cfg.w_curvature * max(0.0, m.max_curvature - cfg.curvature_threshold) ** 2,
         tension=cfg.w_tension * m.max_tension ** 2,
         distance=cfg.w_distance * min(0.0, m.min_clearance - cfg.clearance) ** 2,
+        twist=cfg.w_twist * max(0.0, m.max_twist_rate - cfg.twist_threshold) ** 2,
     )
 
 
@@ -45,4 +47,5 @@ def normalized_wear_cost(m: WearMeasures, cfg: WearCostConfig) -> WearCost:
         curvature=wk * (max(0.0, m.max_curvature - cfg.curvature_threshold) / cfg.curvature_scale) ** 2,
         tension=wf * (m.max_tension / cfg.tension_scale) ** 2,
         distance=wd * (min(0.0, m.min_clearance - cfg.clearance) / cfg.clearance_scale) ** 2,
+        twist=cfg.normalized_twist_weight * (max(0.0, m.max_twist_rate - cfg.twist_threshold) / cfg.twist_scale) ** 2,
     )

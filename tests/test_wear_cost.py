@@ -45,3 +45,23 @@ def test_worst_over_cables():
     w = WearMeasures.worst([a, b])
     assert (w.max_curvature, w.max_tension, w.min_clearance, w.max_twist_rate) == (9.0, 10.0, 0.3, 1.0)
     assert w.nearest_obstacle == "a"
+
+
+def test_twist_term_is_optional_and_follows_its_threshold():
+    tw = WearMeasures(max_curvature=0.0, max_tension=0.0, min_clearance=5.0, max_twist_rate=5.0)
+    assert wear_cost(tw, THESIS).twist == 0.0  # off by default: the thesis cost has no twist
+    cfg = WearCostConfig(w_twist=2.0, twist_threshold=3.0, normalized_twist_weight=1.0, twist_scale=1.0)
+    c = wear_cost(tw, cfg)
+    assert c.twist == pytest.approx(2.0 * (5.0 - 3.0) ** 2)
+    assert c.total == pytest.approx(c.twist) and c.terms()["twist"] == c.twist
+    assert normalized_wear_cost(tw, cfg).twist == pytest.approx(((5.0 - 3.0) / 1.0) ** 2)
+    below = WearMeasures(max_curvature=0.0, max_tension=0.0, min_clearance=5.0, max_twist_rate=2.9)
+    assert wear_cost(below, cfg).twist == 0.0
+
+
+def test_worst_over_cables_takes_twist_and_node_loads():
+    a = WearMeasures(5.0, 10.0, 0.3, 1.0, total_twist=2.0, max_compression=0.5, max_node_force=30.0, max_node_torque=1.0)
+    b = WearMeasures(9.0, 2.0, 0.6, 3.0, total_twist=1.0, max_compression=1.5, max_node_force=10.0, max_node_torque=4.0)
+    w = WearMeasures.worst([a, b])
+    assert (w.max_twist_rate, w.total_twist, w.max_compression, w.max_node_force, w.max_node_torque) == \
+        (3.0, 2.0, 1.5, 30.0, 4.0)
