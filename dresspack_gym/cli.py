@@ -5,10 +5,11 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 import numpy as np
 
-from .errors import DresspackError
+from .errors import ConfigError, DresspackError
 
 
 def _load(station_ref: str):
@@ -202,6 +203,39 @@ def cmd_robustness_paths(args) -> int:
     return 0
 
 
+def cmd_twist_sweep(args) -> int:
+    from tqdm import tqdm
+
+    from .twist_sweep import plot_twist_sweep, twist_sweep
+
+    if not 0 < args.step <= args.span:
+        raise ConfigError("--step", f"must be in (0, --span={args.span}] degrees, got {args.step}")
+    _check_out_parent(args.plot, "--plot")
+    _check_out_parent(args.out, "--out")
+    station, sim = _load(args.station)
+    with tqdm(total=2 * int(round(args.span / args.step)) + 1, desc="twist sweep", unit="step",
+              disable=args.json) as bar:
+        sweep = twist_sweep(sim, span_deg=args.span, step_deg=args.step, progress=bar)
+    if args.plot:
+        plot_twist_sweep(sweep, args.plot)
+    if args.out:
+        Path(args.out).write_text(json.dumps(sweep.as_dict(), indent=1))
+    if args.json:
+        print(json.dumps(sweep.as_dict()))
+        return 0
+    print(f"{'j4+j6 [deg]':>11} {'twist torque [N m]':>30} {'max twist rate':>15} {'max curvature':>14} converged")
+    for i, s in enumerate(sweep.sum_deg):
+        tq = " ".join(f"{t:7.3f}" for t in sweep.node_twist_torque[i])
+        print(f"{s:11.0f} {tq:>30} {sweep.max_twist_rate[i]:15.3f} {sweep.max_curvature[i]:14.2f} "
+              f"{sweep.converged[i]}")
+    return 0
+
+
+def _check_out_parent(path, flag: str) -> None:
+    if path and not Path(path).resolve().parent.is_dir():
+        raise ConfigError(flag, f"the folder of {path!r} does not exist")
+
+
 def cmd_bench(args) -> int:
     from .bench import env_benchmark, physics_benchmark, restrictions_benchmark, robustness_benchmark
 
@@ -276,6 +310,14 @@ def build_parser(extensions=()) -> argparse.ArgumentParser:
     rp.add_argument("--backend", choices=["serial", "process", "ray"], default="process")
     rp.add_argument("--json", action="store_true")
     rp.set_defaults(func=cmd_robustness_paths)
+    tw = sub.add_parser("twist-sweep", help="clamp torque, twist and curvature against j4 + j6 (thesis 4.1)")
+    tw.add_argument("station")
+    tw.add_argument("--span", type=float, default=400.0, help="largest change of j4 + j6 from Home [deg]")
+    tw.add_argument("--step", type=float, default=10.0, help="step of j4 + j6 [deg]")
+    tw.add_argument("--plot", help="output PNG path")
+    tw.add_argument("--out", help="output JSON path")
+    tw.add_argument("--json", action="store_true")
+    tw.set_defaults(func=cmd_twist_sweep)
     b = sub.add_parser("bench", help="benchmarks")
     b.add_argument("what", choices=["physics", "restrictions", "env", "robustness"], help="which benchmark")
     b.add_argument("--station", default="default")

@@ -200,3 +200,18 @@ def test_twisted_rod_buckles_near_greenhill_moment(segments):
     onset_moment = gj * (-intercept / slope) / (length - h)
     print(f"segments {segments}: onset {onset_moment:.4f} N m, Greenhill {m_crit:.4f} N m")
     assert onset_moment == pytest.approx(m_crit, rel=0.10)
+
+
+def test_twist_sweep_twist_grows_with_the_wrist_sum():
+    """Thesis (4.1) sweep near Home: no twist at Home, twist rate and clamp twist torque grow with |j4 + j6|."""
+    from dresspack_gym.loading import load_station
+    from dresspack_gym.station import Station
+    from dresspack_gym.twist_sweep import twist_sweep
+
+    sweep = twist_sweep(CableSimulator(Station(load_station("default"))), span_deg=60, step_deg=20)
+    assert sweep.sum_deg == [-60, -40, -20, 0, 20, 40, 60]
+    rate = np.array(sweep.max_twist_rate)
+    assert rate[3] < 1e-6
+    assert np.all(np.diff(rate[:4]) < 0) and np.all(np.diff(rate[3:]) > 0)
+    torque = np.abs(np.array(sweep.node_twist_torque))
+    assert torque[3].max() < 1e-6 and torque[0].min() > 0.01 and torque[-1].min() > 0.01
