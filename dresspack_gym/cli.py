@@ -162,10 +162,14 @@ def cmd_robustness(args) -> int:
     from .robustness.runner import run_map
 
     grid = RobustnessGrid.from_dict(read_yaml(resolve_shipped(args.grid, "grids", "grid"), "grid"))
-    steps = {k: v for k, v in (("timestep", args.timestep), ("settle_timestep", args.settle_timestep)) if v is not None}
-    settings = RobustnessSettings(threshold=args.threshold, n_samples=args.samples, n_paths=args.n_paths,
-                                  speed_fraction=args.speed_fraction, settle_time=args.settle_time, start=args.start,
-                                  excursion=tuple(math.radians(e) for e in args.excursion), **steps)
+    # Only the options given override RobustnessSettings' defaults (they live there, once).
+    given = {"threshold": args.threshold, "n_samples": args.samples, "n_paths": args.n_paths,
+             "speed_fraction": args.speed_fraction, "settle_time": args.settle_time, "start": args.start,
+             "timestep": args.timestep, "settle_timestep": args.settle_timestep,
+             "max_dynamic_ratio": args.max_dynamic_ratio, "min_speed_fraction": args.min_speed_fraction,
+             "cable_robot_contact": args.cable_robot_contact or None,
+             "excursion": tuple(math.radians(e) for e in args.excursion) if args.excursion else None}
+    settings = RobustnessSettings(**{k: v for k, v in given.items() if v is not None})
     summary = run_map(grid, load_station(args.station), args.out, settings, backend=args.backend,
                       workers=args.workers, ray_address=args.ray_address, progress=not args.json, limit=args.limit)
     (Path(args.out) / "summary.json").write_text(json.dumps(summary, indent=2))
@@ -174,7 +178,8 @@ def cmd_robustness(args) -> int:
         print(json.dumps(summary, indent=2))
     else:
         print(f"{summary['n_non_robust']} of {summary['n_configs']} configurations non-robust "
-              f"({100 * summary['fraction_non_robust']:.1f} %), threshold {1000 * settings.threshold:.0f} mm")
+              f"({100 * summary['fraction_non_robust']:.1f} %), threshold {1000 * settings.threshold:.0f} mm; "
+              f"{summary['n_unconverged']} unconverged (no equilibrium: reported, not counted)")
         for ry, s in summary["per_ry"].items():
             print(f"  Ry {float(ry):7.1f} deg: {100 * s['fraction_non_robust']:5.1f} % of {s['n']}")
         print("wrote " + ", ".join([str(Path(args.out) / "results.csv"), str(Path(args.out) / "summary.json")] + plots))
@@ -281,19 +286,25 @@ def build_parser(extensions=()) -> argparse.ArgumentParser:
     rm.add_argument("--workers", type=int, default=2)
     rm.add_argument("--backend", choices=["serial", "process", "ray"], default="process")
     rm.add_argument("--ray-address", default=None, help="address of an existing Ray cluster (backend ray)")
-    rm.add_argument("--threshold", type=float, default=0.1, help="d_thresh [m] (default 0.1)")
-    rm.add_argument("--samples", type=int, default=20, help="N_s shape samples (default 20)")
-    rm.add_argument("--excursion", type=float, nargs=4, default=[20, 100, 100, 100], metavar=("RY", "J4", "J5", "J6"),
+    rm.add_argument("--threshold", type=float, default=None, help="d_thresh [m] (default 0.1)")
+    rm.add_argument("--samples", type=int, default=None, help="N_s shape samples (default 20)")
+    rm.add_argument("--excursion", type=float, nargs=4, default=None, metavar=("RY", "J4", "J5", "J6"),
                     help="excursion sizes [deg] (default 20 100 100 100)")
-    rm.add_argument("--n-paths", type=int, default=0, help="K random approach paths instead of the thesis's two")
-    rm.add_argument("--speed-fraction", type=float, default=1.0)
-    rm.add_argument("--settle-time", type=float, default=1.0, help="max relaxation after each return [s]")
-    rm.add_argument("--timestep", type=float, default=None,
-                    help="physics step during motions [s] (default 0.004; 0.005 is 1.2x faster at 92.5 %% flag "
-                         "agreement with 1 ms, 0.004: 95 %%)")
+    rm.add_argument("--n-paths", type=int, default=None, help="K random approach paths instead of the thesis's two")
+    rm.add_argument("--speed-fraction", type=float, default=None,
+                    help="excursion speed tried first, as a fraction of the rated joint speeds (default 1)")
+    rm.add_argument("--min-speed-fraction", type=float, default=None,
+                    help="slowest excursion speed tried when the motion is too dynamic (default 1/16)")
+    rm.add_argument("--max-dynamic-ratio", type=float, default=None,
+                    help="quasi-static bound: largest cable vertex acceleration / g during excursions (default 0.1)")
+    rm.add_argument("--settle-time", type=float, default=None,
+                    help="max relaxation to equilibrium after each return [s] (default 5)")
+    rm.add_argument("--cable-robot-contact", action="store_true",
+                    help="let the cable touch the robot's links (the thesis maps the cable alone: off by default)")
+    rm.add_argument("--timestep", type=float, default=None, help="physics step during motions [s] (default 0.004)")
     rm.add_argument("--settle-timestep", type=float, default=None,
                     help="physics step while the cable relaxes [s] (default 0.016)")
-    rm.add_argument("--start", choices=["row", "ry"], default="row",
+    rm.add_argument("--start", choices=["row", "ry"], default=None,
                     help="row: each configuration continues from the previous one of its grid row (default); "
                          "ry: every configuration from the settled state of its Ry")
     rm.add_argument("--limit", type=int, default=None, help="compute at most this many new configurations")

@@ -59,11 +59,18 @@ class MotionTrace:
     time: list[float] = field(default_factory=list)
     q: list[np.ndarray] = field(default_factory=list)
     measures: list[WearMeasures] = field(default_factory=list)
+    # Largest kinetic energy of the cables during the motion [J] and the dynamic indicator of a quasi-static
+    # motion: the largest free-vertex acceleration over g, averaged over SETTLE_CHECK_EVERY steps (the net
+    # force on a vertex in units of its weight; the averaging removes the integrator's stiff jitter).
+    max_kinetic_energy: float = 0.0
+    max_acceleration_ratio: float = 0.0
 
     def extend(self, other: "MotionTrace") -> None:
         self.time += other.time
         self.q += other.q
         self.measures += other.measures
+        self.max_kinetic_energy = max(self.max_kinetic_energy, other.max_kinetic_energy)
+        self.max_acceleration_ratio = max(self.max_acceleration_ratio, other.max_acceleration_ratio)
 
 
 def _residual_gravity(gravity: float) -> float:
@@ -182,8 +189,16 @@ class CableSimulator:
         taus = [k / steps for k in range(1, steps + 1)]
         path = start.ravel() + np.array([3 * t**2 - 2 * t**3 for t in taus])[:, None] * delta.ravel()
         vel = np.array([(6 * t - 6 * t**2) / duration for t in taus])[:, None] * delta.ravel()
+        v_before = self.data.qvel[self._free_dof_idx].copy()
+        g_window = _residual_gravity(self.config.gravity) * SETTLE_CHECK_EVERY * dt
         for k in range(1, steps + 1):
             self._step(path[k - 1], vel[k - 1])
+            if k % SETTLE_CHECK_EVERY == 0:
+                v_now = self.data.qvel[self._free_dof_idx]
+                accel = float(np.max(np.linalg.norm((v_now - v_before).reshape(-1, 3), axis=1))) / g_window
+                trace.max_acceleration_ratio = max(trace.max_acceleration_ratio, accel)
+                trace.max_kinetic_energy = max(trace.max_kinetic_energy, self.kinetic_energy())
+                v_before = v_now.copy()
             if stride and (k % stride == 0 or k == steps):
                 self._record(trace, self.motion_time + k * dt, path[k - 1].reshape(start.shape))
             if until is not None and self.motion_time + k * dt >= until:  # frozen mid-motion (e.g. to render)
@@ -312,6 +327,17 @@ class CableSimulator:
 
     def cable_points(self, robot: int = 0) -> np.ndarray:
         return cable_points(self.data, self.station.cables[robot])
+
+    def kinetic_energy(self) -> float:
+        """Kinetic energy of the cables' free vertices [J]."""
+        v = self.data.qvel[self._free_dof_idx]
+        return 0.5 * float(self._free_dof_mass @ (v * v))
+
+    def potential_scale(self) -> float:
+        """M g L summed over the cables [J]: the gravity energy scale a kinetic energy is compared with."""
+        g = _residual_gravity(self.config.gravity)
+        return sum(float(c.free_mass.sum()) * g * r.dresspack.length
+                   for c, r in zip(self.station.cables, self.station.config.robots))
 
     def max_vertex_speed(self) -> float:
         return float(np.max(np.abs(self.data.qvel[self._free_dof])))

@@ -66,7 +66,7 @@ def twist_sweep(sim: CableSimulator, *, span_deg: float = 400.0, step_deg: float
             sim.move_to(q)
             forces, torques = sim.node_loads(robot)
             m = sim.cable_measures()[robot]
-            samples.append((float(np.degrees(offset)), {
+            samples.append((round(float(np.degrees(offset)), 9), {
                 "q_deg": np.round(np.degrees(q1), 3).tolist(),
                 "node_torque": np.linalg.norm(torques, axis=1).tolist(),
                 "node_twist_torque": torques[:, 0].tolist(),

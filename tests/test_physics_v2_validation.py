@@ -209,7 +209,7 @@ def test_twist_sweep_twist_grows_with_the_wrist_sum():
     from dresspack_gym.twist_sweep import twist_sweep
 
     sweep = twist_sweep(CableSimulator(Station(load_station("default"))), span_deg=60, step_deg=20)
-    assert sweep.sum_deg == [-60, -40, -20, 0, 20, 40, 60]
+    assert sweep.sum_deg == pytest.approx([-60, -40, -20, 0, 20, 40, 60])
     rate = np.array(sweep.max_twist_rate)
     assert rate[3] < 1e-6
     assert np.all(np.diff(rate[:4]) < 0) and np.all(np.diff(rate[3:]) > 0)

@@ -15,7 +15,7 @@ from dresspack_gym.robustness.runner import RobustnessMap, run_map
 
 TINY = {"name": "tiny", "ry": {"start": 0, "stop": 0, "step": 1}, "j4": {"start": 0, "stop": 0, "step": 1},
         "j5": {"start": -60, "stop": 60, "step": 120}, "j6": {"start": 0, "stop": 90, "step": 90}}
-FAST = RobustnessSettings(settle_time=0.5)
+FAST = RobustnessSettings(max_dynamic_ratio=100.0)  # tests of the machinery: no slowing down
 
 
 def rows(out):
@@ -110,15 +110,47 @@ def test_ry_outside_the_arm_range_wraps_and_excursions_clip(station):
     assert np.degrees(q[4]) == pytest.approx(130.0)  # j5 limit
 
 
+@pytest.mark.parametrize("ry", [153.0, 171.0, -225.0, 115.0])
+def test_excursions_never_swing_link3_the_long_way_round(station, ry):
+    """Ry near the ends of the arm's pitch range: the +-20 deg excursion moves link 3 by at most 20 deg
+    (it used to wrap and sweep 340 deg the other way)."""
+    ev = RobustnessEvaluator(station, FAST)
+    v = np.radians([ry, 0.0, 0.0, 0.0])
+    pitch = ev.joints(v)[1] + ev.joints(v)[2]
+    for sign in (-1.0, 1.0):
+        q = ev.joints(v, sign * np.asarray(FAST.excursion))
+        assert abs(np.degrees(q[1] + q[2] - pitch)) <= 20.0 + 1e-6
+
+
+def test_excursions_are_quasi_static_and_shapes_are_equilibria(station):
+    """A too-fast excursion is redone slower until the cable's kinetic energy stays below the bound; the
+    stored shapes are converged equilibria."""
+    strict = RobustnessSettings(max_dynamic_ratio=1e-6, min_speed_fraction=0.25)
+    ev = RobustnessEvaluator(station, strict)
+    r = ev.evaluate(0, np.radians([20.0, 40.0, 30.0, -60.0]))
+    assert r.speed_fraction < strict.speed_fraction  # rated speed swings the cable: it slowed down
+    loose = RobustnessEvaluator(station, RobustnessSettings(max_dynamic_ratio=100.0)).evaluate(
+        0, np.radians([20.0, 40.0, 30.0, -60.0]))
+    assert loose.speed_fraction == 1.0 and loose.dynamic_ratio > r.dynamic_ratio
+    assert r.converged and loose.converged
+
+
+def test_cable_robot_contact_is_an_explicit_option(station):
+    off = RobustnessEvaluator(station, FAST)
+    on = RobustnessEvaluator(station, RobustnessSettings(max_dynamic_ratio=100.0, cable_robot_contact=True))
+    assert not off.station.config.robots[0].dresspack.collide_with_robot
+    assert on.station.config.robots[0].dresspack.collide_with_robot
+
+
 def test_cli_json_summary(tmp_path, capsys):
     grid = tmp_path / "tiny.yaml"
     import yaml
 
     grid.write_text(yaml.safe_dump(TINY))
     assert main(["robustness-map", "--grid", str(grid), "--station", "default", "--out", str(tmp_path / "o"),
-                 "--backend", "serial", "--settle-time", "0.5", "--json"]) == 0
+                 "--backend", "serial", "--max-dynamic-ratio", "100", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert {"n_configs", "n_non_robust", "fraction_non_robust", "per_ry"} <= set(out)
+    assert {"n_configs", "n_non_robust", "fraction_non_robust", "per_ry", "n_unconverged"} <= set(out)
     assert out["n_configs"] == 4
     assert (tmp_path / "o" / "non_robust_over_ry.png").is_file()
 

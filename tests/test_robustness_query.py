@@ -27,7 +27,7 @@ def write_map(folder, grid, non_robust_v, threshold=0.1):
         w.writerow(COLUMNS)
         for i in sorted(set(grid.nearest_index(np.atleast_2d(non_robust_v)).tolist())):
             v = np.degrees(grid.configurations()[i])
-            w.writerow([i, *v, 0.5, 0.5, 0.5, 0])
+            w.writerow([i, *v, 0.5, 0.5, 0.5, 1, 0.0, 1.0, 0])  # converged, dynamic ratio, speed, robust
     return folder
 
 

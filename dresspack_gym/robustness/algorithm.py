@@ -13,6 +13,15 @@ previous v), as in the thesis's sequential loop; a row's first configuration sta
 state of its Ry (cached per Ry). A row is one work unit, so a result depends only on the grid, never on
 the backend, the worker count or an interruption. With "ry" every configuration starts from its Ry's
 state (any single configuration can be mapped alone: samples, the path comparison).
+
+Quasi-static by construction (the thesis's cable simulation is static): every stored shape S0, S1, S2
+is a settled equilibrium proven by its residual, and every excursion is slow enough that the net force
+on every cable vertex (its acceleration, averaged over a few steps) stays below ``max_dynamic_ratio``
+of its weight; a configuration
+whose excursions exceed it is re-run from the same start at half the speed, down to
+``min_speed_fraction``. A configuration whose stored shape never reaches equilibrium (e.g. a cable
+jammed against a link) is reported as unconverged, not as a sample. Cable-robot contact is off by
+default, as in the thesis, which maps the cable with its nodes moved alone (``cable_robot_contact``).
 """
 
 from __future__ import annotations
@@ -37,8 +46,11 @@ class RobustnessSettings:
     excursion: tuple[float, float, float, float] = tuple(THESIS_EXCURSION)  # radians
     n_samples: int = 20  # N_s shape samples along the cable
     threshold: float = 0.1  # d_thresh [m]
-    speed_fraction: float = 1.0  # of the rated joint speeds during excursions
-    settle_time: float = 1.0  # max settle after each return [s]
+    speed_fraction: float = 1.0  # of the rated joint speeds during excursions (first try)
+    settle_time: float = 5.0  # max settle after each return [s]; settles end on the equilibrium residual
+    max_dynamic_ratio: float = 0.1  # bound on the cable's vertex accelerations / g during excursions
+    min_speed_fraction: float = 1.0 / 16.0  # the slowest excursion speed tried
+    cable_robot_contact: bool = False  # the thesis maps the cable alone (nodes moved, no robot to touch)
     n_paths: int = 0  # 0: the thesis's two paths; K > 0: K random approach paths instead
     seed: int = 0  # for the random paths (combined with the configuration index)
     robot: int = 0
@@ -57,6 +69,9 @@ class RobustnessSettings:
             "threshold": (self.threshold > 0, "a positive distance [m]"),
             "speed_fraction": (0 < self.speed_fraction <= 1, "in (0, 1]"),
             "settle_time": (0 < self.settle_time <= 60, "in (0, 60] s"),
+            "max_dynamic_ratio": (0 < self.max_dynamic_ratio <= 1000, "in (0, 1000] (vertex acceleration / g)"),
+            "min_speed_fraction": (0 < self.min_speed_fraction <= self.speed_fraction,
+                                   "in (0, speed_fraction]"),
             "n_paths": (self.n_paths >= 0, "0 (the thesis's two paths) or a positive K"),
             "robot": (self.robot >= 0, "a robot index >= 0"),
             "timestep": (1e-4 <= self.timestep <= 0.01, "in [0.0001, 0.01] s"),
@@ -68,9 +83,25 @@ class RobustnessSettings:
                 raise ConfigError(f"robustness.{name}", f"{getattr(self, name)!r} is not allowed: must be {allowed}")
 
 
-def cable_only(config: StationConfig) -> StationConfig:
-    """The station without obstacles, floor and weld points: the thesis maps the cable on its own."""
-    return replace(config, obstacles=(), weld_points=(), floor=False)
+def cable_only(config: StationConfig, robot_contact: bool = False) -> StationConfig:
+    """The station without obstacles, floor and weld points (the thesis maps the cable on its own), and
+    without cable-robot contact unless ``robot_contact``."""
+    robots = tuple(replace(r, dresspack=replace(r.dresspack, collide_with_robot=r.dresspack.collide_with_robot
+                                                and robot_contact)) for r in config.robots)
+    return replace(config, obstacles=(), weld_points=(), floor=False, robots=robots)
+
+
+@dataclass(frozen=True)
+class ConfigurationResult:
+    """One configuration's outcome: deviations of the two paths [m] (the second 0 with K paths), whether
+    every stored shape was a converged equilibrium, the largest vertex acceleration / g of the excursions
+    finally used and their speed fraction."""
+
+    dev_neg: float
+    dev_pos: float
+    converged: bool
+    dynamic_ratio: float
+    speed_fraction: float
 
 
 def resample(points: np.ndarray, n: int) -> np.ndarray:
@@ -88,8 +119,9 @@ class RobustnessEvaluator:
         if not 0 <= settings.robot < len(config.robots):
             raise ConfigError("robustness.robot", f"robot index {settings.robot} does not exist: the station has "
                                                   f"{len(config.robots)} robot(s)")
-        config = cable_only(config)
-        config = replace(config, simulation=replace(config.simulation, timestep=settings.timestep))
+        config = cable_only(config, settings.cable_robot_contact)
+        config = replace(config, simulation=replace(config.simulation, timestep=settings.timestep,
+                                                    settle_timestep=settings.settle_timestep))
         self.station = Station(config)
         self.sim = CableSimulator(self.station)
         self.placement = self.station.config.robots[settings.robot]
@@ -97,15 +129,26 @@ class RobustnessEvaluator:
         self._ry_states: dict[float, np.ndarray] = {}
 
     # ------------------------------------------------------------------------------ mapping
-    def joints(self, v: np.ndarray) -> np.ndarray:
-        """Robot joints (6,) for configuration vector v (4,), clipped to the joint limits."""
+    def pitch(self, ry: float) -> float:
+        """Ry taken modulo 360 deg into the pitch range joints 2 + 3 can give link 3."""
         lim = self.limits
-        ry = float(v[0])
         lo_ry, hi_ry = lim[1, 0] + lim[2, 0], lim[1, 1] + lim[2, 1]
         if ry > hi_ry:  # a pitch is periodic: use the equivalent angle the arm can reach
             ry -= 2 * np.pi
         elif ry < lo_ry:
             ry += 2 * np.pi
+        return ry
+
+    def joints(self, v: np.ndarray, delta: np.ndarray | None = None) -> np.ndarray:
+        """Robot joints (6,) for configuration vector v (4,) moved by ``delta`` (an excursion), clipped to
+        the joint limits. The excursion is added after Ry is wrapped into the arm's pitch range, so an
+        excursion never sends link 3 the long way round (Ry near the range's ends)."""
+        lim = self.limits
+        ry = self.pitch(float(v[0]))
+        if delta is not None:
+            lo_ry, hi_ry = lim[1, 0] + lim[2, 0], lim[1, 1] + lim[2, 1]
+            ry = float(np.clip(ry + delta[0], lo_ry, hi_ry))
+            v = np.asarray(v, dtype=float) + delta
         j3_mid = 0.5 * (lim[2, 0] + lim[2, 1])
         j2 = float(np.clip(ry - j3_mid, lim[1, 0], lim[1, 1]))
         j3 = ry - j2
@@ -130,44 +173,62 @@ class RobustnessEvaluator:
             self._ry_states[key] = self.sim.get_state()
         self.sim.set_state(self._ry_states[key])
 
-    def _go(self, q: np.ndarray, settle: bool) -> None:
-        self.sim.move_to(self._all_robots(q), speed_fraction=self.settings.speed_fraction, settle=False)
+    def _go(self, q: np.ndarray, settle: bool, speed: float) -> tuple[float, bool]:
+        """Move to q; returns (max vertex acceleration / g of the motion, settled to equilibrium or not settling)."""
+        trace = self.sim.move_to(self._all_robots(q), speed_fraction=speed, settle=False)
+        converged = True
         if settle:
-            self.sim.settle(self.settings.settle_time, timestep=self.settings.settle_timestep)
+            converged = self.sim.settle(self.settings.settle_time, timestep=self.settings.settle_timestep).converged
+        return trace.max_acceleration_ratio, converged
 
     def _shape(self) -> np.ndarray:
         return resample(self.sim.cable_points(self.settings.robot), self.settings.n_samples)
 
     # ------------------------------------------------------------------------------ Algorithm 1
-    def evaluate_row(self, indices, configs) -> list[tuple[float, float]]:
+    def evaluate_row(self, indices, configs) -> list[ConfigurationResult]:
         """Results for consecutive configurations of one grid row, each continuing from the previous one."""
         return [self.evaluate(i, v, continue_from_current=k > 0) for k, (i, v) in enumerate(zip(indices, configs))]
 
-    def evaluate(self, index: int, v: np.ndarray, *, continue_from_current: bool = False) -> tuple[float, float]:
-        """(max deviation of the negative path, of the positive path) [m] — thesis Algorithm 1, lines 3-12.
+    def evaluate(self, index: int, v: np.ndarray, *, continue_from_current: bool = False) -> ConfigurationResult:
+        """Thesis Algorithm 1, lines 3-12, quasi-static: the deviations of the negative and positive paths.
 
         Starts from the settled state of v's Ry, or (``continue_from_current``) from the simulator's
         current state. With ``n_paths = K > 0`` the two paths are replaced by K random ones: each moves
         to a uniformly random point of the excursion box around v and back; the second number is then 0.
+        If an excursion is too fast (kinetic energy above ``max_dynamic_ratio`` M g L), the whole
+        configuration is redone from the same start state at half the speed.
         """
         s = self.settings
         if not continue_from_current:
             self._start(float(v[0]))
+        start = self.sim.get_state()
+        speed = s.speed_fraction
+        while True:
+            self.sim.set_state(start)
+            devs, ratio, converged = self._paths(index, v, speed)
+            if ratio <= s.max_dynamic_ratio or speed <= s.min_speed_fraction * (1 + 1e-9):
+                return ConfigurationResult(devs[0], devs[1], converged, ratio, speed)
+            speed = max(speed / 2.0, s.min_speed_fraction)
+
+    def _paths(self, index: int, v: np.ndarray, speed: float) -> tuple[tuple[float, float], float, bool]:
+        s = self.settings
         q = self.joints(v)
-        self._go(q, settle=True)
+        _, converged = self._go(q, True, speed)
         s0 = self._shape()
         exc = np.asarray(s.excursion)
+        kinetic = 0.0
         if s.n_paths > 0:
             rng = np.random.default_rng([s.seed, index])
-            devs = []
-            for _ in range(s.n_paths):
-                self._go(self.joints(v + rng.uniform(-1.0, 1.0, 4) * exc), settle=False)
-                self._go(q, settle=True)
-                devs.append(np.linalg.norm(self._shape() - s0, axis=1).max())
-            return float(max(devs)), 0.0
-        out = []
-        for sign in (-1.0, 1.0):
-            self._go(self.joints(v + sign * exc), settle=False)
-            self._go(q, settle=True)
-            out.append(float(np.linalg.norm(self._shape() - s0, axis=1).max()))
-        return out[0], out[1]
+            deltas = [rng.uniform(-1.0, 1.0, 4) * exc for _ in range(s.n_paths)]
+        else:
+            deltas = [-exc, exc]
+        devs = []
+        for delta in deltas:
+            k_out, _ = self._go(self.joints(v, delta), False, speed)
+            k_back, ok = self._go(q, True, speed)
+            kinetic = max(kinetic, k_out, k_back)
+            converged &= ok
+            devs.append(float(np.linalg.norm(self._shape() - s0, axis=1).max()))
+        if s.n_paths > 0:
+            return (max(devs), 0.0), kinetic, converged
+        return (devs[0], devs[1]), kinetic, converged

@@ -17,7 +17,8 @@ from ..errors import ConfigError
 from .algorithm import RobustnessEvaluator, RobustnessSettings
 from .grid import RobustnessGrid
 from .query import RobustnessMap  # noqa: F401  (re-exported: the map API next to the runner)
-from .store import COLUMNS, META, RESULTS, done_indices, grid_to_meta, load_results, repair_last_line
+from .store import (COLUMNS, META, RESULTS, done_indices, grid_to_meta, load_results, load_unconverged,
+                    repair_last_line)
 
 CHUNK = 16  # configurations per work unit with start "ry" (same Ry: its start state is reused inside a unit)
 BACKENDS = ("serial", "process", "ray")
@@ -63,14 +64,14 @@ def _init_worker(config: StationConfig, settings: RobustnessSettings) -> None:
     _WORKER = RobustnessEvaluator(config, settings)
 
 
-def _run_unit(args) -> list[tuple[int, float, float]]:
+def _run_unit(args) -> list[tuple]:
     indices, configs, report = args
     if _WORKER.settings.start == "row":
         results = _WORKER.evaluate_row(indices, configs)
     else:
         results = [_WORKER.evaluate(i, v) for i, v in zip(indices, configs)]
     keep = set(report)
-    return [(i, *r) for i, r in zip(indices, results) if i in keep]
+    return [(i, r) for i, r in zip(indices, results) if i in keep]
 
 
 def _iterate(backend: str, workers: int, config, settings, units, configs, ray_address) -> Iterator[list]:
@@ -167,10 +168,11 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
             writer.writerow(COLUMNS)
         units = _work_units(grid, todo, settings.start)
         for rows in _iterate(backend, workers, config, settings, units, configs, ray_address):
-            for i, neg, pos in rows:
+            for i, r in rows:
                 v = np.degrees(configs[i])
-                dev = max(neg, pos)
-                writer.writerow([i, *np.round(v, 6), f"{neg:.6f}", f"{pos:.6f}", f"{dev:.6f}",
+                dev = max(r.dev_neg, r.dev_pos)
+                writer.writerow([i, *np.round(v, 6), f"{r.dev_neg:.6f}", f"{r.dev_pos:.6f}", f"{dev:.6f}",
+                                 int(r.converged), f"{r.dynamic_ratio:.3e}", f"{r.speed_fraction:.6g}",
                                  int(dev < settings.threshold)])
             f.flush()
             os.fsync(f.fileno())
@@ -183,7 +185,9 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
 
 def summarize(out: str | Path, grid: RobustnessGrid, threshold: float) -> dict:
     rows = load_results(out)
-    idx = np.array(sorted(rows), dtype=int)
+    unconverged = load_unconverged(out)
+    n_unconverged = len(unconverged)
+    idx = np.array(sorted(set(rows) - unconverged), dtype=int)  # an unconverged configuration is no sample
     dev = np.array([rows[i][1] for i in idx]) if len(idx) else np.zeros(0)
     non_robust = dev >= threshold
     per_ry_axis = len(grid) // len(grid.ry)
@@ -196,4 +200,4 @@ def summarize(out: str | Path, grid: RobustnessGrid, threshold: float) -> dict:
     return {"grid": grid.name, "n_configs": len(idx), "n_grid": len(grid),
             "n_non_robust": int(non_robust.sum()),
             "fraction_non_robust": float(non_robust.mean()) if len(idx) else 0.0,
-            "threshold_m": threshold, "per_ry": per_ry}
+            "threshold_m": threshold, "n_unconverged": n_unconverged, "per_ry": per_ry}

@@ -13,7 +13,10 @@ from .grid import RobustnessGrid
 
 RESULTS = "results.csv"
 META = "meta.json"
-COLUMNS = ["index", "ry_deg", "j4_deg", "j5_deg", "j6_deg", "dev_neg_m", "dev_pos_m", "max_dev_m", "robust"]
+# "robust" stays last: a row torn by an interruption never has it. "converged": every stored shape was a
+# proven equilibrium; an unconverged configuration is an error, never counted as robust.
+COLUMNS = ["index", "ry_deg", "j4_deg", "j5_deg", "j6_deg", "dev_neg_m", "dev_pos_m", "max_dev_m",
+           "converged", "dynamic_ratio", "speed_fraction", "robust"]
 
 
 def grid_to_meta(grid: RobustnessGrid) -> dict:
@@ -41,7 +44,16 @@ def done_indices(out: Path) -> set[int]:
 
 
 def load_results(out: str | Path) -> dict[int, tuple[np.ndarray, float, bool]]:
-    """index -> (v [rad], max deviation [m], robust) for every complete row."""
+    """index -> (v [rad], max deviation [m], robust) for every complete row (unconverged = not robust)."""
+    return {i: (v, dev, robust and converged) for i, (v, dev, robust, converged) in _rows(out).items()}
+
+
+def load_unconverged(out: str | Path) -> set[int]:
+    """Indices whose stored shapes did not all reach equilibrium (maps made before v2 have none)."""
+    return {i for i, (_, _, _, converged) in _rows(out).items() if not converged}
+
+
+def _rows(out: str | Path) -> dict[int, tuple[np.ndarray, float, bool, bool]]:
     rows = {}
     with (Path(out) / RESULTS).open() as f:
         for r in csv.DictReader(f):
@@ -49,7 +61,7 @@ def load_results(out: str | Path) -> dict[int, tuple[np.ndarray, float, bool]]:
                 continue
             try:
                 v = np.radians([float(r[k]) for k in ("ry_deg", "j4_deg", "j5_deg", "j6_deg")])
-                rows[int(r["index"])] = (v, float(r["max_dev_m"]), r["robust"] == "1")
+                rows[int(r["index"])] = (v, float(r["max_dev_m"]), r["robust"] == "1", r.get("converged", "1") == "1")
             except (TypeError, ValueError, KeyError):
                 continue
     return rows
