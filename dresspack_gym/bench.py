@@ -37,6 +37,7 @@ def physics_benchmark(station_ref: str = "default", repeats: int = 3, raw_steps:
         steps_done = int(round((d.time - time0) / m.opt.timestep))
     best_move = min(moves)
     raw_rate = max(raw)
+    settle = _settle_benchmark(sim, repeats)
     return {
         "station": station.config.name,
         "timestep_s": m.opt.timestep,
@@ -48,6 +49,34 @@ def physics_benchmark(station_ref: str = "default", repeats: int = 3, raw_steps:
         "move90_steps": steps_done,
         "move90_steps_per_s": round(steps_done / best_move, 1),
         "move90_vs_raw_ratio": round(steps_done / best_move / raw_rate, 3),
+        **settle,
+    }
+
+
+def _settle_benchmark(sim, repeats: int) -> dict:
+    """Time to reach the equilibrium residual from a disturbed shape (the Home reference curve, not yet
+    relaxed), against a fixed 1.5 s of stepping at the motion timestep (a time-based settle), best of repeats."""
+    import mujoco as mj
+
+    m, d = sim.model, sim.data
+    to_eq, fixed, result = [], [], None
+    for _ in range(repeats):
+        sim.reset(settle=False)
+        t0 = time.perf_counter()
+        result = sim.settle()
+        to_eq.append(time.perf_counter() - t0)
+        sim.reset(settle=False)
+        t0 = time.perf_counter()
+        for _ in range(int(round(1.5 / m.opt.timestep))):
+            mj.mj_step(m, d)
+        fixed.append(time.perf_counter() - t0)
+    return {
+        "settle_to_equilibrium_wall_s": round(min(to_eq), 4),
+        "settle_to_equilibrium_simulated_s": round(result.time, 3),
+        "settle_converged": result.converged,
+        "settle_force_residual": round(result.equilibrium.force_residual, 5),
+        "fixed_1p5s_settle_wall_s": round(min(fixed), 4),
+        "settle_vs_fixed_time_ratio": round(min(to_eq) / min(fixed), 3),
     }
 
 

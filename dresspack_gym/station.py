@@ -14,7 +14,6 @@ from .errors import ConfigError, KinematicsError
 from .kinematics import RobotKinematics, rpy_matrix, weld_configurations
 from .robot_model import OBSTACLE_BITS, _set_primitive, add_robot, body_name, joint_name, mat_to_quat
 
-SOLVER_TOLERANCE = 1e-10
 LINK_INDEX = {"base": 0, "link1": 1, "link2": 2, "link3": 3, "link4": 4, "link5": 5, "link6": 6}
 
 
@@ -83,9 +82,6 @@ class Station:
         m = self.model
         m.opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
         m.opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
-        # MuJoCo's default 1e-8 lets the warm-started solver stop with ~1 % of a vertex weight of imbalance
-        # that the dynamics never removes; 1e-10 lets settled states reach the equilibrium residual.
-        m.opt.tolerance = SOLVER_TOLERANCE
         for r, layout in zip(config.robots, self._attachments):
             apply_edge_invweight(m, [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, p.flex) for p in layout.pieces], edge_constraint(r.dresspack)[2])
         self.robots = []
