@@ -292,11 +292,11 @@ def build_parser(extensions=()) -> argparse.ArgumentParser:
                     help="excursion sizes [deg] (default 20 100 100 100)")
     rm.add_argument("--n-paths", type=int, default=None, help="K random approach paths instead of the thesis's two")
     rm.add_argument("--speed-fraction", type=float, default=None,
-                    help="excursion speed tried first, as a fraction of the rated joint speeds (default 1)")
+                    help="excursion speed tried first, as a fraction of the rated joint speeds (default 0.25)")
     rm.add_argument("--min-speed-fraction", type=float, default=None,
                     help="slowest excursion speed tried when the motion is too dynamic (default 1/16)")
     rm.add_argument("--max-dynamic-ratio", type=float, default=None,
-                    help="quasi-static bound: largest cable vertex acceleration / g during excursions (default 0.1)")
+                    help="quasi-static bound: largest cable vertex acceleration / g during excursions (default 0.5)")
     rm.add_argument("--settle-time", type=float, default=None,
                     help="max relaxation to equilibrium after each return [s] (default 5)")
     rm.add_argument("--cable-robot-contact", action="store_true",

@@ -35,6 +35,8 @@ CANDIDATES = {
                                                  max_dynamic_ratio=1.0),
     "adaptive (<= 0.2 g), 4/16 ms": RobustnessSettings(start="ry", speed_fraction=0.5, min_speed_fraction=0.125,
                                                        max_dynamic_ratio=0.2),
+    "adaptive from 1/4 (<= 0.5 g), 4/16 ms": RobustnessSettings(start="ry", speed_fraction=0.25,
+                                                                min_speed_fraction=1 / 16, max_dynamic_ratio=0.5),
     "rated speed, contact on": RobustnessSettings(start="ry", speed_fraction=1.0, min_speed_fraction=1.0,
                                                   max_dynamic_ratio=1.0, cable_robot_contact=True),
 }

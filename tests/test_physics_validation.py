@@ -24,18 +24,31 @@ def test_hanging_cable_top_tension_is_rho_g_L():
     np.testing.assert_allclose(tension[1:], rho * G * (length - s_mid[1:]), rtol=0.01, atol=0.02)
 
 
-def test_cantilever_tip_deflection_matches_small_deflection_theory():
-    """Clamped horizontal cantilever of stiff EI under its own weight: tip = w L^4 / (8 EI) within 5 %."""
+def test_cantilever_tip_deflection_converges_to_small_deflection_theory():
+    """Clamped horizontal cantilever of stiff EI under its own weight: tip = w L^4 / (8 EI).
+
+    The clamp holds the first edge rigidly and the DER bends at vertex 1 over [h/2, 3h/2], so the discrete
+    beam is clamped at s ~ h/2: the error is first order in h (-2 h / L), halves with each doubling of the
+    segments, and the Richardson extrapolation of 40 and 80 segments matches theory within 1 %.
+    """
     length, rho, ei = 1.0, 0.5, 20.0
-    station = world_cable_station(
-        [{"name": "clamp", "body": "world", "pos": [0, 0, 2.0], "direction": [1, 0, 0]}],
-        cable={"length": length, "linear_density": rho, "bending_stiffness": ei, "segments": 40})
-    sim = settled(station, 8.0)
-    points = sim.cable_points()
-    deflection = 2.0 - points[-1, 2]
     expected = rho * G * length ** 4 / (8 * ei)
-    assert deflection == pytest.approx(expected, rel=0.05)
     assert expected < 0.05 * length  # small-deflection regime
+    tips = {}
+    for n in (20, 40, 80):
+        station = world_cable_station(
+            [{"name": "clamp", "body": "world", "pos": [0, 0, 2.0], "direction": [1, 0, 0]}],
+            cable={"length": length, "linear_density": rho, "bending_stiffness": ei, "segments": n},
+            simulation={"equilibrium_speed": 1e-4, "settle_time": 30.0})
+        sim = settled(station, 8.0)
+        # A rod 200x stiffer than the dresspack on 6-25 g vertices (bending frequency x relaxation step ~ 300):
+        # the relaxation stalls with a residual it flags (see README limitations); the shape is stationary.
+        assert sim.last_settle.equilibrium.kinetic_energy < 1e-9
+        tips[n] = 2.0 - sim.cable_points()[-1, 2]
+    errors = {n: tips[n] / expected - 1.0 for n in tips}
+    for n in tips:
+        assert errors[n] == pytest.approx(-2.0 / n, abs=0.005)
+    assert 2 * tips[80] - tips[40] == pytest.approx(expected, rel=0.01)
 
 
 def test_rod_bent_into_an_arc_has_curvature_one_over_radius():
