@@ -67,6 +67,7 @@ class Replay:
     stop_times: list[float]
     cycle_time: float
     thresholds: dict[str, float] = field(default_factory=dict)
+    unconverged_stops: int = 0  # stops whose settle did not reach the equilibrium residual (flagged, not hidden)
 
     def integrated_cost(self) -> float:
         """Integral of C over the cycle [cost x s] (trapezoid over the samples)."""
@@ -80,6 +81,10 @@ class Replay:
             "max_tension": float(m["tension"].max()),
             "min_clearance": float(m["clearance"].min()),
             "max_twist_rate": float(m["twist_rate"].max()),
+            "max_total_twist": float(m["total_twist"].max()),
+            "max_node_force": float(m["node_force"].max()),
+            "max_node_torque": float(m["node_torque"].max()),
+            "unconverged_stops": self.unconverged_stops,
             "cost": self.integrated_cost(),
             "max_cost": float(self.cost.max()),
             "cost_terms": {k: float(np.trapezoid(v, self.time)) if len(self.time) > 1 else 0.0
@@ -113,6 +118,7 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     samples_t, samples_q, samples_m = [0.0], [traj.waypoints[0].copy()], [sim.measures()]
     stops = set(traj.stops)
     stop_times = []
+    unconverged = 0
     for i, q in enumerate(traj.waypoints[1:], start=1):
         trace = sim.move_to(full(q), speed_fraction=speed_fraction, settle=i in stops, record_every=record_every,
                             until=until)
@@ -122,6 +128,7 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
         if until is not None and sim.motion_time >= until:
             break
         if i in stops:
+            unconverged += int(sim.last_settle is not None and not sim.last_settle.converged)
             stop_times.append(sim.motion_time)
             samples_t.append(sim.motion_time)
             samples_q.append(q.copy())
@@ -133,8 +140,11 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
         "tension": np.array([m.max_tension for m in samples_m]),
         "clearance": np.array([m.min_clearance for m in samples_m]),
         "twist_rate": np.array([m.max_twist_rate for m in samples_m]),
+        "total_twist": np.array([m.total_twist for m in samples_m]),
+        "node_force": np.array([m.max_node_force for m in samples_m]),
+        "node_torque": np.array([m.max_node_torque for m in samples_m]),
     }
     terms = {k: np.array([getattr(c, k) for c in costs]) for k in ("curvature", "tension", "distance", "twist")}
     return Replay(np.array(samples_t), np.array(samples_q), measures, np.array([c.total for c in costs]), terms,
                   stop_times, sim.motion_time,
-                  {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance})
+                  {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance}, unconverged)
