@@ -80,3 +80,24 @@ def main() -> None:
 
 if __name__ == "__main__":
     main()
+
+
+def tolerance_check(grid_name: str = "thesis_67500", sample: int = 100, seed: int = 0, out: str = "out/robustness_tol",
+                    workers: int = 1) -> dict:
+    """Fraction of non-robust flags that survive a 10x tighter equilibrium tolerance (default settings)."""
+    grid = RobustnessGrid.from_dict(read_yaml(resolve_shipped(grid_name, "grids", "grid"), "grid"))
+    base = load_station("default")
+    sim = base.simulation
+    tight = replace(base, simulation=replace(sim, equilibrium_tolerance=sim.equilibrium_tolerance / 10,
+                                             equilibrium_speed=sim.equilibrium_speed / 10))
+    idx = sorted(np.random.default_rng(seed).choice(len(grid), sample, replace=False).tolist())
+    flags = {}
+    for name, cfg in (("default", base), ("tight", replace(tight, name=tight.name + "_tight"))):
+        run_map(grid, cfg, Path(out) / name, RobustnessSettings(start="ry"), workers=workers, progress=True,
+                indices=idx)
+        rows = load_results(Path(out) / name)
+        flags[name] = {i: rows[i][2] for i in idx}
+    non_robust = [i for i in idx if not flags["default"][i]]
+    survive = [i for i in non_robust if not flags["tight"][i]]
+    return {"n": len(idx), "non_robust_default": len(non_robust), "survive_tight": len(survive),
+            "agreement": float(np.mean([flags["default"][i] == flags["tight"][i] for i in idx]))}
