@@ -368,6 +368,21 @@ def add_cable(spec: mujoco.MjSpec, robot: str, dresspack: DresspackConfig, *, ze
         slide = rest_rot.T @ (np.asarray(node.pos) - rest_pos)
         ball = mat_to_quat(rest_rot.T @ node_rot)
         body.add_site(name=f"{bname}_site", size=[0.012, 0, 0], rgba=[0.1, 0.6, 1.0, 1.0])
+        if node.body != "world":
+            # The clamp (or ring) and the cable it holds are robot hardware: a collision primitive of the
+            # robot for the planners' and masks' robot-obstacle checks. No MuJoCo contacts (contype and
+            # conaffinity 0): the cable's own held piece must not collide with it, and a kinematic body pushed
+            # into an obstacle would only report crushing forces.
+            g = body.add_geom(name=f"{bname}_geom", rgba=[0.1, 0.6, 1.0, 0.6], group=3)
+            g.contype, g.conaffinity = 0, 0
+            if len(verts) == 2:
+                sign = -1.0 if verts[1] < verts[0] else 1.0
+                g.type = mujoco.mjtGeom.mjGEOM_CAPSULE
+                g.fromto = [0.0, 0.0, 0.0, sign * h, 0.0, 0.0]
+                g.size = [dresspack.radius, 0.0, 0.0]
+            else:
+                g.type = mujoco.mjtGeom.mjGEOM_SPHERE
+                g.size = [dresspack.radius, 0.0, 0.0]
         for j, v in enumerate(verts):
             sign = -1.0 if (j == 1 and v < verts[0]) else 1.0
             vertex_holder[v] = (bname, np.array([sign * h * j, 0.0, 0.0]))

@@ -25,6 +25,7 @@ class RobotCollisionChecker:
         self.data = mujoco.MjData(self.model)
         self.data.qpos[:] = self.model.qpos0
         self.data.qpos[station.robot_qpos] = station.home.ravel()
+        self.data.qpos[station.load_qpos] = station.load_values  # dresspack nodes at their place on the links
         mujoco.mj_kinematics(self.model, self.data)
         self.robot = station.robots[robot]
         self.margin = float(margin)
@@ -42,10 +43,9 @@ class RobotCollisionChecker:
         self.rbound = m.geom_rbound
         self._fromto = np.zeros(6)
         # Robot geoms each joint moves: joint j moves the bodies of link j+1 .. link6.
-        chain = [m.body(f"{self.robot.name}/link{i}").id for i in range(1, 7)]
-        geom_body = m.geom_bodyid[self.robot.geom_ids]
+        links = self.robot.geom_links
         self.joint_ids = [m.joint(f"{self.robot.name}/j{j + 1}").id for j in range(6)]
-        self.moved_geoms = [self.robot.geom_ids[np.isin(geom_body, chain[j:])] for j in range(6)]
+        self.moved_geoms = [self.robot.geom_ids[links >= j + 1] for j in range(6)]
 
     def _pose(self, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pose the robot at ``q``; (robot geoms, obstacles, bounding-sphere lower bound) per pair."""
@@ -96,11 +96,10 @@ class RobotCollisionChecker:
             m = self.model
             anchors = d.xanchor[self.joint_ids]
             link_len = np.linalg.norm(np.diff(anchors, axis=0), axis=1)  # anchor j -> anchor j+1
-            body_joint = {m.body(f"{self.robot.name}/link{i}").id: i - 1 for i in range(1, 7)}
             reach = np.zeros(6)
-            for g in self.robot.geom_ids:
-                b = body_joint.get(int(m.geom_bodyid[g]))
-                if b is None:
+            for g, link in zip(self.robot.geom_ids, self.robot.geom_links):
+                b = int(link) - 1  # joint b moves link b + 1
+                if b < 0:
                     continue
                 tail = np.linalg.norm(d.geom_xpos[g] - anchors[b]) + self.rbound[g]
                 for j in range(b + 1):  # joints 0..b move this geom

@@ -65,8 +65,9 @@ class RobotIndex:
     qpos: np.ndarray  # (6,) qpos addresses of j1..j6
     dof: np.ndarray  # (6,) dof addresses
     kinematics: RobotKinematics
-    geom_ids: np.ndarray  # collision geoms of the robot
+    geom_ids: np.ndarray  # collision geoms of the robot (its links, and the dresspack nodes it carries)
     tcp_site: int
+    geom_links: np.ndarray = None  # link number (0 = base .. 6) carrying each geom of geom_ids
 
 
 class Station:
@@ -85,13 +86,18 @@ class Station:
         for r, layout in zip(config.robots, self._attachments):
             apply_edge_invweight(m, [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, p.flex) for p in layout.pieces], edge_constraint(r.dresspack)[2])
         self.robots = []
+        layout_of = {r.name: layout for r, layout in zip(config.robots, self._attachments)}
         for r in config.robots:
             qpos = np.array([m.jnt_qposadr[m.joint(joint_name(r.name, j)).id] for j in range(6)])
             dof = np.array([m.jnt_dofadr[m.joint(joint_name(r.name, j)).id] for j in range(6)])
-            body_ids = {m.body(body_name(r.name, link)).id for link in LINK_INDEX}
-            geoms = np.array([g for g in range(m.ngeom) if m.geom_bodyid[g] in body_ids], dtype=int)
+            link_of = {m.body(body_name(r.name, link)).id: k for link, k in LINK_INDEX.items()}
+            for att in layout_of[r.name].attachments:  # node bodies ride on their link
+                if att.node.body != "world":
+                    link_of[m.body(att.body).id] = LINK_INDEX[att.node.body]
+            geoms = np.array([g for g in range(m.ngeom) if m.geom_bodyid[g] in link_of], dtype=int)
+            links = np.array([link_of[m.geom_bodyid[g]] for g in geoms], dtype=int)
             self.robots.append(RobotIndex(r.name, qpos, dof, RobotKinematics(r.robot, r.base_pos, r.base_yaw),
-                                          geoms, m.site(f"{r.name}/tcp").id))
+                                          geoms, m.site(f"{r.name}/tcp").id, links))
         self.cables = [self._cable_index(r, att) for r, att in zip(config.robots, self._attachments)]
         self.obstacle_geoms = np.array([m.geom(f"obstacle/{o.name}").id for o in config.obstacles]
                                        + ([m.geom("floor").id] if config.floor else []), dtype=int)

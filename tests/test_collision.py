@@ -1,6 +1,7 @@
 """Robot-obstacle collision queries: the fast yes/no check agrees with the exact minimum distance."""
 
 import numpy as np
+import pytest
 
 from dresspack_gym.collision import RobotCollisionChecker
 from dresspack_gym.kinematics import weld_pose
@@ -53,3 +54,32 @@ def test_joint_reach_bounds_the_displacement_of_every_robot_geom():
             assert moved <= reach[j] * 0.2 + 1e-12
             d.qpos[station.robots[0].qpos] = q
             mujoco.mj_kinematics(m, d)
+
+
+def test_dresspack_nodes_on_links_are_robot_geometry():
+    """The tool-plate cable support (and the cable piece it clamps) is robot hardware: an obstacle touching
+    only it is a robot-obstacle collision, at the distance the node geometry predicts."""
+    from dresspack_gym.loading import station_from_dict
+
+    from helpers import default_station_dict
+
+    import mujoco
+
+    probe = Station(load_station("default"))
+    d = mujoco.MjData(probe.model)
+    d.qpos[probe.robot_qpos] = probe.home.ravel()
+    d.qpos[probe.load_qpos] = probe.load_values
+    mujoco.mj_kinematics(probe.model, d)
+    body = probe.model.body("r1/node_tool_support").id
+    node, axis = d.xpos[body].copy(), d.xmat[body].reshape(3, 3)[:, 0]
+    side = np.cross(axis, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)  # perpendicular to the clamped cable piece, at its node end
+    data = default_station_dict()
+    gap = 0.05
+    data["obstacles"] = [{"name": "post", "type": "sphere", "pos": (node + side * (0.03 + gap + 0.02)).tolist(),
+                          "radius": 0.02}]
+    station = Station(station_from_dict(data))
+    checker = RobotCollisionChecker(station)
+    assert checker.min_distance(station.home[0]) == pytest.approx(gap, abs=2e-3)
+    assert RobotCollisionChecker(station, margin=gap + 0.01).collides(station.home[0])
+    assert not RobotCollisionChecker(station, margin=gap - 0.01).collides(station.home[0])
