@@ -3,7 +3,6 @@ configurations it visits become a Trajectory that the evaluation replays exactly
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +14,7 @@ from dresspack_gym.station import Station
 from dresspack_gym.tasks import Task
 from dresspack_gym.trajectory import Trajectory
 
-from .base import Planner, PlanningError
+from .base import Planner, PlanningError, out_of_time_error
 
 POLICY_DIR = Path(__file__).resolve().parent / "policies"
 DEFAULT_POLICY = "stud_welding"
@@ -93,6 +92,8 @@ class PolicyPlanner(Planner):
     """
 
     name = "ppo"
+    color = "#1b9e77"
+    uses_policy = True
 
     def __init__(self, station: Station, robot: int = 0, *, policy: str | Path | None = None,
                  deterministic: bool = False, sample: bool = False, attempts: int = 3, **kwargs):
@@ -118,10 +119,13 @@ class PolicyPlanner(Planner):
     def _make_agent(self, model_path: Path):
         return PolicyAgent(model_path)
 
+    def _reseed(self) -> None:
+        super()._reseed()
+        self.agent.reset(self.seed)
+
     def _plan(self, task: Task) -> tuple[Trajectory, dict]:
         if not np.allclose(task.end, self.env.placement.home):
             raise PlanningError("the policy's episodes end at Home; this task ends elsewhere")
-        self.agent.reset(self.seed)
         modes = ["argmax"] if self.deterministic else ["sample"] * self.attempts if self.sample else \
             ["argmax"] + ["sample"] * (self.attempts - 1)
         failures = []
@@ -143,8 +147,8 @@ class PolicyPlanner(Planner):
         waypoints, stops, masked_taken = [env.q], [], 0
         done = False
         while not done:
-            if time.perf_counter() > self.deadline:
-                raise PlanningError(f"time budget of {self.time_budget:g} s used up after {env.steps} policy steps")
+            if self.allowance.out_of_time():  # the work bound is the env's max_steps
+                raise out_of_time_error(self, f"after {env.steps} policy steps")
             masks = env.action_masks()
             action = self.agent.predict(obs, masks, deterministic=mode == "argmax")
             masked_taken += int(not masks[action])
@@ -168,6 +172,7 @@ class RandomMaskedPlanner(PolicyPlanner):
     """``random``: the shipped policy's env and action set, but uniformly random allowed actions (a floor)."""
 
     name = "random"
+    color = "#999999"
 
     def _make_agent(self, model_path: Path):
         return RandomMaskedAgent(self.env.action_space.n, self.seed)

@@ -56,13 +56,14 @@ import gymnasium as gym
 import numpy as np
 
 from .collision import RobotCollisionChecker
+from .cost_variants import cost_function
 from .errors import ConfigError, DresspackError
 from .loading import load_station
 from .simulation import CableSimulator
 from .station import Station
 from .tasks import select_weld_goals
+from .validation import check_choice
 from .validity import MotionValidity
-from .wear_cost import normalized_wear_cost, wear_cost
 
 N_JOINT_ACTIONS = 12
 STAY = 12
@@ -90,9 +91,9 @@ class DresspackEnv(gym.Env):
         self._kwargs = dict(locals())
         for k in ("self", "__class__"):
             self._kwargs.pop(k, None)
-        _check_choice("cost_variant", cost_variant, ("thesis", "normalized"))
-        _check_choice("invalid_action", invalid_action, ("penalize", "raise"))
-        _check_choice("render_mode", render_mode, (None, "rgb_array"))
+        self.cost_fn = cost_function(cost_variant)
+        check_choice("invalid_action", invalid_action, ("penalize", "raise"))
+        check_choice("render_mode", render_mode, (None, "rgb_array"))
         for name, value, lo in (("joint_step_deg", joint_step_deg, 0.1), ("max_steps", max_steps, 1),
                                 ("settle_time", settle_time, 0.0), ("cable_samples", cable_samples, 2),
                                 ("mask_resolution_deg", mask_resolution_deg, 0.01),
@@ -122,7 +123,6 @@ class DresspackEnv(gym.Env):
         self.max_steps = int(max_steps)
         self.weights = dict(time=time_weight, wear=wear_weight, goal=goal_reward, progress=progress_weight,
                             invalid=invalid_penalty)
-        self.cost_fn = wear_cost if cost_variant == "thesis" else normalized_wear_cost
         self.invalid_action = invalid_action
         self.settle_time = float(settle_time)
         self.cable_samples = int(cable_samples)
@@ -420,7 +420,3 @@ class DresspackEnv(gym.Env):
             info[f"reward_{k}"] = float(terms.get(k, 0.0))
         return info
 
-
-def _check_choice(field: str, value, choices) -> None:
-    if value not in choices:
-        raise ConfigError(field, f"{value!r} is not one of the allowed values {list(choices)}")

@@ -11,6 +11,8 @@ from .station import Station
 
 
 MIN_MARGIN = 0.002  # [m] conservative advancement needs a positive clearance to make progress
+# [m] robot-station clearance the planners keep (and the policy's masks, so its paths pass the planners' check)
+PLANNER_MARGIN = 0.005
 
 
 class MotionValidity:
