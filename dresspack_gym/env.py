@@ -13,8 +13,9 @@ the goal is reached; the cable then settles (the robot dwells while welding, as 
 
 Tasks: ``welds`` (all of them, in order), or each episode ``n_welds`` of them (optionally shuffled), or one
 of the weld lists in ``tasks``; ``reset(options={"welds": [...], "start": q})`` sets both explicitly. With
-``sim_timestep`` overrides the station's physics step for this env (e.g. 4 ms to train faster; evaluation
-replays the resulting trajectory at the station's own step). With ``start_noise_deg`` the episode starts at a random valid configuration within that many degrees of Home
+``sim_timestep`` the env compiles its own station from the config with that physics step (e.g. 4 ms to train
+faster; everything derived from the step follows it; evaluation replays the resulting trajectory at the
+station's own step). With ``start_noise_deg`` the episode starts at a random valid configuration within that many degrees of Home
 (drawn from ``np_random``, the cable settled there); it always ends at Home.
 
 Masks (``action_masks()``, sb3-contrib convention): an action is masked when the joint limits or an active
@@ -50,6 +51,7 @@ divided by the cable length (3 each), and the measures κ/κ0, F/100 N, d/c (3).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import gymnasium as gym
@@ -103,9 +105,10 @@ class DresspackEnv(gym.Env):
         if sim_timestep is not None:
             if not (isinstance(sim_timestep, (int, float)) and 1e-4 <= sim_timestep <= 0.01):
                 raise ConfigError("sim_timestep", f"must be a number in [0.0001, 0.01] s, got {sim_timestep!r}")
-            # a private model, so a caller's Station keeps its own timestep
-            station = Station(station.config if isinstance(station, Station) else load_station(station))
-            station.model.opt.timestep = float(sim_timestep)
+            # a station compiled from the changed config: everything derived from the timestep (the cable's
+            # constraint impedances) follows it, and a caller's Station keeps its own
+            config = station.config if isinstance(station, Station) else load_station(station)
+            station = Station(replace(config, simulation=replace(config.simulation, timestep=float(sim_timestep))))
         self.station = station if isinstance(station, Station) else Station(load_station(station))
         if not 0 <= robot < self.station.n_robots:
             raise ConfigError("robot", f"robot index {robot} out of range for {self.station.n_robots} robot(s)")
