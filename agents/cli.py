@@ -1,11 +1,8 @@
-"""``dresspack plan``: the planning baselines from the command line (added to the ``dresspack`` command)."""
+"""``dresspack plan``: the planners from the command line (a ``dresspack`` subcommand, registered by entry point)."""
 
 from __future__ import annotations
 
 import json
-import sys
-
-from dresspack_gym import cli as base_cli
 
 from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES
 
@@ -71,10 +68,3 @@ def cmd_plan(args) -> int:
         print(f"wrote {args.plot}")
     return 0
 
-
-def main(argv: list[str] | None = None) -> int:
-    return base_cli.main(argv, extensions=(add_plan_command,))
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -55,7 +55,7 @@ def plan_station(station_ref: str | Station, planner: str = "ompl", *, robot: in
                  **planner_kwargs) -> PlannedRun:
     """Plan ``task`` (default: Home -> ``welds`` -> Home) and replay it; ``planner_kwargs`` go to the planner
     (e.g. ``policy=`` for ``ppo``). The budget is ``iterations`` / ``evaluations`` / ``routes`` (work units, see
-    :class:`~agents.budget.Budget`), with ``time_budget`` [s] as an optional wall-time cap."""
+    :class:`~dresspack.agents.budget.Budget`), with ``time_budget`` [s] as an optional wall-time cap."""
     station = station_ref if isinstance(station_ref, Station) else Station(load_station(station_ref))
     p = make_planner(planner, station, robot, seed=seed, iterations=iterations, evaluations=evaluations,
                      routes=routes, time_budget=time_budget, **planner_kwargs)

@@ -10,13 +10,14 @@ import yaml
 
 from dresspack_gym.env import DresspackEnv
 from dresspack_gym.errors import ConfigError
+from dresspack_gym.shipped import find_shipped, shipped_root
 from dresspack_gym.station import Station
 from dresspack_gym.tasks import Task
 from dresspack_gym.trajectory import Trajectory
 
 from .base import Planner, PlanningError, out_of_time_error
 
-POLICY_DIR = Path(__file__).resolve().parent / "policies"
+POLICY_DIR = shipped_root(__package__) / "policies"  # package data: agents/policies/<name>/
 DEFAULT_POLICY = "stud_welding"
 # Only the episode-sampling arguments differ between training and acting on a given task.
 _TRAINING_ONLY = ("tasks", "n_welds", "shuffle_welds", "welds", "start_noise_deg", "station", "render_mode")
@@ -27,8 +28,8 @@ def resolve_policy(ref: str | Path | None) -> tuple[Path, dict]:
     Returns the model file and the training config (env id and env kwargs)."""
     ref = DEFAULT_POLICY if ref is None else ref
     path = Path(ref)
-    if not path.exists() and (POLICY_DIR / str(ref)).is_dir():
-        path = POLICY_DIR / str(ref)
+    if not path.exists():
+        path = find_shipped(ref, "policies", "policy", package=__package__, suffix="")
     if path.is_dir():
         for name in ("model.zip", "best/best_model.zip", "final_model.zip"):
             if (path / name).is_file():
@@ -36,11 +37,10 @@ def resolve_policy(ref: str | Path | None) -> tuple[Path, dict]:
                 break
         else:
             raise ConfigError("policy", f"{path} holds no model.zip, best/best_model.zip or final_model.zip")
-    elif path.is_file() and path.suffix == ".zip":
+    elif path.suffix == ".zip":
         model, folder = path, path.parent if (path.parent / "config.yaml").is_file() else path.parent.parent
     else:
-        shipped = sorted(p.name for p in POLICY_DIR.iterdir() if p.is_dir()) if POLICY_DIR.is_dir() else []
-        raise ConfigError("policy", f"no policy {str(ref)!r}: give a run folder, a model .zip or one of {shipped}")
+        raise ConfigError("policy", f"{path} is neither a run folder nor a model .zip")
     if not (folder / "config.yaml").is_file():
         raise ConfigError("policy", f"{folder} has no config.yaml (the training config that defines the env)")
     return model, yaml.safe_load((folder / "config.yaml").read_text())

@@ -145,12 +145,14 @@ def robustness_benchmark(station_ref: str = "default", repeats: int = 1, n_rows:
     """
     import tempfile
 
-    from .loading import CONFIG_DIR, load_station, read_yaml
+    from .loading import load_station, read_yaml
     from .robustness import runner
     from .robustness.algorithm import RobustnessSettings
     from .robustness.grid import RobustnessGrid
 
-    grid = RobustnessGrid.from_dict(read_yaml(CONFIG_DIR / "grids" / f"{grid_name}.yaml"))
+    from .shipped import find_shipped
+
+    grid = RobustnessGrid.from_dict(read_yaml(find_shipped(grid_name, "grids", "grid")))
     config = load_station(station_ref)
     settings = RobustnessSettings()
     n_per_row = len(grid.j6)

@@ -120,13 +120,14 @@ def cmd_robustness(args) -> int:
 
     from pathlib import Path
 
-    from .loading import load_station, read_yaml, resolve_shipped
+    from .loading import load_station, read_yaml
+    from .shipped import find_shipped
     from .robustness.algorithm import RobustnessSettings
     from .robustness.grid import RobustnessGrid
     from .robustness.plots import plot_map
     from .robustness.runner import run_map
 
-    grid = RobustnessGrid.from_dict(read_yaml(resolve_shipped(args.grid, "grids", "grid"), "grid"))
+    grid = RobustnessGrid.from_dict(read_yaml(find_shipped(args.grid, "grids", "grid"), "grid"))
     steps = {k: v for k, v in (("timestep", args.timestep), ("settle_timestep", args.settle_timestep)) if v is not None}
     settings = RobustnessSettings(threshold=args.threshold, n_samples=args.samples, n_paths=args.n_paths,
                                   speed_fraction=args.speed_fraction, settle_time=args.settle_time, start=args.start,
@@ -147,12 +148,13 @@ def cmd_robustness(args) -> int:
 
 
 def cmd_robustness_paths(args) -> int:
-    from .loading import load_station, read_yaml, resolve_shipped
+    from .loading import load_station, read_yaml
+    from .shipped import find_shipped
     from .robustness.algorithm import RobustnessSettings
     from .robustness.grid import RobustnessGrid
     from .robustness.paths import compare_paths
 
-    grid = RobustnessGrid.from_dict(read_yaml(resolve_shipped(args.grid, "grids", "grid"), "grid"))
+    grid = RobustnessGrid.from_dict(read_yaml(find_shipped(args.grid, "grids", "grid"), "grid"))
     report = compare_paths(grid, load_station(args.station), args.out, RobustnessSettings(), args.k_paths,
                            args.sample, args.seed, backend=args.backend, workers=args.workers,
                            progress=not args.json)
@@ -182,12 +184,19 @@ def cmd_bench(args) -> int:
     return 0
 
 
-def build_parser(extensions=()) -> argparse.ArgumentParser:
-    """The ``dresspack`` parser; ``extensions`` add subcommands from the packages built on this one
-    (``agents`` adds ``plan``) without this package importing them."""
+def registered_commands() -> list:
+    """``add(subparsers)`` functions that packages built on this one register under the entry-point group
+    ``dresspack.commands`` (``plan`` from dresspack.agents, ``demo`` from dresspack.eval): the core names none."""
+    from importlib.metadata import entry_points
+
+    return [ep.load() for ep in sorted(entry_points(group="dresspack.commands"), key=lambda ep: ep.name)]
+
+
+def build_parser(extensions=None) -> argparse.ArgumentParser:
+    """The ``dresspack`` parser with the core subcommands and ``extensions`` (default: the registered ones)."""
     p = argparse.ArgumentParser(prog="dresspack", description="Robot dresspack wear simulation and planning.")
     sub = p.add_subparsers(dest="command", required=True)
-    for add in extensions:
+    for add in registered_commands() if extensions is None else extensions:
         add(sub)
     q = sub.add_parser("inspect", help="build a station, settle at Home and print robot, cable and wear measures")
     q.add_argument("station", help="station YAML file or shipped station name (e.g. default)")
@@ -251,7 +260,7 @@ def build_parser(extensions=()) -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: list[str] | None = None, extensions=()) -> int:
+def main(argv: list[str] | None = None, extensions=None) -> int:
     args = build_parser(extensions).parse_args(argv)
     try:
         return args.func(args)

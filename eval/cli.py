@@ -1,11 +1,6 @@
-"""The ``dresspack`` command: the core subcommands, ``plan`` (agents) and ``demo`` (the README's main job)."""
+"""``dresspack demo`` (the README's main job), registered as a ``dresspack`` subcommand (entry point)."""
 
 from __future__ import annotations
-
-import sys
-
-from agents.cli import add_plan_command
-from dresspack_gym import cli as base_cli
 
 from .compare import add_eval_arguments, evaluate_and_report
 from .runs import EvalSpec
@@ -22,10 +17,3 @@ def add_demo_command(sub) -> None:
     add_eval_arguments(p, DEMO)
     p.set_defaults(func=evaluate_and_report, out="out/demo")
 
-
-def main(argv: list[str] | None = None) -> int:
-    return base_cli.main(argv, extensions=(add_plan_command, add_demo_command))
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -10,8 +10,8 @@ import json
 import sys
 from pathlib import Path
 
-from agents.cli import add_budget_arguments
-from agents.planning import PLANNERS
+from dresspack.agents.cli import add_budget_arguments
+from dresspack.agents.planning import PLANNERS
 from dresspack_gym.errors import DresspackError
 
 from .report import write_report

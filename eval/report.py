@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.planning import COLORS
+from dresspack.agents.planning import COLORS
 from dresspack_gym.loading import load_station
 from dresspack_gym.replay_plot import plot_replays
 from dresspack_gym.restriction_plot import plot_restrictions

@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from agents.base import PlanningError
-from agents.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Budget
-from agents.planning import PLANNERS, POLICY_METHODS, make_planner
+from dresspack.agents.base import PlanningError
+from dresspack.agents.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Budget
+from dresspack.agents.planning import PLANNERS, POLICY_METHODS, make_planner
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.loading import load_station
 from dresspack_gym.simulation import CableSimulator

@@ -11,11 +11,11 @@ import pytest
 
 pytest.importorskip("ompl.base")
 
-from agents.base import PlanningError  # noqa: E402
-from agents.cli import main as cli_main  # noqa: E402
-from agents.ompl_planner import OmplPlanner  # noqa: E402
-from agents.planning import plan_station  # noqa: E402
-from agents.thesis_local import ThesisLocalPlanner  # noqa: E402
+from dresspack.agents.base import PlanningError  # noqa: E402
+from dresspack_gym.cli import main as cli_main  # noqa: E402
+from dresspack.agents.ompl_planner import OmplPlanner  # noqa: E402
+from dresspack.agents.planning import plan_station  # noqa: E402
+from dresspack.agents.thesis_local import ThesisLocalPlanner  # noqa: E402
 from dresspack_gym.collision import RobotCollisionChecker  # noqa: E402
 from dresspack_gym.loading import load_station  # noqa: E402
 from dresspack_gym.simulation import CableSimulator  # noqa: E402

@@ -13,14 +13,14 @@ import pytest
 
 pytest.importorskip("ompl.base")
 
-from eval.runs import EvalSpec, _trajectory_path, run_evaluation, run_key  # noqa: E402
+from dresspack.eval.runs import EvalSpec, _trajectory_path, run_evaluation, run_key  # noqa: E402
 
 SPEC = EvalSpec(station="thesis_tension", methods=("ompl-wear",), tasks=(("side_a", "side_b"),), seeds=(0, 1),
                 evaluations=4, routes=2)
 ALONE = """
 import json, sys
-from eval.runs import EvalSpec, build_tasks
-from agents.planning import make_planner
+from dresspack.eval.runs import EvalSpec, build_tasks
+from dresspack.agents.planning import make_planner
 from dresspack_gym.loading import load_station
 from dresspack_gym.station import Station
 d = json.loads(sys.argv[1])
