@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
 import numpy as np
@@ -116,8 +117,6 @@ def cmd_restrictions(args) -> int:
 
 
 def cmd_robustness(args) -> int:
-    import math
-
     from pathlib import Path
 
     from .loading import load_station, read_yaml
@@ -128,10 +127,10 @@ def cmd_robustness(args) -> int:
     from .robustness.runner import run_map
 
     grid = RobustnessGrid.from_dict(read_yaml(find_shipped(args.grid, "grids", "grid"), "grid"))
-    steps = {k: v for k, v in (("timestep", args.timestep), ("settle_timestep", args.settle_timestep)) if v is not None}
     settings = RobustnessSettings(threshold=args.threshold, n_samples=args.samples, n_paths=args.n_paths,
                                   speed_fraction=args.speed_fraction, settle_time=args.settle_time, start=args.start,
-                                  excursion=tuple(math.radians(e) for e in args.excursion), **steps)
+                                  excursion=tuple(math.radians(e) for e in args.excursion), timestep=args.timestep,
+                                  settle_timestep=args.settle_timestep)
     summary = run_map(grid, load_station(args.station), args.out, settings, backend=args.backend,
                       workers=args.workers, ray_address=args.ray_address, progress=not args.json, limit=args.limit)
     (Path(args.out) / "summary.json").write_text(json.dumps(summary, indent=2))
@@ -194,6 +193,8 @@ def registered_commands() -> list:
 
 def build_parser(extensions=None) -> argparse.ArgumentParser:
     """The ``dresspack`` parser with the core subcommands and ``extensions`` (default: the registered ones)."""
+    from .robustness.algorithm import START_MODES, RobustnessSettings
+
     p = argparse.ArgumentParser(prog="dresspack", description="Robot dresspack wear simulation and planning.")
     sub = p.add_subparsers(dest="command", required=True)
     for add in registered_commands() if extensions is None else extensions:
@@ -222,19 +223,21 @@ def build_parser(extensions=None) -> argparse.ArgumentParser:
     rm.add_argument("--workers", type=int, default=2)
     rm.add_argument("--backend", choices=["serial", "process", "ray"], default="process")
     rm.add_argument("--ray-address", default=None, help="address of an existing Ray cluster (backend ray)")
-    rm.add_argument("--threshold", type=float, default=0.1, help="d_thresh [m] (default 0.1)")
-    rm.add_argument("--samples", type=int, default=20, help="N_s shape samples (default 20)")
-    rm.add_argument("--excursion", type=float, nargs=4, default=[20, 100, 100, 100], metavar=("RY", "J4", "J5", "J6"),
-                    help="excursion sizes [deg] (default 20 100 100 100)")
-    rm.add_argument("--n-paths", type=int, default=0, help="K random approach paths instead of the thesis's two")
-    rm.add_argument("--speed-fraction", type=float, default=1.0)
-    rm.add_argument("--settle-time", type=float, default=1.0, help="max relaxation after each return [s]")
-    rm.add_argument("--timestep", type=float, default=None,
-                    help="physics step during motions [s] (default 0.004; 0.005 is 1.2x faster at 92.5 %% flag "
-                         "agreement with 1 ms, 0.004: 95 %%)")
-    rm.add_argument("--settle-timestep", type=float, default=None,
-                    help="physics step while the cable relaxes [s] (default 0.016)")
-    rm.add_argument("--start", choices=["row", "ry"], default="row",
+    d = RobustnessSettings()  # the one owner of the defaults
+    excursion = [round(math.degrees(e), 6) for e in d.excursion]
+    rm.add_argument("--threshold", type=float, default=d.threshold, help=f"d_thresh [m] (default {d.threshold:g})")
+    rm.add_argument("--samples", type=int, default=d.n_samples, help=f"N_s shape samples (default {d.n_samples})")
+    rm.add_argument("--excursion", type=float, nargs=4, default=excursion, metavar=("RY", "J4", "J5", "J6"),
+                    help="excursion sizes [deg] (default " + " ".join(f"{e:g}" for e in excursion) + ")")
+    rm.add_argument("--n-paths", type=int, default=d.n_paths, help="K random approach paths instead of the thesis's two")
+    rm.add_argument("--speed-fraction", type=float, default=d.speed_fraction)
+    rm.add_argument("--settle-time", type=float, default=d.settle_time, help="max relaxation after each return [s]")
+    rm.add_argument("--timestep", type=float, default=d.timestep,
+                    help=f"physics step during motions [s] (default {d.timestep:g}; 0.005 is 1.2x faster at 92.5 %% "
+                         "flag agreement with 1 ms, 0.004: 95 %%)")
+    rm.add_argument("--settle-timestep", type=float, default=d.settle_timestep,
+                    help=f"physics step while the cable relaxes [s] (default {d.settle_timestep:g})")
+    rm.add_argument("--start", choices=START_MODES, default=d.start,
                     help="row: each configuration continues from the previous one of its grid row (default); "
                          "ry: every configuration from the settled state of its Ry")
     rm.add_argument("--limit", type=int, default=None, help="compute at most this many new configurations")

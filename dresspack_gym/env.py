@@ -63,7 +63,7 @@ from .errors import ConfigError, DresspackError
 from .loading import load_station
 from .simulation import CableSimulator
 from .station import Station
-from .tasks import select_weld_goals
+from .tasks import random_start, select_weld_goals
 from .validation import check_choice
 from .validity import MotionValidity
 
@@ -164,15 +164,6 @@ class DresspackEnv(gym.Env):
                 raise ConfigError("tasks", f"unknown weld(s) {unknown}; choose from {list(self.weld_goals)}")
         return [list(t) for t in tasks]
 
-    def _random_start(self) -> np.ndarray:
-        """A valid configuration within ``start_noise`` of Home (rejection sampling from ``np_random``)."""
-        home = self.placement.home
-        for _ in range(1000):
-            q = home + self.np_random.uniform(-self.start_noise, self.start_noise, size=6)
-            if self.validity.valid(q):
-                return q
-        return home.copy()
-
     def _setup_episode(self, order: list[str]) -> None:
         self.goal_names = order + ["home"]
         self.goals = [self.weld_goals[n] for n in order] + [self.placement.home.copy()]
@@ -212,7 +203,8 @@ class DresspackEnv(gym.Env):
                 raise ConfigError("options.start", "must be 6 joint angles [rad] of a valid configuration: "
                                                    f"{self.validity.why_invalid(start) if start.shape == (6,) else start.shape}")
         else:
-            start = self._random_start() if self.start_noise > 0 else None
+            start = (random_start(self.placement.home, self.start_noise, self.np_random, self.validity.valid)
+                     if self.start_noise > 0 else None)
         if start is None or np.allclose(start, self.placement.home):
             self.sim.set_state(self.home_state)
         else:
@@ -362,7 +354,7 @@ class DresspackEnv(gym.Env):
 
     def _why_masked(self, a: int) -> str:
         qs = self._segment_configs(self.q, self._target(self.q, a))
-        if np.any(qs < self.limits[:, 0] - 1e-9) or np.any(qs > self.limits[:, 1] + 1e-9):
+        if not self.validity.within_limits(qs).all():
             return "joint limit"
         bad = ~self.restrictions.allowed(qs)
         if bad.any():

@@ -13,6 +13,7 @@ import yaml
 from .config import (DresspackConfig, RobotConfig, RobotPlacement, SimulationConfig, StationConfig,
                      WearCostConfig, obstacle_from_section, weld_point_from_section)
 from .errors import ConfigError
+from .joint_limits import check_within_limits
 from .restrictions import RestrictionSet
 from .shipped import find_shipped, shipped_names, shipped_root
 from .validation import Section
@@ -83,20 +84,14 @@ def station_from_dict(data: Mapping[str, Any], base_dir: Path = CONFIG_DIR / "st
         base_pos = r.vector("base_pos", 3, (0, 0, 0), lo=-500, hi=500, unit="m")
         base_yaw = float(np.radians(r.number("base_yaw_deg", 0.0, lo=-360, hi=360, unit="deg")))
         home = np.radians(r.vector("home_deg", 6, lo=-720, hi=720, unit="deg"))
-        lim = robot.joint_limits
-        bad = np.where((home < lim[:, 0] - 1e-9) | (home > lim[:, 1] + 1e-9))[0]
-        if len(bad):
-            j = int(bad[0])
-            raise ConfigError(f"{r.field('home_deg')}[{j}]",
-                              f"{np.degrees(home[j]):.1f} deg is outside joint {j + 1}'s limits "
-                              f"[{np.degrees(lim[j, 0]):.0f}, {np.degrees(lim[j, 1]):.0f}] deg")
+        check_within_limits(home, robot.joint_limits, r.field("home_deg"), digits=1)
         restrictions = RestrictionSet.from_list(r.raw("restrictions", []), r.field("restrictions"))
         if not restrictions.allowed(home)[0]:
             raise ConfigError(r.field("home_deg"), f"Home violates the robot's joint restrictions: "
                                                     f"{restrictions.violated_by(home)}")
         robustness_map = _robustness_map(r, base_dir)
         r.done()
-        robots.append(RobotPlacement(rname, robot, dresspack, base_pos, base_yaw, home, restrictions,
+        robots.append(RobotPlacement(rname, robot, dresspack, base_pos, base_yaw, tuple(home.tolist()), restrictions,
                                      robustness_map))
     if not robots:
         raise ConfigError("robots", "a station needs at least one robot")

@@ -24,9 +24,15 @@ class Task:
         """The configurations the cycle must pass through, in order: start, welds, end."""
         return np.vstack([self.start, self.goals, self.end])
 
-    def leg_names(self) -> list[str]:
-        stops = ["home", *self.weld_names, "home"]
-        return [f"{a}->{b}" for a, b in zip(stops[:-1], stops[1:])]
+
+def random_start(home: np.ndarray, noise: float, rng: np.random.Generator, valid, tries: int = 1000) -> np.ndarray:
+    """A valid configuration within ``noise`` [rad] of ``home`` in every joint, by rejection sampling from
+    ``rng`` (``valid(q) -> bool``); Home itself if ``tries`` samples find none."""
+    for _ in range(tries):
+        q = home + rng.uniform(-noise, noise, size=6)
+        if valid(q):
+            return q
+    return home.copy()
 
 
 def select_weld_goals(station: Station, robot: int, collides, welds: list[str] | None = None,

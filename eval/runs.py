@@ -21,7 +21,7 @@ from dresspack_gym.errors import ConfigError
 from dresspack_gym.loading import load_station
 from dresspack_gym.simulation import CableSimulator
 from dresspack_gym.station import Station
-from dresspack_gym.tasks import Task, make_task
+from dresspack_gym.tasks import Task, make_task, random_start
 from dresspack_gym.trajectory import Replay, Trajectory, replay
 from dresspack_gym.validity import PLANNER_MARGIN, MotionValidity
 
@@ -77,11 +77,7 @@ def eval_start(station: Station, robot: int, seed: int, noise_deg: float,
         return home
     validity = validity or MotionValidity(station, robot, margin=PLANNER_MARGIN)
     rng = np.random.default_rng([seed, 7919])  # not the training streams
-    for _ in range(1000):
-        q = home + rng.uniform(-1, 1, 6) * math.radians(noise_deg)
-        if validity.valid(q):
-            return q
-    return home
+    return random_start(home, math.radians(noise_deg), rng, validity.valid)
 
 
 def build_tasks(station: Station, spec: EvalSpec) -> dict[tuple[tuple[str, ...], int], Task]:
