@@ -217,3 +217,11 @@ def test_sim_timestep_builds_a_station_from_the_changed_config():
     np.testing.assert_array_equal(e.station.model.eq_solref, at_4ms.model.eq_solref)
     assert not np.array_equal(e.station.model.eq_solref, station.model.eq_solref)
     assert station.model.opt.timestep == config.simulation.timestep
+
+
+def test_observation_size_comes_from_its_structure():
+    e = DresspackEnv(station="thesis_distance", cable_samples=5)
+    obs, _ = e.reset(seed=0)
+    assert list(e.observation_structure) == ["joints", "goal", "goal_error", "progress", "cable_points", "measures"]
+    assert e.observation_structure["cable_points"] == 15
+    assert obs.shape == e.observation_space.shape == (sum(e.observation_structure.values()),)
