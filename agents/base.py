@@ -34,8 +34,8 @@ class Planner(ABC):
     """Base class: validates the task, seeds every random stream per plan, times the planning, checks the answer.
 
     Every plan starts from the planner's ``seed`` alone (:meth:`_reseed`), so a plan's result never depends on
-    what the process planned before. ``iterations`` / ``evaluations`` / ``routes`` are the work budget (:class:`Budget`);
-    ``time_budget`` is an optional wall-time cap [s] on top.
+    what the process planned before. ``iterations`` / ``evaluations`` / ``routes`` are the work budget
+    (:class:`Budget`); ``time_budget`` is an optional wall-time cap [s] on top.
     """
 
     name = "planner"

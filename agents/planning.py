@@ -51,8 +51,8 @@ class PlannedRun:
 
 def plan_station(station_ref: str | Station, planner: str = "ompl", *, robot: int = 0, seed: int = 0,
                  iterations: int = DEFAULT_ITERATIONS, evaluations: int = DEFAULT_EVALUATIONS,
-                 routes: int = DEFAULT_ROUTES, time_budget: float | None = None, welds: list[str] | None = None, task: Task | None = None,
-                 **planner_kwargs) -> PlannedRun:
+                 routes: int = DEFAULT_ROUTES, time_budget: float | None = None, welds: list[str] | None = None,
+                 task: Task | None = None, **planner_kwargs) -> PlannedRun:
     """Plan ``task`` (default: Home -> ``welds`` -> Home) and replay it; ``planner_kwargs`` go to the planner
     (e.g. ``policy=`` for ``ppo``). The budget is ``iterations`` / ``evaluations`` / ``routes`` (work units, see
     :class:`~dresspack.agents.budget.Budget`), with ``time_budget`` [s] as an optional wall-time cap."""

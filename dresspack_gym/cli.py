@@ -229,7 +229,8 @@ def build_parser(extensions=None) -> argparse.ArgumentParser:
     rm.add_argument("--samples", type=int, default=d.n_samples, help=f"N_s shape samples (default {d.n_samples})")
     rm.add_argument("--excursion", type=float, nargs=4, default=excursion, metavar=("RY", "J4", "J5", "J6"),
                     help="excursion sizes [deg] (default " + " ".join(f"{e:g}" for e in excursion) + ")")
-    rm.add_argument("--n-paths", type=int, default=d.n_paths, help="K random approach paths instead of the thesis's two")
+    rm.add_argument("--n-paths", type=int, default=d.n_paths,
+                    help="K random approach paths instead of the thesis's two")
     rm.add_argument("--speed-fraction", type=float, default=d.speed_fraction)
     rm.add_argument("--settle-time", type=float, default=d.settle_time, help="max relaxation after each return [s]")
     rm.add_argument("--timestep", type=float, default=d.timestep,
