@@ -50,7 +50,7 @@ class ComposedPlanner(Planner):
             scores = [cost.cost(state, c)[0] for c in cands]
             best = cands[int(np.argmin(scores))]
             if self.refiner is not None:
-                share = (self.budget.evaluations - self._refine_queries) // (n - k)
+                share = max(0, self.budget.evaluations - self._refine_queries) // (n - k)
                 q0 = cost.queries
                 best = self.refiner.improve(state, best, share, self.rng, self.allowance)
                 self._refine_queries += cost.queries - q0

@@ -120,11 +120,11 @@ def cmd_robustness(args) -> int:
     from pathlib import Path
 
     from .loading import load_station, read_yaml
-    from .shipped import find_shipped
     from .robustness.algorithm import RobustnessSettings
     from .robustness.grid import RobustnessGrid
     from .robustness.plots import plot_map
     from .robustness.runner import run_map
+    from .shipped import find_shipped
 
     grid = RobustnessGrid.from_dict(read_yaml(find_shipped(args.grid, "grids", "grid"), "grid"))
     settings = RobustnessSettings(threshold=args.threshold, n_samples=args.samples, n_paths=args.n_paths,
@@ -148,7 +148,6 @@ def cmd_robustness(args) -> int:
 
 def cmd_robustness_paths(args) -> int:
     from .loading import load_station, read_yaml
-    from .shipped import find_shipped
     from .robustness.algorithm import RobustnessSettings
     from .robustness.grid import RobustnessGrid
     from .robustness.paths import compare_paths

@@ -9,10 +9,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import ConfigError
-from .simulation import CableSimulator
 from . import time_law
 from .cost_variants import cost_function
+from .errors import ConfigError
+from .simulation import CableSimulator
 
 MEASURES = ("curvature", "tension", "clearance", "twist_rate")
 
