@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
-import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
-from dresspack_gym.errors import DresspackError
+import numpy as np
+
+from dresspack_gym.errors import ConfigError, DresspackError
 from dresspack_gym.station import Station
 from dresspack_gym.tasks import Task
 from dresspack_gym.trajectory import Trajectory
-from dresspack_gym.validity import MotionValidity
+from dresspack_gym.validity import PLANNER_MARGIN, MotionValidity
+
+from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Allowance, Budget
 
 
 class PlanningError(DresspackError):
@@ -28,37 +31,54 @@ class PlanResult:
 
 
 class Planner(ABC):
-    """Base class: validates the task, times the planning, checks the answer."""
+    """Base class: validates the task, seeds every random stream per plan, times the planning, checks the answer.
+
+    Every plan starts from the planner's ``seed`` alone (:meth:`_reseed`), so a plan's result never depends on
+    what the process planned before. ``iterations`` / ``evaluations`` / ``routes`` are the work budget
+    (:class:`Budget`); ``time_budget`` is an optional wall-time cap [s] on top.
+    """
 
     name = "planner"
+    color = "#444444"  # the method's colour in reports
+    uses_policy = False  # True: takes ``policy=`` (a trained policy's run folder, model or shipped name)
 
-    def __init__(self, station: Station, robot: int = 0, *, time_budget: float = 20.0, seed: int = 0,
-                 margin: float = 0.005, resolution_deg: float = 2.0):
-        if time_budget <= 0:
-            raise PlanningError(f"time_budget must be positive, got {time_budget}")
+    def __init__(self, station: Station, robot: int = 0, *, time_budget: float | None = None,
+                 iterations: int = DEFAULT_ITERATIONS, evaluations: int = DEFAULT_EVALUATIONS,
+                 routes: int = DEFAULT_ROUTES, seed: int = 0,
+                 margin: float = PLANNER_MARGIN, resolution_deg: float = 2.0):
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ConfigError("seed", f"must be an integer >= 0, got {seed!r}")
         self.station = station
         self.robot = robot
-        self.time_budget = float(time_budget)
+        self.budget = Budget(iterations, evaluations, routes, time_budget)
         self.seed = int(seed)
         self.validity = MotionValidity(station, robot, margin, resolution_deg)
         self.joint_speed = station.config.robots[robot].robot.joint_speed
         self.speed_fraction = station.config.simulation.speed_fraction
+        self.rng = np.random.default_rng(self.seed)
+        self.allowance = Allowance(self.budget)
+
+    @property
+    def time_budget(self) -> float | None:
+        return self.budget.wall_time
 
     def plan(self, task: Task) -> PlanResult:
         for name, q in [("start", task.start), *zip(task.weld_names, task.goals), ("home", task.end)]:
             if not self.validity.valid(q):
                 raise PlanningError(f"task configuration {name!r} is invalid: {self.validity.why_invalid(q)}")
-        t0 = time.perf_counter()
-        self.deadline = t0 + self.time_budget
+        self._reseed()
+        self.validity.n_checks = 0
+        self.allowance = Allowance(self.budget)
         traj, info = self._plan(task)
-        elapsed = time.perf_counter() - t0
+        elapsed = self.allowance.elapsed()
         if not self.validity.path_valid(traj.waypoints):
             raise PlanningError(f"{self.name} returned an invalid trajectory (a bug): please report it")
         info.setdefault("collision_checks", self.validity.n_checks)
         return PlanResult(traj, elapsed, self.name, info)
 
-    def remaining(self) -> float:
-        return max(0.0, self.deadline - time.perf_counter())
+    def _reseed(self) -> None:
+        """Restart every random stream of the method from ``seed`` (extended by methods with more streams)."""
+        self.rng = np.random.default_rng(self.seed)
 
     def duration(self, traj: Trajectory) -> float:
         """Motion time [s] of a trajectory under the simulator's time law."""
@@ -67,3 +87,7 @@ class Planner(ABC):
     @abstractmethod
     def _plan(self, task: Task) -> tuple[Trajectory, dict]:
         """Return the trajectory through the task's stops and a dict of details."""
+
+
+def out_of_time_error(planner: Planner, what: str) -> PlanningError:
+    return PlanningError(f"{planner.name}: wall-time cap of {planner.time_budget:g} s used up {what}")

@@ -1,11 +1,24 @@
-"""``dresspack plan``: the planning baselines from the command line (added to the ``dresspack`` command)."""
+"""``dresspack plan``: the planners from the command line (a ``dresspack`` subcommand, registered by entry point)."""
 
 from __future__ import annotations
 
 import json
-import sys
 
-from dresspack_gym import cli as base_cli
+from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES
+
+
+def add_budget_arguments(p, iterations: int = DEFAULT_ITERATIONS, evaluations: int = DEFAULT_EVALUATIONS,
+                         routes: int = DEFAULT_ROUTES, time_budget: float | None = None) -> None:
+    """The planning budget flags (shared by ``dresspack plan``, ``dresspack-eval`` and ``dresspack demo``)."""
+    p.add_argument("--iterations", type=int, default=iterations,
+                   help=f"OMPL planner iterations per connection (work units; default {iterations})")
+    p.add_argument("--evaluations", type=int, default=evaluations,
+                   help=f"cable-leg cost queries of the wear-aware refinement per plan (default {evaluations})")
+    p.add_argument("--routes", type=int, default=routes,
+                   help=f"candidate routes per leg sampled and scored by ompl-wear (default {routes})")
+    p.add_argument("--time-budget", type=float, default=time_budget, metavar="SECONDS",
+                   help="optional wall-time cap per plan [s]; a plan stopped by it depends on machine load "
+                        f"(default: {'none' if time_budget is None else time_budget})")
 
 
 def add_plan_command(sub) -> None:
@@ -15,7 +28,7 @@ def add_plan_command(sub) -> None:
     p.add_argument("station", help="station or thesis scenario (YAML or shipped name, e.g. thesis_tension)")
     p.add_argument("--planner", choices=list(PLANNERS), default="ompl")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--time-budget", type=float, default=20.0, help="planning time limit [s] (default 20)")
+    add_budget_arguments(p)
     p.add_argument("--welds", nargs="+", default=None, help="weld point names in visiting order (default: all)")
     p.add_argument("--policy", default=None, help="ppo only: run folder, model .zip or shipped policy name "
                                                   "(default: stud_welding)")
@@ -28,11 +41,12 @@ def cmd_plan(args) -> int:
     from dresspack_gym.replay_plot import plot_replays
 
     from .base import PlanningError
-    from .planning import plan_station
+    from .planning import POLICY_METHODS, plan_station
 
     try:
-        extra = {"policy": args.policy} if args.planner in ("ppo", "random") else {}
-        run = plan_station(args.station, args.planner, seed=args.seed, time_budget=args.time_budget,
+        extra = {"policy": args.policy} if args.planner in POLICY_METHODS else {}
+        run = plan_station(args.station, args.planner, seed=args.seed, iterations=args.iterations,
+                           evaluations=args.evaluations, routes=args.routes, time_budget=args.time_budget,
                            welds=args.welds, **extra)
     except PlanningError as exc:  # a failed plan is a result, not a crash
         if args.json:
@@ -54,10 +68,3 @@ def cmd_plan(args) -> int:
         print(f"wrote {args.plot}")
     return 0
 
-
-def main(argv: list[str] | None = None) -> int:
-    return base_cli.main(argv, extensions=(add_plan_command,))
-
-
-if __name__ == "__main__":
-    sys.exit(main())

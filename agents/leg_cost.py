@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from dresspack_gym.cost_variants import cost_function
 from dresspack_gym.simulation import CableSimulator
 from dresspack_gym.station import Station
 from dresspack_gym.trajectory import Trajectory, replay
@@ -18,10 +19,17 @@ class LegCost:
         self.sim = CableSimulator(station)
         self.robot = robot
         self.time_weight, self.wear_weight = float(time_weight), float(wear_weight)
+        cost_function(cost_variant)  # a bad name fails here, naming the field, not in the first replay
         self.cost_variant = cost_variant
         self.record_every = record_every
-        self.evaluations = 0
+        self.evaluations = 0  # cable simulations run
+        self.queries = 0  # cost() calls, cached or not: the refiners' work unit (independent of the cache)
         self._cache: dict[bytes, tuple[float, np.ndarray, dict]] = {}
+
+    def reset(self) -> None:
+        """Forget the cache and the counters (once per plan, so a plan never depends on an earlier one)."""
+        self.evaluations = self.queries = 0
+        self._cache.clear()
 
     def start_state(self, q_start: np.ndarray) -> np.ndarray:
         q = self.sim.station.home.copy()
@@ -30,6 +38,7 @@ class LegCost:
         return self.sim.get_state()
 
     def cost(self, start_state: np.ndarray, waypoints: np.ndarray) -> tuple[float, np.ndarray, dict]:
+        self.queries += 1
         key = start_state.tobytes() + np.round(np.asarray(waypoints), 9).tobytes()
         hit = self._cache.get(key)
         if hit is not None:

@@ -3,7 +3,6 @@ configurations it visits become a Trajectory that the evaluation replays exactly
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
@@ -11,13 +10,14 @@ import yaml
 
 from dresspack_gym.env import DresspackEnv
 from dresspack_gym.errors import ConfigError
+from dresspack_gym.shipped import find_shipped, shipped_root
 from dresspack_gym.station import Station
 from dresspack_gym.tasks import Task
 from dresspack_gym.trajectory import Trajectory
 
-from .base import Planner, PlanningError
+from .base import Planner, PlanningError, out_of_time_error
 
-POLICY_DIR = Path(__file__).resolve().parent / "policies"
+POLICY_DIR = shipped_root(__package__) / "policies"  # package data: agents/policies/<name>/
 DEFAULT_POLICY = "stud_welding"
 # Only the episode-sampling arguments differ between training and acting on a given task.
 _TRAINING_ONLY = ("tasks", "n_welds", "shuffle_welds", "welds", "start_noise_deg", "station", "render_mode")
@@ -28,8 +28,8 @@ def resolve_policy(ref: str | Path | None) -> tuple[Path, dict]:
     Returns the model file and the training config (env id and env kwargs)."""
     ref = DEFAULT_POLICY if ref is None else ref
     path = Path(ref)
-    if not path.exists() and (POLICY_DIR / str(ref)).is_dir():
-        path = POLICY_DIR / str(ref)
+    if not path.exists():
+        path = find_shipped(ref, "policies", "policy", package=__package__, suffix="")
     if path.is_dir():
         for name in ("model.zip", "best/best_model.zip", "final_model.zip"):
             if (path / name).is_file():
@@ -37,11 +37,10 @@ def resolve_policy(ref: str | Path | None) -> tuple[Path, dict]:
                 break
         else:
             raise ConfigError("policy", f"{path} holds no model.zip, best/best_model.zip or final_model.zip")
-    elif path.is_file() and path.suffix == ".zip":
+    elif path.suffix == ".zip":
         model, folder = path, path.parent if (path.parent / "config.yaml").is_file() else path.parent.parent
     else:
-        shipped = sorted(p.name for p in POLICY_DIR.iterdir() if p.is_dir()) if POLICY_DIR.is_dir() else []
-        raise ConfigError("policy", f"no policy {str(ref)!r}: give a run folder, a model .zip or one of {shipped}")
+        raise ConfigError("policy", f"{path} is neither a run folder nor a model .zip")
     if not (folder / "config.yaml").is_file():
         raise ConfigError("policy", f"{folder} has no config.yaml (the training config that defines the env)")
     return model, yaml.safe_load((folder / "config.yaml").read_text())
@@ -93,6 +92,8 @@ class PolicyPlanner(Planner):
     """
 
     name = "ppo"
+    color = "#1b9e77"
+    uses_policy = True
 
     def __init__(self, station: Station, robot: int = 0, *, policy: str | Path | None = None,
                  deterministic: bool = False, sample: bool = False, attempts: int = 3, **kwargs):
@@ -118,10 +119,13 @@ class PolicyPlanner(Planner):
     def _make_agent(self, model_path: Path):
         return PolicyAgent(model_path)
 
+    def _reseed(self) -> None:
+        super()._reseed()
+        self.agent.reset(self.seed)
+
     def _plan(self, task: Task) -> tuple[Trajectory, dict]:
         if not np.allclose(task.end, self.env.placement.home):
             raise PlanningError("the policy's episodes end at Home; this task ends elsewhere")
-        self.agent.reset(self.seed)
         modes = ["argmax"] if self.deterministic else ["sample"] * self.attempts if self.sample else \
             ["argmax"] + ["sample"] * (self.attempts - 1)
         failures = []
@@ -143,8 +147,8 @@ class PolicyPlanner(Planner):
         waypoints, stops, masked_taken = [env.q], [], 0
         done = False
         while not done:
-            if time.perf_counter() > self.deadline:
-                raise PlanningError(f"time budget of {self.time_budget:g} s used up after {env.steps} policy steps")
+            if self.allowance.out_of_time():  # the work bound is the env's max_steps
+                raise out_of_time_error(self, f"after {env.steps} policy steps")
             masks = env.action_masks()
             action = self.agent.predict(obs, masks, deterministic=mode == "argmax")
             masked_taken += int(not masks[action])
@@ -168,6 +172,7 @@ class RandomMaskedPlanner(PolicyPlanner):
     """``random``: the shipped policy's env and action set, but uniformly random allowed actions (a floor)."""
 
     name = "random"
+    color = "#999999"
 
     def _make_agent(self, model_path: Path):
         return RandomMaskedAgent(self.env.action_space.n, self.seed)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -151,17 +152,15 @@ def cmd_restrictions(args) -> int:
 
 
 def cmd_robustness(args) -> int:
-    import math
 
-    from pathlib import Path
-
-    from .loading import load_station, read_yaml, resolve_shipped
+    from .loading import load_station, read_yaml
     from .robustness.algorithm import RobustnessSettings
     from .robustness.grid import RobustnessGrid
     from .robustness.plots import plot_map
     from .robustness.runner import run_map
+    from .shipped import find_shipped
 
-    grid = RobustnessGrid.from_dict(read_yaml(resolve_shipped(args.grid, "grids", "grid"), "grid"))
+    grid = RobustnessGrid.from_dict(read_yaml(find_shipped(args.grid, "grids", "grid"), "grid"))
     # Only the options given override RobustnessSettings' defaults (they live there, once).
     given = {"threshold": args.threshold, "n_samples": args.samples, "n_paths": args.n_paths,
              "speed_fraction": args.speed_fraction, "settle_time": args.settle_time, "start": args.start,
@@ -187,12 +186,12 @@ def cmd_robustness(args) -> int:
 
 
 def cmd_robustness_paths(args) -> int:
-    from .loading import load_station, read_yaml, resolve_shipped
+    from .loading import load_station, read_yaml
     from .robustness.algorithm import RobustnessSettings
     from .robustness.grid import RobustnessGrid
     from .robustness.paths import compare_paths
 
-    grid = RobustnessGrid.from_dict(read_yaml(resolve_shipped(args.grid, "grids", "grid"), "grid"))
+    grid = RobustnessGrid.from_dict(read_yaml(find_shipped(args.grid, "grids", "grid"), "grid"))
     report = compare_paths(grid, load_station(args.station), args.out, RobustnessSettings(), args.k_paths,
                            args.sample, args.seed, backend=args.backend, workers=args.workers,
                            progress=not args.json)
@@ -255,12 +254,21 @@ def cmd_bench(args) -> int:
     return 0
 
 
-def build_parser(extensions=()) -> argparse.ArgumentParser:
-    """The ``dresspack`` parser; ``extensions`` add subcommands from the packages built on this one
-    (``agents`` adds ``plan``) without this package importing them."""
+def registered_commands() -> list:
+    """``add(subparsers)`` functions that packages built on this one register under the entry-point group
+    ``dresspack.commands`` (``plan`` from dresspack.agents, ``demo`` from dresspack.eval): the core names none."""
+    from importlib.metadata import entry_points
+
+    return [ep.load() for ep in sorted(entry_points(group="dresspack.commands"), key=lambda ep: ep.name)]
+
+
+def build_parser(extensions=None) -> argparse.ArgumentParser:
+    """The ``dresspack`` parser with the core subcommands and ``extensions`` (default: the registered ones)."""
+    from .robustness.algorithm import START_MODES
+
     p = argparse.ArgumentParser(prog="dresspack", description="Robot dresspack wear simulation and planning.")
     sub = p.add_subparsers(dest="command", required=True)
-    for add in extensions:
+    for add in registered_commands() if extensions is None else extensions:
         add(sub)
     q = sub.add_parser("inspect", help="build a station, settle at Home and print robot, cable and wear measures")
     q.add_argument("station", help="station YAML file or shipped station name (e.g. default)")
@@ -304,7 +312,7 @@ def build_parser(extensions=()) -> argparse.ArgumentParser:
     rm.add_argument("--timestep", type=float, default=None, help="physics step during motions [s] (default 0.004)")
     rm.add_argument("--settle-timestep", type=float, default=None,
                     help="physics step while the cable relaxes [s] (default 0.016)")
-    rm.add_argument("--start", choices=["row", "ry"], default=None,
+    rm.add_argument("--start", choices=START_MODES, default=None,
                     help="row: each configuration continues from the previous one of its grid row (default); "
                          "ry: every configuration from the settled state of its Ry")
     rm.add_argument("--limit", type=int, default=None, help="compute at most this many new configurations")
@@ -338,7 +346,7 @@ def build_parser(extensions=()) -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: list[str] | None = None, extensions=()) -> int:
+def main(argv: list[str] | None = None, extensions=None) -> int:
     args = build_parser(extensions).parse_args(argv)
     try:
         return args.func(args)

@@ -53,16 +53,28 @@ class CollisionPrimitive:
 
 @dataclass(frozen=True)
 class RobotConfig:
-    """A 6-axis industrial robot: kinematics, limits, speeds, tool and collision geometry."""
+    """A 6-axis industrial robot: kinematics, limits, speeds, tool and collision geometry.
+
+    Limits and speeds are stored as tuples (so configs compare with ``==``) and read as fresh arrays."""
 
     name: str
     source: str
     kinematics: Kinematics
-    joint_limits: np.ndarray  # (6, 2) radians
-    joint_speed: np.ndarray  # (6,) rad/s
+    joint_limits_rad: tuple[tuple[float, float], ...]  # 6 x (lower, upper)
+    joint_speed_rad_s: tuple[float, ...]  # 6 rated joint speeds
     tcp_pos: tuple[float, float, float]
     tcp_rpy: tuple[float, float, float]
     collision: tuple[CollisionPrimitive, ...]
+
+    @property
+    def joint_limits(self) -> np.ndarray:
+        """(6, 2) radians."""
+        return np.array(self.joint_limits_rad, dtype=float)
+
+    @property
+    def joint_speed(self) -> np.ndarray:
+        """(6,) rad/s."""
+        return np.array(self.joint_speed_rad_s, dtype=float)
 
     @staticmethod
     def from_dict(data: Mapping[str, Any], path: str = "robot") -> "RobotConfig":
@@ -93,7 +105,8 @@ class RobotConfig:
         tool.done()
         prims = tuple(_primitive(p, ROBOT_LINKS) for p in s.sections("collision", []))
         s.done()
-        return RobotConfig(name, source, kin, limits, speed, tcp_pos, tcp_rpy, prims)
+        return RobotConfig(name, source, kin, tuple(map(tuple, limits.tolist())), tuple(speed.tolist()), tcp_pos,
+                           tcp_rpy, prims)
 
 
 def _primitive(p: Section, links: tuple[str, ...]) -> CollisionPrimitive:
@@ -352,9 +365,14 @@ class RobotPlacement:
     dresspack: DresspackConfig
     base_pos: tuple[float, float, float]
     base_yaw: float
-    home: np.ndarray  # (6,) radians
+    home_rad: tuple[float, ...]  # 6 joint angles (a tuple, so configs compare with ==; read ``home``)
     restrictions: RestrictionSet = field(default_factory=RestrictionSet)  # thesis 4.7, AND of all rules
     robustness_map: Any = None  # a robustness.query.RobustnessMap: weld configurations must be robust (4.2)
+
+    @property
+    def home(self) -> np.ndarray:
+        """(6,) radians, a fresh array."""
+        return np.array(self.home_rad, dtype=float)
 
 
 @dataclass(frozen=True)

@@ -13,8 +13,9 @@ the goal is reached; the cable then settles (the robot dwells while welding, as 
 
 Tasks: ``welds`` (all of them, in order), or each episode ``n_welds`` of them (optionally shuffled), or one
 of the weld lists in ``tasks``; ``reset(options={"welds": [...], "start": q})`` sets both explicitly. With
-``sim_timestep`` overrides the station's physics step for this env (e.g. 4 ms to train faster; evaluation
-replays the resulting trajectory at the station's own step). With ``start_noise_deg`` the episode starts at a random valid configuration within that many degrees of Home
+``sim_timestep`` the env compiles its own station from the config with that physics step (e.g. 4 ms to train
+faster; everything derived from the step follows it; evaluation replays the resulting trajectory at the
+station's own step). With ``start_noise_deg`` the episode starts at a random valid configuration within that many degrees of Home
 (drawn from ``np_random``, the cable settled there); it always ends at Home.
 
 Masks (``action_masks()``, sb3-contrib convention): an action is masked when the joint limits or an active
@@ -27,29 +28,26 @@ the robot stays where it is, the step costs ``invalid_penalty`` and ``info["inva
 with ``invalid_action="raise"`` an :class:`InvalidActionError` is raised. The robot never enters a
 forbidden configuration either way.
 
-Reward per step (every term is in ``info``; their sum is the reward)::
+Reward per step: the task's (:class:`~dresspack_gym.weld_cycle.WeldCycleTask`, which owns goals, reward terms
+and termination; ``_get_rew`` returns the reward and its named terms, all in ``info`` as ``reward_<term>``)::
 
     reward = reward_time + reward_wear + reward_progress + reward_goal + reward_invalid
-    reward_time     = -time_weight * step_time                        (Δt: simulated motion seconds)
-    reward_wear     = -wear_weight * C(γ)           (eq. 4.10 or its normalised variant, after the step)
-                    = -wear_weight * C(γ) * Δt      with wear_integral=True (sums to the integrated cost ∫C dt)
-    reward_progress = progress_weight * (φ(q_before) - φ(q_after)),  φ(q) = max_j |q_j - goal_j| / joint_step
-    reward_goal     = goal_reward when a weld (or the final Home) is reached
-    reward_invalid  = -invalid_penalty for a masked action
 
 ``reward_progress`` is potential-based shaping (it does not change which policies are optimal);
 ``reward_goal`` makes completion learnable. ``settle_time`` bounds the cable settling after each ordinary
 step (0: the cable keeps its motion into the next step, as in a continuous trajectory). The episode terminates when Home is reached after the last
 weld and is truncated after ``max_steps``.
 
-Observation (float32, all roughly in [-1, 1]): joints scaled by their limits (6), goal scaled likewise (6),
-joint error to the goal / pi (6), task progress (1), ``cable_samples`` cable points in the TCP frame
-divided by the cable length (3 each), and the measures κ/κ0, F/100 N, d/c (3).
+Observation (float32, all roughly in [-1, 1]), laid out by ``observation_structure`` (part name -> size, in
+order; the space's size is their sum): joints scaled by their limits (6), goal scaled likewise (6), joint error to
+the goal / pi (6), task progress (1), ``cable_samples`` cable points in the TCP frame divided by the cable length
+(3 each), and the measures κ/κ0, F/``tension_scale``, d/c (3).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import gymnasium as gym
@@ -60,10 +58,15 @@ from .errors import ConfigError, DresspackError
 from .loading import load_station
 from .simulation import CableSimulator
 from .station import Station
-from .tasks import select_weld_goals
+from .tasks import random_start
+from .validation import check_choice
 from .validity import MotionValidity
-from .wear_cost import normalized_wear_cost, wear_cost
+from .weld_cycle import REWARD_TERMS, WeldCycleTask
 
+# Observations are clipped to +-OBS_BOUND (all parts are scaled to about [-1, 1]); clearance is observed as d/c up
+# to CLEARANCE_OBS_CAP: farther than a few clearance thresholds from everything carries no information.
+OBS_BOUND = 10.0
+CLEARANCE_OBS_CAP = 5.0
 N_JOINT_ACTIONS = 12
 STAY = 12
 TOWARD_GOAL = 13
@@ -90,9 +93,8 @@ class DresspackEnv(gym.Env):
         self._kwargs = dict(locals())
         for k in ("self", "__class__"):
             self._kwargs.pop(k, None)
-        _check_choice("cost_variant", cost_variant, ("thesis", "normalized"))
-        _check_choice("invalid_action", invalid_action, ("penalize", "raise"))
-        _check_choice("render_mode", render_mode, (None, "rgb_array"))
+        check_choice("invalid_action", invalid_action, ("penalize", "raise"))
+        check_choice("render_mode", render_mode, (None, "rgb_array"))
         for name, value, lo in (("joint_step_deg", joint_step_deg, 0.1), ("max_steps", max_steps, 1),
                                 ("settle_time", settle_time, 0.0), ("cable_samples", cable_samples, 2),
                                 ("mask_resolution_deg", mask_resolution_deg, 0.01),
@@ -102,9 +104,10 @@ class DresspackEnv(gym.Env):
         if sim_timestep is not None:
             if not (isinstance(sim_timestep, (int, float)) and 1e-4 <= sim_timestep <= 0.01):
                 raise ConfigError("sim_timestep", f"must be a number in [0.0001, 0.01] s, got {sim_timestep!r}")
-            # a private model, so a caller's Station keeps its own timestep
-            station = Station(station.config if isinstance(station, Station) else load_station(station))
-            station.model.opt.timestep = float(sim_timestep)
+            # a station compiled from the changed config: everything derived from the timestep (the cable's
+            # constraint impedances) follows it, and a caller's Station keeps its own
+            config = station.config if isinstance(station, Station) else load_station(station)
+            station = Station(replace(config, simulation=replace(config.simulation, timestep=float(sim_timestep))))
         self.station = station if isinstance(station, Station) else Station(load_station(station))
         if not 0 <= robot < self.station.n_robots:
             raise ConfigError("robot", f"robot index {robot} out of range for {self.station.n_robots} robot(s)")
@@ -120,67 +123,46 @@ class DresspackEnv(gym.Env):
         self.step_size = math.radians(joint_step_deg)
         self.substeps = max(1, int(math.ceil(joint_step_deg / mask_resolution_deg)))
         self.max_steps = int(max_steps)
-        self.weights = dict(time=time_weight, wear=wear_weight, goal=goal_reward, progress=progress_weight,
-                            invalid=invalid_penalty)
-        self.cost_fn = wear_cost if cost_variant == "thesis" else normalized_wear_cost
         self.invalid_action = invalid_action
         self.settle_time = float(settle_time)
         self.cable_samples = int(cable_samples)
         self.render_mode = render_mode
         self.render_size = render_size
         self._renderer = None
-        self.weld_goals = self._weld_goals(welds)
-        if n_welds is not None and not 1 <= n_welds <= len(self.weld_goals):
-            raise ConfigError("n_welds", f"must be in [1, {len(self.weld_goals)}], got {n_welds}")
-        self.n_welds = n_welds
-        self.shuffle_welds = bool(shuffle_welds)
-        self.tasks = self._check_tasks(tasks)
+        self.task = WeldCycleTask(self.station, robot, self.checker.collides, self.step_size, welds=welds,
+                                  n_welds=n_welds, shuffle_welds=shuffle_welds, tasks=tasks, time_weight=time_weight,
+                                  wear_weight=wear_weight, goal_reward=goal_reward, progress_weight=progress_weight,
+                                  invalid_penalty=invalid_penalty, wear_integral=wear_integral,
+                                  cost_variant=cost_variant)
         self.goal_action = bool(goal_action)
-        self.wear_integral = bool(wear_integral)
         self.start_noise = math.radians(start_noise_deg)
-        n_obs = 6 * 3 + 1 + 3 * self.cable_samples + 3
-        self.observation_space = gym.spaces.Box(-10.0, 10.0, shape=(n_obs,), dtype=np.float32)
+        self.observation_structure = {"joints": 6, "goal": 6, "goal_error": 6, "progress": 1,
+                                      "cable_points": 3 * self.cable_samples, "measures": 3}
+        n_obs = sum(self.observation_structure.values())
+        self.observation_space = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(n_obs,), dtype=np.float32)
         self.n_actions = N_JOINT_ACTIONS + (2 if self.goal_action else 1)
         self.action_space = gym.spaces.Discrete(self.n_actions)
         self._mask_cache: tuple[bytes, np.ndarray] | None = None
-        self._setup_episode(list(self.weld_goals))
+        self._setup_episode(list(self.task.weld_goals))
 
     # ----------------------------------------------------------------------------- task
-    def _weld_goals(self, welds: list[str] | None) -> dict[str, np.ndarray]:
-        return select_weld_goals(self.station, self.robot_index, self.checker.collides, welds)
-
-    def _check_tasks(self, tasks) -> list[list[str]] | None:
-        if tasks is None:
-            return None
-        if not isinstance(tasks, (list, tuple)) or not tasks or not all(isinstance(t, (list, tuple)) and t
-                                                                       for t in tasks):
-            raise ConfigError("tasks", f"must be a non-empty list of non-empty weld-name lists, got {tasks!r}")
-        for t in tasks:
-            unknown = [w for w in t if w not in self.weld_goals]
-            if unknown:
-                raise ConfigError("tasks", f"unknown weld(s) {unknown}; choose from {list(self.weld_goals)}")
-        return [list(t) for t in tasks]
-
-    def _random_start(self) -> np.ndarray:
-        """A valid configuration within ``start_noise`` of Home (rejection sampling from ``np_random``)."""
-        home = self.placement.home
-        for _ in range(1000):
-            q = home + self.np_random.uniform(-self.start_noise, self.start_noise, size=6)
-            if self.validity.valid(q):
-                return q
-        return home.copy()
-
-    def _setup_episode(self, order: list[str]) -> None:
-        self.goal_names = order + ["home"]
-        self.goals = [self.weld_goals[n] for n in order] + [self.placement.home.copy()]
-        self.goal_index = 0
+    def _setup_episode(self, order: list[str], goal_index: int = 0) -> None:
+        self.task.begin(order, goal_index)
         self.steps = 0
         self.cycle_time = 0.0
         self._mask_cache = None
 
     @property
+    def weld_goals(self) -> dict[str, np.ndarray]:
+        return self.task.weld_goals
+
+    @property
     def goal(self) -> np.ndarray:
-        return self.goals[min(self.goal_index, len(self.goals) - 1)]
+        return self.task.goal
+
+    @property
+    def goal_index(self) -> int:
+        return self.task.goal_index
 
     @property
     def q(self) -> np.ndarray:
@@ -190,42 +172,30 @@ class DresspackEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         options = options or {}
-        order = list(self.weld_goals)
-        if "welds" in options:
-            order = list(options["welds"])
-            unknown = [w for w in order if w not in self.weld_goals]
-            if unknown:
-                raise ConfigError("options.welds", f"unknown weld(s) {unknown}; choose from {list(self.weld_goals)}")
-        elif self.tasks is not None:
-            order = list(self.tasks[self.np_random.integers(len(self.tasks))])
-        else:
-            if self.n_welds is not None:
-                order = list(self.np_random.choice(order, size=self.n_welds, replace=False))
-            if self.shuffle_welds:
-                order = list(self.np_random.permutation(order))
+        order = self.task.sample_welds(self.np_random, options)
         if "start" in options:
             start = np.asarray(options["start"], dtype=float)
             if start.shape != (6,) or not self.validity.valid(start):
                 raise ConfigError("options.start", "must be 6 joint angles [rad] of a valid configuration: "
                                                    f"{self.validity.why_invalid(start) if start.shape == (6,) else start.shape}")
         else:
-            start = self._random_start() if self.start_noise > 0 else None
+            start = (random_start(self.placement.home, self.start_noise, self.np_random, self.validity.valid)
+                     if self.start_noise > 0 else None)
         if start is None or np.allclose(start, self.placement.home):
             self.sim.set_state(self.home_state)
         else:
             q_all = self.station.home.copy()
             q_all[self.robot_index] = start
             self.sim.reset(q_all)
-        self._setup_episode([str(w) for w in order])
+        self._setup_episode(order)
         measures = self.sim.measures()
-        info = self._info(measures, self.cost_fn(measures, self.station.config.wear_cost), {}, 0.0, False)
+        info = self._info(measures, self.task.cost(measures), dict.fromkeys(REWARD_TERMS, 0.0), 0.0, False)
         return self._observation(measures), info
 
     def step(self, action):
         a = self._check_action(action)
         masks = self.action_masks()
         q_before = self.q
-        terms = {"time": 0.0, "wear": 0.0, "progress": 0.0, "goal": 0.0, "invalid": 0.0}
         invalid = not masks[a]
         if invalid and self.invalid_action == "raise":
             raise InvalidActionError(f"action {a} ({self.describe_action(a)}) is masked at q = "
@@ -234,7 +204,7 @@ class DresspackEnv(gym.Env):
         reached = False
         moved_through: list[np.ndarray] = []
         if invalid:
-            terms["invalid"] = -self.weights["invalid"]
+            pass  # the robot stays where it is
         elif a == STAY:  # waiting costs the time of one joint step, while the cable swings/settles
             wait = self.step_size / float(np.max(self._speeds()))
             self.sim.settle(wait)
@@ -243,7 +213,7 @@ class DresspackEnv(gym.Env):
             target = self._target(q_before, a)
             self._move(target)
             moved_through.append(target)
-            if self._near_goal(target) and self._segment_valid(target, self.goal):
+            if self.task.near_goal(target) and self._segment_valid(target, self.goal):
                 self._move(self.goal)
                 moved_through.append(self.goal.copy())
                 reached = True
@@ -254,22 +224,22 @@ class DresspackEnv(gym.Env):
         step_time = self.sim.motion_time - t0
         self.cycle_time += step_time
         measures = self.sim.measures()
-        cost = self.cost_fn(measures, self.station.config.wear_cost)
-        q_after = self.q
-        terms["time"] = -self.weights["time"] * step_time
-        terms["wear"] = -self.weights["wear"] * cost.total * (step_time if self.wear_integral else 1.0)
-        terms["progress"] = self.weights["progress"] * (self._potential(q_before) - self._potential(q_after))
+        cost = self.task.cost(measures)
+        reward, terms = self._get_rew(q_before, step_time, cost, reached, invalid)
         if reached:
-            terms["goal"] = self.weights["goal"]
-            self.goal_index += 1
+            self.task.goal_index += 1
         self.steps += 1
         self._mask_cache = None
-        terminated = self.goal_index >= len(self.goals)
+        terminated = self.task.terminated()
         truncated = not terminated and self.steps >= self.max_steps
-        reward = float(sum(terms.values()))
         info = self._info(measures, cost, terms, step_time, invalid)
         info["moved_through"] = np.array(moved_through).reshape(-1, 6)  # the straight segments' end points
         return self._observation(measures), reward, terminated, truncated, info
+
+    def _get_rew(self, q_before: np.ndarray, step_time: float, cost, reached: bool,
+                 invalid: bool) -> tuple[float, dict[str, float]]:
+        """The reward and its named terms (the task's, see :class:`~dresspack_gym.weld_cycle.WeldCycleTask`)."""
+        return self.task.reward(q_before, self.q, step_time, cost, reached, invalid)
 
     def action_masks(self) -> np.ndarray:
         """Boolean mask over the actions: True where the action is allowed (see module docstring)."""
@@ -307,15 +277,15 @@ class DresspackEnv(gym.Env):
 
     # ----------------------------------------------------------------------------- pickling
     def __getstate__(self) -> dict[str, Any]:
-        return {"kwargs": self._kwargs, "sim": self.sim.get_state(), "goal_names": self.goal_names[:-1],
+        return {"kwargs": self._kwargs, "sim": self.sim.get_state(), "goal_names": self.task.goal_names[:-1],
                 "goal_index": self.goal_index, "steps": self.steps, "cycle_time": self.cycle_time,
                 "rng": self._np_random.bit_generator.state if self._np_random is not None else None}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__init__(**state["kwargs"])
         self.sim.set_state(state["sim"])
-        self._setup_episode(state["goal_names"])
-        self.goal_index, self.steps, self.cycle_time = state["goal_index"], state["steps"], state["cycle_time"]
+        self._setup_episode(state["goal_names"], state["goal_index"])
+        self.steps, self.cycle_time = state["steps"], state["cycle_time"]
         if state["rng"] is not None:
             self._np_random = np.random.Generator(np.random.PCG64())
             self._np_random.bit_generator.state = state["rng"]
@@ -359,18 +329,12 @@ class DresspackEnv(gym.Env):
 
     def _why_masked(self, a: int) -> str:
         qs = self._segment_configs(self.q, self._target(self.q, a))
-        if np.any(qs < self.limits[:, 0] - 1e-9) or np.any(qs > self.limits[:, 1] + 1e-9):
+        if not self.validity.within_limits(qs).all():
             return "joint limit"
         bad = ~self.restrictions.allowed(qs)
         if bad.any():
             return "joint restriction: " + "; ".join(self.restrictions.violated_by(qs[np.argmax(bad)]))
         return "robot-obstacle collision"
-
-    def _near_goal(self, q: np.ndarray) -> bool:
-        return bool(np.max(np.abs(q - self.goal)) <= 0.5 * self.step_size + 1e-9)
-
-    def _potential(self, q: np.ndarray) -> float:
-        return float(np.max(np.abs(q - self.goal)) / self.step_size)
 
     def _speeds(self) -> np.ndarray:
         return self.placement.robot.joint_speed * self.sim.config.speed_fraction
@@ -381,25 +345,32 @@ class DresspackEnv(gym.Env):
         self.sim.move_to(q_all, settle=False)
 
     def _observation(self, measures) -> np.ndarray:
+        """The parts of ``observation_structure``, in its order, each roughly in [-1, 1]."""
         lo, hi = self.limits[:, 0], self.limits[:, 1]
         scale = lambda v: 2.0 * (v - lo) / (hi - lo) - 1.0  # noqa: E731
         q = self.q
         pts = self.sim.cable_points(self.robot_index)
         idx = np.linspace(0, len(pts) - 1, self.cable_samples).round().astype(int)
         tcp = self.robot.kinematics.tcp_pose(q)
-        local = (pts[idx] - tcp[:3, 3]) @ tcp[:3, :3] / self.placement.dresspack.length
         cfg = self.station.config.wear_cost
-        meas = [measures.max_curvature / max(cfg.curvature_threshold, 1e-6), measures.max_tension / 100.0,
-                min(measures.min_clearance / max(cfg.clearance, 1e-6), 5.0)]
-        obs = np.concatenate([scale(q), scale(self.goal), (q - self.goal) / np.pi,
-                              [self.goal_index / len(self.goals)], local.ravel(), meas])
-        return np.clip(obs, -10.0, 10.0).astype(np.float32)
+        parts = {
+            "joints": scale(q),
+            "goal": scale(self.goal),
+            "goal_error": (q - self.goal) / np.pi,
+            "progress": [self.task.progress],
+            "cable_points": ((pts[idx] - tcp[:3, 3]) @ tcp[:3, :3] / self.placement.dresspack.length).ravel(),
+            "measures": [measures.max_curvature / max(cfg.curvature_threshold, 1e-6),
+                         measures.max_tension / cfg.tension_scale,
+                         min(measures.min_clearance / max(cfg.clearance, 1e-6), CLEARANCE_OBS_CAP)],
+        }
+        obs = np.concatenate([parts[k] for k in self.observation_structure])
+        return np.clip(obs, -OBS_BOUND, OBS_BOUND).astype(np.float32)
 
     def _info(self, measures, cost, terms: dict, step_time: float, invalid: bool) -> dict[str, Any]:
         info = {
             "q": self.q,
             "goal": self.goal.copy(),
-            "goal_name": self.goal_names[min(self.goal_index, len(self.goal_names) - 1)],
+            "goal_name": self.task.goal_name,
             "max_curvature": measures.max_curvature,
             "max_tension": measures.max_tension,
             "min_clearance": measures.min_clearance,
@@ -411,16 +382,12 @@ class DresspackEnv(gym.Env):
             "step_time": step_time,
             "cycle_time": self.cycle_time,
             "goals_reached": self.goal_index,
-            "n_goals": len(self.goals),
-            "progress": self.goal_index / len(self.goals),
-            "is_success": self.goal_index >= len(self.goals),
+            "n_goals": self.task.n_goals,
+            "progress": self.task.progress,
+            "is_success": self.task.terminated(),
             "invalid_action": invalid,
         }
-        for k in ("time", "wear", "progress", "goal", "invalid"):
-            info[f"reward_{k}"] = float(terms.get(k, 0.0))
+        for k in REWARD_TERMS:
+            info[f"reward_{k}"] = float(terms[k])
         return info
 
-
-def _check_choice(field: str, value, choices) -> None:
-    if value not in choices:
-        raise ConfigError(field, f"{value!r} is not one of the allowed values {list(choices)}")

@@ -15,6 +15,7 @@ import numpy as np
 
 from .config import Kinematics, RobotConfig
 from .errors import KinematicsError
+from .joint_limits import LIMIT_TOL, within_limits
 
 
 def rot_x(a: float) -> np.ndarray:
@@ -153,7 +154,7 @@ class RobotKinematics:
             options = []
             for j in range(6):
                 cands = [q[j] + 2 * np.pi * n for n in (-1, 0, 1)]
-                options.append([c for c in cands if lim[j, 0] - 1e-9 <= c <= lim[j, 1] + 1e-9])
+                options.append([c for c in cands if lim[j, 0] - LIMIT_TOL <= c <= lim[j, 1] + LIMIT_TOL])
             if any(len(o) == 0 for o in options):
                 continue
             grids = np.meshgrid(*options, indexing="ij")
@@ -165,8 +166,7 @@ class RobotKinematics:
         return out[np.sort(idx)]
 
     def within_limits(self, q) -> np.ndarray:
-        q = np.atleast_2d(q)
-        return np.all((q >= self.limits[:, 0] - 1e-9) & (q <= self.limits[:, 1] + 1e-9), axis=1)
+        return within_limits(q, self.limits)
 
 
 def weld_pose(pos, approach, spin: float) -> np.ndarray:

@@ -13,10 +13,12 @@ import yaml
 from .config import (DresspackConfig, RobotConfig, RobotPlacement, SimulationConfig, StationConfig,
                      WearCostConfig, obstacle_from_section, weld_point_from_section)
 from .errors import ConfigError
+from .joint_limits import check_within_limits
 from .restrictions import RestrictionSet
+from .shipped import find_shipped, shipped_names, shipped_root
 from .validation import Section
 
-CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
+CONFIG_DIR = shipped_root()  # the shipped configs (robots/, dresspacks/, stations/, grids/, training/)
 
 
 def read_yaml(path: str | Path, field: str = "file") -> dict[str, Any]:
@@ -32,40 +34,17 @@ def read_yaml(path: str | Path, field: str = "file") -> dict[str, Any]:
     return data
 
 
-def _resolve(ref: str, kind: str, base_dir: Path, field: str) -> Path:
-    """A robot/dresspack reference is a path (relative to the station file) or a shipped name."""
-    candidates = [base_dir / ref, CONFIG_DIR / kind / f"{ref}.yaml", CONFIG_DIR / kind / ref]
-    for c in candidates:
-        if c.is_file():
-            return c
-    shipped = sorted(p.stem for p in (CONFIG_DIR / kind).glob("*.yaml"))
-    raise ConfigError(field, f"unknown {kind[:-1]} {ref!r}: not a file next to the station and not one of "
-                             f"the shipped {kind}: {shipped}")
-
-
 def list_stations() -> list[str]:
-    return sorted(p.stem for p in (CONFIG_DIR / "stations").glob("*.yaml"))
-
-
-def resolve_shipped(ref: str | Path, kind: str, field: str) -> Path:
-    """A YAML path, or the name of a file shipped in ``configs/<kind>/`` (``default``, ``thesis_67500``...)."""
-    p = Path(ref)
-    if p.is_file():
-        return p
-    shipped = CONFIG_DIR / kind / f"{ref}.yaml"
-    if shipped.is_file():
-        return shipped
-    names = sorted(q.stem for q in (CONFIG_DIR / kind).glob("*.yaml"))
-    raise ConfigError(field, f"{str(ref)!r} is neither a YAML file nor a shipped {kind[:-1]}; shipped: {names}")
+    return shipped_names("stations")
 
 
 def resolve_station_path(ref: str | Path) -> Path:
     """Accept a YAML path or the name of a shipped station (``default``, ``thesis_curvature``...)."""
-    return resolve_shipped(ref, "stations", "station")
+    return find_shipped(ref, "stations", "station")
 
 
 def load_robot(ref: str | Path, base_dir: Path = CONFIG_DIR, field: str = "robot") -> RobotConfig:
-    path = _resolve(str(ref), "robots", base_dir, field)
+    path = find_shipped(ref, "robots", field, base_dir=base_dir)
     return RobotConfig.from_dict(read_yaml(path, field), path=f"{path.name}")
 
 
@@ -92,7 +71,7 @@ def station_from_dict(data: Mapping[str, Any], base_dir: Path = CONFIG_DIR / "st
         robot = load_robot(r.string("robot"), base_dir, r.field("robot"))
         dp_ref = r.raw("dresspack")
         if isinstance(dp_ref, str):
-            dp_path = _resolve(dp_ref, "dresspacks", base_dir, r.field("dresspack"))
+            dp_path = find_shipped(dp_ref, "dresspacks", r.field("dresspack"), base_dir=base_dir)
             dp_data = read_yaml(dp_path, r.field("dresspack"))
         elif isinstance(dp_ref, dict):
             dp_data = dp_ref
@@ -105,20 +84,14 @@ def station_from_dict(data: Mapping[str, Any], base_dir: Path = CONFIG_DIR / "st
         base_pos = r.vector("base_pos", 3, (0, 0, 0), lo=-500, hi=500, unit="m")
         base_yaw = float(np.radians(r.number("base_yaw_deg", 0.0, lo=-360, hi=360, unit="deg")))
         home = np.radians(r.vector("home_deg", 6, lo=-720, hi=720, unit="deg"))
-        lim = robot.joint_limits
-        bad = np.where((home < lim[:, 0] - 1e-9) | (home > lim[:, 1] + 1e-9))[0]
-        if len(bad):
-            j = int(bad[0])
-            raise ConfigError(f"{r.field('home_deg')}[{j}]",
-                              f"{np.degrees(home[j]):.1f} deg is outside joint {j + 1}'s limits "
-                              f"[{np.degrees(lim[j, 0]):.0f}, {np.degrees(lim[j, 1]):.0f}] deg")
+        check_within_limits(home, robot.joint_limits, r.field("home_deg"), digits=1)
         restrictions = RestrictionSet.from_list(r.raw("restrictions", []), r.field("restrictions"))
         if not restrictions.allowed(home)[0]:
             raise ConfigError(r.field("home_deg"), f"Home violates the robot's joint restrictions: "
                                                     f"{restrictions.violated_by(home)}")
         robustness_map = _robustness_map(r, base_dir)
         r.done()
-        robots.append(RobotPlacement(rname, robot, dresspack, base_pos, base_yaw, home, restrictions,
+        robots.append(RobotPlacement(rname, robot, dresspack, base_pos, base_yaw, tuple(home.tolist()), restrictions,
                                      robustness_map))
     if not robots:
         raise ConfigError("robots", "a station needs at least one robot")

@@ -1,4 +1,6 @@
-"""Welding tasks: start at Home, visit weld configurations in order, return Home (shared by env and planners)."""
+"""Welding tasks: start at Home, visit weld configurations in order, return Home (shared by env and planners).
+
+This is the one place weld configurations are filtered (joint restrictions, robustness map, collision)."""
 
 from __future__ import annotations
 
@@ -24,9 +26,30 @@ class Task:
         """The configurations the cycle must pass through, in order: start, welds, end."""
         return np.vstack([self.start, self.goals, self.end])
 
-    def leg_names(self) -> list[str]:
-        stops = ["home", *self.weld_names, "home"]
-        return [f"{a}->{b}" for a, b in zip(stops[:-1], stops[1:])]
+
+def random_start(home: np.ndarray, noise: float, rng: np.random.Generator, valid, tries: int = 1000) -> np.ndarray:
+    """A valid configuration within ``noise`` [rad] of ``home`` in every joint, by rejection sampling from
+    ``rng`` (``valid(q) -> bool``); Home itself if ``tries`` samples find none."""
+    for _ in range(tries):
+        q = home + rng.uniform(-noise, noise, size=6)
+        if valid(q):
+            return q
+    return home.copy()
+
+
+def allowed_weld_configurations(station: Station, robot: int, name: str, collides=None) -> np.ndarray:
+    """The IK solutions of weld ``name`` a task may use (in IK order): they pass the robot's joint restrictions,
+    are robust where the robot has a robustness map (thesis 4.2) and, given ``collides(q)``, do not collide."""
+    placement = station.config.robots[robot]
+    q = station.weld_configurations[name]
+    if len(q):
+        ok = placement.restrictions.allowed(q)
+        if placement.robustness_map is not None:
+            ok &= placement.robustness_map.robust_joints(q)
+        q = q[ok]
+    if collides is not None:
+        q = np.array([x for x in q if not collides(x)]).reshape(-1, 6)
+    return q
 
 
 def select_weld_goals(station: Station, robot: int, collides, welds: list[str] | None = None,
@@ -45,12 +68,11 @@ def select_weld_goals(station: Station, robot: int, collides, welds: list[str] |
         raise ConfigError(field, "the task has no weld points for this robot")
     goals = {}
     for name in names:
-        free = [q for q in station.allowed_weld_configurations[name] if not collides(q)]
-        if not free:
+        free = allowed_weld_configurations(station, robot, name, collides)
+        if not len(free):
             robust = " and the robustness map" if placement.robustness_map is not None else ""
             raise ConfigError(f"weld_points.{name}", f"no IK solution passes the joint restrictions{robust} "
                                                       "without colliding with the station")
-        free = np.array(free)
         goals[name] = free[np.argmin(np.max(np.abs(free - home), axis=1))]
     return goals
 

@@ -9,9 +9,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import time_law
+from .cost_variants import cost_function
 from .errors import ConfigError
 from .simulation import CableSimulator
-from .wear_cost import normalized_wear_cost, wear_cost
 
 MEASURES = ("curvature", "tension", "clearance", "twist_rate")
 
@@ -36,9 +37,8 @@ class Trajectory:
         object.__setattr__(self, "waypoints", w)
 
     def segment_durations(self, joint_speed: np.ndarray, speed_fraction: float) -> np.ndarray:
-        """Seconds per segment: the slowest joint at ``speed_fraction`` of its rated speed, x1.5 (cubic law)."""
-        dq = np.abs(np.diff(self.waypoints, axis=0))
-        return 1.5 * np.max(dq / (np.asarray(joint_speed) * speed_fraction), axis=1)
+        """Seconds per segment: the slowest joint at ``speed_fraction`` of its rated speed (cubic time law)."""
+        return time_law.segment_durations(np.diff(self.waypoints, axis=0), np.asarray(joint_speed) * speed_fraction)
 
     def legs(self) -> list[np.ndarray]:
         """The waypoints of each leg (between consecutive stops, both ends included)."""
@@ -98,9 +98,7 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     """Run ``traj`` in the simulator from a settled start (``start_state`` or a fresh reset at its first
     waypoint) and record the measures every ``record_every`` s and after settling at every stop.
     With ``until`` the replay stops at that motion time and leaves ``sim`` in that state (to render it)."""
-    if cost_variant not in ("thesis", "normalized"):
-        raise ConfigError("cost_variant", f"{cost_variant!r} is not one of ['thesis', 'normalized']")
-    cost_fn = wear_cost if cost_variant == "thesis" else normalized_wear_cost
+    cost_fn = cost_function(cost_variant)
     station = sim.station
     q_all = station.home.copy()
 

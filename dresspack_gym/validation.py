@@ -52,9 +52,7 @@ class Section:
         value = self.raw(key, default)
         if not isinstance(value, str):
             raise ConfigError(self.field(key), f"expected a string, got {value!r}")
-        if choices is not None and value not in choices:
-            raise ConfigError(self.field(key), f"{value!r} is not one of the allowed values {list(choices)}")
-        return value
+        return value if choices is None else check_choice(self.field(key), value, choices)
 
     def boolean(self, key: str, default: Any = ...) -> bool:
         value = self.raw(key, default)
@@ -109,7 +107,8 @@ def check_vector(value: Any, field: str, length: int, *, lo: float | None = None
     return tuple(check_number(v, f"{field}[{i}]", lo=lo, hi=hi, unit=unit) for i, v in enumerate(value))
 
 
-def require_choice(value: str, field: str, choices: Iterable[str]) -> str:
+def check_choice(field: str, value: Any, choices: Iterable) -> Any:
+    """``value`` if it is one of ``choices``, else a ConfigError naming the field and the allowed values."""
     choices = list(choices)
     if value not in choices:
         raise ConfigError(field, f"{value!r} is not one of the allowed values {choices}")

@@ -7,10 +7,13 @@ import math
 import numpy as np
 
 from .collision import RobotCollisionChecker
+from .joint_limits import within_limits
 from .station import Station
 
 
 MIN_MARGIN = 0.002  # [m] conservative advancement needs a positive clearance to make progress
+# [m] robot-station clearance the planners keep (and the policy's masks, so its paths pass the planners' check)
+PLANNER_MARGIN = 0.005
 
 
 class MotionValidity:
@@ -29,8 +32,7 @@ class MotionValidity:
         self.n_checks = 0  # collision queries made (planning cost accounting)
 
     def within_limits(self, q: np.ndarray) -> np.ndarray:
-        q = np.atleast_2d(q)
-        return np.all((q >= self.limits[:, 0] - 1e-9) & (q <= self.limits[:, 1] + 1e-9), axis=1)
+        return within_limits(q, self.limits)
 
     def valid(self, q) -> bool:
         q = np.asarray(q, dtype=float)

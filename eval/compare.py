@@ -10,7 +10,8 @@ import json
 import sys
 from pathlib import Path
 
-from agents.planning import PLANNERS
+from dresspack.agents.cli import add_budget_arguments
+from dresspack.agents.planning import PLANNERS
 from dresspack_gym.errors import DresspackError
 
 from .report import write_report
@@ -26,7 +27,7 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
                    help="one task per argument: comma-separated weld names in visiting order "
                         "(default: the two weld pairs held out from the shipped policy's training)")
     p.add_argument("--seeds", nargs="+", type=int, default=list(defaults.seeds))
-    p.add_argument("--time-budget", type=float, default=defaults.time_budget, help="seconds per plan")
+    add_budget_arguments(p, defaults.iterations, defaults.evaluations, defaults.routes, defaults.time_budget)
     p.add_argument("--start-noise-deg", type=float, default=defaults.start_noise_deg,
                    help="> 0: each seed starts at a valid configuration within this many degrees of Home")
     p.add_argument("--policy", default=None, help="ppo/random: run folder, model .zip or shipped policy name")
@@ -39,7 +40,9 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
 def spec_from_args(args) -> EvalSpec:
     return EvalSpec(station=args.station, methods=tuple(args.methods),
                     tasks=tuple(tuple(w for w in t.split(",") if w) for t in args.tasks), seeds=tuple(args.seeds),
-                    time_budget=args.time_budget, start_noise_deg=args.start_noise_deg, policy=args.policy)
+                    iterations=args.iterations, evaluations=args.evaluations, routes=args.routes,
+                    time_budget=args.time_budget,
+                    start_noise_deg=args.start_noise_deg, policy=args.policy)
 
 
 def evaluate_and_report(args) -> int:

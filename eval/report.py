@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dresspack.agents.planning import COLORS
 from dresspack_gym.loading import load_station
 from dresspack_gym.replay_plot import plot_replays
 from dresspack_gym.restriction_plot import plot_restrictions
@@ -23,8 +24,6 @@ from .summary import by_method, by_task, fmt, json_summary, rows_to_csv
 HEADERS = {"cycle_time": "cycle time [s]", "max_curvature": "max κ [1/m]", "max_tension": "max F [N]",
            "min_clearance": "min d [m]", "max_twist_rate": "max twist [rad/m]", "cost": "∫C dt",
            "planning_time": "plan/infer [s]"}
-COLORS = {"ppo": "#1b9e77", "ompl": "#d95f02", "thesis-local": "#7570b3", "ompl-wear": "#e7298a",
-          "random": "#999999"}
 
 
 def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dict[str, Replay] | None = None, *,
@@ -93,8 +92,11 @@ def _intro(spec: EvalSpec, station: Station) -> str:
     return (f"Methods {', '.join(spec.methods)} on {len(spec.tasks)} task(s) × seeds {list(spec.seeds)} "
             f"({starts}; every task ends at Home). Every trajectory is replayed in the same cable simulator "
             f"(timestep {station.config.simulation.timestep * 1000:g} ms); wear cost C is eq. (4.10) with the "
-            f"station's weights and ∫C dt its time integral. Planners get {spec.time_budget:g} s each. "
-            "Metrics are mean ± std over the successful runs; a method that failed every run shows 'failed'.")
+            f"station's weights and ∫C dt its time integral. Planners get {spec.iterations} OMPL iterations per "
+            f"connection, {spec.routes} sampled routes per leg (ompl-wear) and {spec.evaluations} cable-leg "
+            "evaluations of refinement per plan"
+            + (f", capped at {spec.time_budget:g} s. " if spec.time_budget is not None else ". ")
+            + "Metrics are mean ± std over the successful runs; a method that failed every run shows 'failed'.")
 
 
 def _table(per_method: dict[str, dict]) -> dict:

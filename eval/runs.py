@@ -14,18 +14,18 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from agents.base import PlanningError
-from agents.planning import PLANNERS, make_planner
+from dresspack.agents.base import PlanningError
+from dresspack.agents.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Budget
+from dresspack.agents.planning import PLANNERS, POLICY_METHODS, make_planner
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.loading import load_station
 from dresspack_gym.simulation import CableSimulator
 from dresspack_gym.station import Station
-from dresspack_gym.tasks import Task, make_task
+from dresspack_gym.tasks import Task, make_task, random_start
 from dresspack_gym.trajectory import Replay, Trajectory, replay
-from dresspack_gym.validity import MotionValidity
+from dresspack_gym.validity import PLANNER_MARGIN, MotionValidity
 
 METRICS = ("cycle_time", "max_curvature", "max_tension", "min_clearance", "max_twist_rate", "cost", "planning_time")
-POLICY_METHODS = ("ppo", "random")
 
 
 @dataclass(frozen=True)
@@ -33,10 +33,13 @@ class EvalSpec:
     """What to compare: methods x tasks (weld lists) x seeds on one station."""
 
     station: str = "default"
-    methods: tuple[str, ...] = ("ppo", "ompl", "thesis-local", "ompl-wear", "random")
+    methods: tuple[str, ...] = tuple(PLANNERS)
     tasks: tuple[tuple[str, ...], ...] = (("sill_rear", "roof_rail_top"), ("b_pillar_outer", "sill_front"))
     seeds: tuple[int, ...] = (0, 1)
-    time_budget: float = 10.0  # seconds per plan (the wear-aware planners use all of it)
+    iterations: int = DEFAULT_ITERATIONS  # OMPL iterations per connection (work units: reproducible anywhere)
+    evaluations: int = DEFAULT_EVALUATIONS  # cable-leg cost queries of the wear-aware refinement per plan
+    routes: int = DEFAULT_ROUTES  # candidate routes per leg that ompl-wear samples and scores
+    time_budget: float | None = None  # optional wall-time cap per plan [s] (a capped plan depends on load)
     start_noise_deg: float = 0.0  # > 0: each seed starts at its own valid configuration near Home
     policy: str | None = None  # run folder / model / shipped name for ppo (and the random floor's env)
     robot: int = 0
@@ -49,8 +52,7 @@ class EvalSpec:
             raise ConfigError("tasks", "give at least one non-empty weld list")
         if not self.seeds:
             raise ConfigError("seeds", "give at least one seed")
-        if not self.time_budget > 0:
-            raise ConfigError("time_budget", f"must be > 0 s, got {self.time_budget}")
+        Budget(self.iterations, self.evaluations, self.routes, self.time_budget)  # checks them, naming the field
         if not 0 <= self.start_noise_deg <= 90:
             raise ConfigError("start_noise_deg", f"must be in [0, 90] deg, got {self.start_noise_deg}")
 
@@ -73,17 +75,13 @@ def eval_start(station: Station, robot: int, seed: int, noise_deg: float,
     home = station.config.robots[robot].home.copy()
     if noise_deg <= 0:
         return home
-    validity = validity or MotionValidity(station, robot, margin=0.005)
+    validity = validity or MotionValidity(station, robot, margin=PLANNER_MARGIN)
     rng = np.random.default_rng([seed, 7919])  # not the training streams
-    for _ in range(1000):
-        q = home + rng.uniform(-1, 1, 6) * math.radians(noise_deg)
-        if validity.valid(q):
-            return q
-    return home
+    return random_start(home, math.radians(noise_deg), rng, validity.valid)
 
 
 def build_tasks(station: Station, spec: EvalSpec) -> dict[tuple[tuple[str, ...], int], Task]:
-    validity = MotionValidity(station, spec.robot, margin=0.005)
+    validity = MotionValidity(station, spec.robot, margin=PLANNER_MARGIN)
     tasks = {}
     for welds in spec.tasks:
         base = make_task(station, spec.robot, validity.checker.collides, list(welds))
@@ -117,6 +115,9 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) ->
     station = Station(load_station(spec.station))
     tasks = build_tasks(station, spec)
     done = _read_rows(out / "results.jsonl")
+    # rewrite the log with the complete rows only: a line cut by an interruption would otherwise swallow the
+    # next row appended to it
+    (out / "results.jsonl").write_text("".join(json.dumps(r) + "\n" for r in done.values()))
     sim = CableSimulator(station)
     planners: dict[tuple[str, int], object] = {}
     replays: dict[str, Replay] = {}
@@ -130,6 +131,8 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) ->
         kwargs = {"policy": spec.policy} if method in POLICY_METHODS else {}
         if (method, seed) not in planners:  # loading a policy or building a validity checker once per seed
             planners[(method, seed)] = make_planner(method, station, spec.robot, seed=seed,
+                                                    iterations=spec.iterations, evaluations=spec.evaluations,
+                                                    routes=spec.routes,
                                                     time_budget=spec.time_budget, **kwargs)
         planner = planners[(method, seed)]
         task = tasks[(tuple(welds), seed)]

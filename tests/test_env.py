@@ -199,3 +199,29 @@ def test_maskable_ppo_runs_on_the_env():
     obs, _ = e.reset(seed=0)
     action, _ = model.predict(obs, action_masks=e.action_masks(), deterministic=True)
     assert e.action_masks()[int(action)]
+
+
+def test_sim_timestep_builds_a_station_from_the_changed_config():
+    """The timestep is a physics setting: everything derived from it (constraint impedances) must follow it,
+    exactly as in a station compiled at that timestep; a caller's station keeps its own."""
+    from dataclasses import replace
+
+    from dresspack_gym.loading import load_station
+    from dresspack_gym.station import Station
+
+    config = load_station("default")
+    station = Station(config)
+    e = DresspackEnv(station=station, sim_timestep=0.004)
+    at_4ms = Station(replace(config, simulation=replace(config.simulation, timestep=0.004)))
+    assert e.station.model.opt.timestep == 0.004 and e.station.config.simulation.timestep == 0.004
+    np.testing.assert_array_equal(e.station.model.eq_solref, at_4ms.model.eq_solref)
+    assert not np.array_equal(e.station.model.eq_solref, station.model.eq_solref)
+    assert station.model.opt.timestep == config.simulation.timestep
+
+
+def test_observation_size_comes_from_its_structure():
+    e = DresspackEnv(station="thesis_distance", cable_samples=5)
+    obs, _ = e.reset(seed=0)
+    assert list(e.observation_structure) == ["joints", "goal", "goal_error", "progress", "cable_points", "measures"]
+    assert e.observation_structure["cable_points"] == 15
+    assert obs.shape == e.observation_space.shape == (sum(e.observation_structure.values()),)

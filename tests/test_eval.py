@@ -13,9 +13,9 @@ pytest.importorskip("ompl")
 pytest.importorskip("sb3_contrib")
 
 from dresspack_gym.errors import ConfigError  # noqa: E402
-from eval.compare import main  # noqa: E402
-from eval.runs import EvalSpec  # noqa: E402
-from eval.summary import JSON_KEYS, aggregate, fmt  # noqa: E402
+from dresspack.eval.compare import main  # noqa: E402
+from dresspack.eval.runs import EvalSpec  # noqa: E402
+from dresspack.eval.summary import JSON_KEYS, aggregate, fmt  # noqa: E402
 
 
 @pytest.fixture(scope="module")

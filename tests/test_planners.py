@@ -11,11 +11,11 @@ import pytest
 
 pytest.importorskip("ompl.base")
 
-from agents.base import PlanningError  # noqa: E402
-from agents.cli import main as cli_main  # noqa: E402
-from agents.ompl_planner import OmplPlanner  # noqa: E402
-from agents.planning import plan_station  # noqa: E402
-from agents.thesis_local import ThesisLocalPlanner  # noqa: E402
+from dresspack.agents.base import PlanningError  # noqa: E402
+from dresspack_gym.cli import main as cli_main  # noqa: E402
+from dresspack.agents.ompl_planner import OmplPlanner  # noqa: E402
+from dresspack.agents.planning import plan_station  # noqa: E402
+from dresspack.agents.thesis_local import ThesisLocalPlanner  # noqa: E402
 from dresspack_gym.collision import RobotCollisionChecker  # noqa: E402
 from dresspack_gym.loading import load_station  # noqa: E402
 from dresspack_gym.simulation import CableSimulator  # noqa: E402
@@ -67,7 +67,7 @@ def test_ompl_baseline_is_valid_visits_the_stops_and_respects_speed_limits(defau
 
 
 def test_replay_reproduces_the_wear_aware_planners_objective(curvature_station):
-    planner = ThesisLocalPlanner(curvature_station, time_budget=6, seed=1)
+    planner = ThesisLocalPlanner(curvature_station, evaluations=24, seed=1)
     task = make_task(curvature_station, 0, planner.validity.checker.collides)
     res = planner.plan(task)
     rep = replay(CableSimulator(curvature_station), res.trajectory)
@@ -77,7 +77,7 @@ def test_replay_reproduces_the_wear_aware_planners_objective(curvature_station):
 
 def test_wear_aware_planning_lowers_the_measured_curvature_cost(curvature_station):
     base = plan_station(curvature_station, "ompl", seed=0)
-    aware = plan_station(curvature_station, "thesis-local", seed=0, time_budget=8)
+    aware = plan_station(curvature_station, "thesis-local", seed=0, evaluations=30)
     b, a = base.summary(), aware.summary()
     assert a["cost"] < 0.5 * b["cost"]
     assert a["max_curvature"] < b["max_curvature"]
@@ -163,6 +163,6 @@ def test_global_wear_planner_finds_the_low_tension_route():
     """Thesis tension case: the wear-unaware route drags the cable over the cuboid (kN peaks here); the global
     planner must find a route that keeps the peak low (measured 110 N and 81 N for seeds 0 and 1)."""
     base = plan_station("thesis_tension", "ompl", seed=0).summary()
-    aware = plan_station("thesis_tension", "ompl-wear", seed=0, time_budget=30).summary()
+    aware = plan_station("thesis_tension", "ompl-wear", seed=0, evaluations=80).summary()
     assert aware["max_tension"] < 0.1 * base["max_tension"] and aware["max_tension"] < 200
     assert aware["cost"] < 0.1 * base["cost"]

@@ -7,14 +7,14 @@ import pytest
 
 pytest.importorskip("sb3_contrib")
 
-from agents.base import PlanningError  # noqa: E402
-from agents.policy import POLICY_DIR, PolicyPlanner, resolve_policy  # noqa: E402
+from dresspack.agents.base import PlanningError  # noqa: E402
+from dresspack.agents.policy import POLICY_DIR, PolicyPlanner, resolve_policy  # noqa: E402
 from dresspack_gym.errors import ConfigError  # noqa: E402
 from dresspack_gym.loading import load_station  # noqa: E402
 from dresspack_gym.station import Station  # noqa: E402
 from dresspack_gym.tasks import Task, make_task  # noqa: E402
-from eval.runs import eval_start  # noqa: E402
-from training.config import load_train_config  # noqa: E402
+from dresspack.eval.runs import eval_start  # noqa: E402
+from dresspack.training.config import load_train_config  # noqa: E402
 
 HELD_OUT = [["sill_rear", "roof_rail_top"], ["b_pillar_outer", "sill_front"]]
 

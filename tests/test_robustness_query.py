@@ -12,6 +12,7 @@ from dresspack_gym.env import DresspackEnv
 from dresspack_gym.robustness.grid import RobustnessGrid
 from dresspack_gym.robustness.query import RobustnessMap, configuration_vector
 from dresspack_gym.robustness.store import COLUMNS, grid_to_meta
+from dresspack_gym.tasks import allowed_weld_configurations
 from tests.helpers import default_station_dict
 
 STEP30 = {"start": -180, "stop": 150, "step": 30}
@@ -59,8 +60,8 @@ def test_map_on_station_changes_the_weld_goal_to_a_robust_configuration(tmp_path
     q_new = env.weld_goals[weld]
     assert not np.allclose(q_new, q_goal)
     assert rmap.robust_joints(q_new)[0]
-    allowed = env.station.allowed_weld_configurations[weld]
-    assert rmap.robust_joints(allowed).all() and len(allowed) < len(plain.station.allowed_weld_configurations[weld])
+    allowed = allowed_weld_configurations(env.station, 0, weld)
+    assert rmap.robust_joints(allowed).all() and len(allowed) < len(allowed_weld_configurations(plain.station, 0, weld))
     for other in plain.weld_goals:  # goals whose cells were not measured non-robust stay as they were
         if other != weld and rmap.robust_joints(plain.weld_goals[other])[0]:
             assert np.allclose(env.weld_goals[other], plain.weld_goals[other])

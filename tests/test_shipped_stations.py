@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from dresspack_gym.loading import list_stations, load_station
+from dresspack_gym.tasks import allowed_weld_configurations
 from dresspack_gym.simulation import CableSimulator
 from dresspack_gym.station import Station
 
@@ -20,4 +21,4 @@ def test_station_settles_with_finite_measures(name):
     assert all(np.isfinite([m.max_curvature, m.max_tension, m.min_clearance, m.max_twist_rate]))
     assert sim.max_vertex_speed() < 0.05
     for w in station.config.weld_points:
-        assert len(station.allowed_weld_configurations[w.name]) > 0
+        assert len(allowed_weld_configurations(station, station.config.robot_index(w.robot), w.name)) > 0

@@ -11,8 +11,8 @@ import yaml
 pytest.importorskip("sb3_contrib")
 
 from dresspack_gym.errors import ConfigError  # noqa: E402
-from training.config import load_train_config, train_config_from_dict  # noqa: E402
-from training.train import latest_checkpoint, main, train  # noqa: E402
+from dresspack.training.config import load_train_config, train_config_from_dict  # noqa: E402
+from dresspack.training.train import latest_checkpoint, main, train  # noqa: E402
 
 SMOKE = {
     "name": "smoke",
@@ -94,7 +94,7 @@ def test_shipped_training_config_loads_and_holds_out_its_evaluation_tasks():
 
 def test_masked_policy_never_enters_a_forbidden_configuration(tmp_path):
     """Even an untrained network, acting with masks, only visits valid configurations (asserted from info["q"])."""
-    from agents.policy import PolicyAgent
+    from dresspack.agents.policy import PolicyAgent
     from dresspack_gym.env import DresspackEnv
 
     run = tmp_path / "run"

@@ -11,9 +11,9 @@ import gymnasium as gym
 from dresspack_gym import ENV_IDS
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.loading import read_yaml
+from dresspack_gym.shipped import find_shipped
 from dresspack_gym.validation import Section
 
-CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs" / "training"
 ACTIVATIONS = ("tanh", "relu")
 
 
@@ -63,12 +63,7 @@ class TrainConfig:
 
 def load_train_config(ref: str | Path) -> TrainConfig:
     """Read a training config by path or by name in configs/training/ (e.g. ``stud_welding``)."""
-    path = Path(ref)
-    if not path.is_file() and (CONFIG_DIR / f"{ref}.yaml").is_file():
-        path = CONFIG_DIR / f"{ref}.yaml"
-    if not path.is_file():
-        shipped = sorted(p.stem for p in CONFIG_DIR.glob("*.yaml"))
-        raise ConfigError("config", f"no training config {str(ref)!r}: give a YAML path or one of {shipped}")
+    path = find_shipped(ref, "training", "config")
     return train_config_from_dict(read_yaml(path, "config"), default_name=path.stem)
 
 

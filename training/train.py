@@ -1,6 +1,6 @@
 """Train MaskablePPO on a dresspack environment from a YAML config: run folder, TensorBoard, checkpoints, resume.
 
-    dresspack-train configs/training/stud_welding.yaml            # or: python -m training.train stud_welding
+    dresspack-train configs/training/stud_welding.yaml            # or: python -m dresspack.training.train stud_welding
     dresspack-train --resume runs/train/stud_welding               # continue after Ctrl-C or a crash
 
 Run folder: ``config.yaml`` (resolved), ``command.txt`` (every launch), ``versions.json``, ``tb/`` (TensorBoard),

@@ -1,0 +1,65 @@
+"""A planner assembled from parts: a route generator, optionally a leg cost and a refiner (legs in path order)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dresspack_gym.tasks import Task
+from dresspack_gym.trajectory import Trajectory
+
+from .base import Planner
+from .leg_cost import LegCost
+from .ompl_connect import OmplConnector
+from .refine import LocalRefiner
+
+
+class ComposedPlanner(Planner):
+    """Per leg, in path order: the route generator's candidates; with a leg cost, the cheapest one (scored by
+    simulating the cable from the state the previous legs left), then the refiner's improvement of it. The
+    refinement budget (``evaluations`` leg-cost queries) is shared out over the legs still to plan.
+
+    Subclasses only choose the parts (``routes``, ``leg_cost``, ``refiner``) in their constructor."""
+
+    def __init__(self, station, robot: int = 0, *, simplify: bool = True, **kwargs):
+        super().__init__(station, robot, **kwargs)
+        self.connector = OmplConnector(self.validity, self.name, simplify)
+        self.routes = None  # a route generator: candidates(a, b, rng, allowance) -> [legs]
+        self.leg_cost: LegCost | None = None
+        self.refiner: LocalRefiner | None = None
+        self._refine_queries = 0  # leg-cost queries the refiner used in this plan
+
+    def _reseed(self) -> None:
+        super()._reseed()
+        self.connector.reseed(self.seed)
+        self._refine_queries = 0
+        if self.leg_cost is not None:
+            self.leg_cost.reset()
+
+    def _plan(self, task: Task) -> tuple[Trajectory, dict]:
+        stops = task.waypoints()
+        n = len(stops) - 1
+        cost = self.leg_cost
+        state = cost.start_state(task.start) if cost is not None else None
+        legs, explored, before, after = [], 0, 0.0, 0.0
+        for k, (a, b) in enumerate(zip(stops[:-1], stops[1:])):
+            cands = self.routes.candidates(a, b, self.rng, self.allowance)
+            explored += len(cands)
+            if cost is None:
+                legs.append(cands[0])
+                continue
+            scores = [cost.cost(state, c)[0] for c in cands]
+            best = cands[int(np.argmin(scores))]
+            if self.refiner is not None:
+                share = max(0, self.budget.evaluations - self._refine_queries) // (n - k)
+                q0 = cost.queries
+                best = self.refiner.improve(state, best, share, self.rng, self.allowance)
+                self._refine_queries += cost.queries - q0
+            j, state, _ = cost.cost(state, best)
+            legs.append(best)
+            before, after = before + scores[0], after + j
+        traj = Trajectory.from_legs(legs)
+        info = {"duration": self.duration(traj), "waypoints": len(traj.waypoints), "routes_explored": explored,
+                "ompl_iterations": self.connector.iterations_used}
+        if cost is not None:
+            info.update(objective_nominal=before, objective=after, cable_evaluations=cost.evaluations)
+        return traj, info

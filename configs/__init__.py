@@ -1,0 +1,1 @@
+"""Shipped configuration files (robots, dresspacks, stations, grids, training): package data of dresspack_gym."""

@@ -1,0 +1,130 @@
+"""The env's weld-cycle task: which welds an episode visits, its goals, reward terms and termination.
+
+The physics (a :class:`~dresspack_gym.simulation.CableSimulator`) answers physical questions; this task turns
+its answers into goals and rewards; :class:`~dresspack_gym.env.DresspackEnv` adapts both to Gymnasium.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .cost_variants import cost_function
+from .errors import ConfigError
+from .station import Station
+from .tasks import select_weld_goals
+
+# The reward's named terms, in the order they are reported (``info["reward_<term>"]``); their sum is the reward.
+REWARD_TERMS = ("time", "wear", "progress", "goal", "invalid")
+
+
+class WeldCycleTask:
+    """Start somewhere near Home, visit weld configurations in order, return Home.
+
+    Reward per step (every term in ``info``; their sum is the reward)::
+
+        time     = -time_weight * step_time
+        wear     = -wear_weight * C(gamma)              (x step_time with wear_integral: sums to the integral of C)
+        progress = progress_weight * (phi(q_before) - phi(q_after)),  phi(q) = max_j |q_j - goal_j| / step_size
+        goal     = goal_reward when a weld (or the final Home) is reached
+        invalid  = -invalid_penalty for a masked action
+    """
+
+    def __init__(self, station: Station, robot: int, collides, step_size: float, *, welds=None, n_welds=None,
+                 shuffle_welds: bool = False, tasks=None, time_weight: float = 1.0, wear_weight: float = 1.0,
+                 goal_reward: float = 10.0, progress_weight: float = 1.0, invalid_penalty: float = 1.0,
+                 wear_integral: bool = False, cost_variant: str = "thesis"):
+        self.home = station.config.robots[robot].home
+        self.wear_config = station.config.wear_cost
+        self.cost_fn = cost_function(cost_variant)
+        self.step_size = float(step_size)
+        self.weights = dict(time=time_weight, wear=wear_weight, progress=progress_weight, goal=goal_reward,
+                            invalid=invalid_penalty)
+        self.wear_integral = bool(wear_integral)
+        self.weld_goals = select_weld_goals(station, robot, collides, welds)
+        if n_welds is not None and not 1 <= n_welds <= len(self.weld_goals):
+            raise ConfigError("n_welds", f"must be in [1, {len(self.weld_goals)}], got {n_welds}")
+        self.n_welds = n_welds
+        self.shuffle_welds = bool(shuffle_welds)
+        self.tasks = self._check_tasks(tasks)
+        self.begin(list(self.weld_goals))
+
+    def _check_tasks(self, tasks) -> list[list[str]] | None:
+        if tasks is None:
+            return None
+        if not isinstance(tasks, (list, tuple)) or not tasks or not all(isinstance(t, (list, tuple)) and t
+                                                                       for t in tasks):
+            raise ConfigError("tasks", f"must be a non-empty list of non-empty weld-name lists, got {tasks!r}")
+        for t in tasks:
+            self._check_welds(t, "tasks")
+        return [list(t) for t in tasks]
+
+    def _check_welds(self, welds, field: str) -> None:
+        unknown = [w for w in welds if w not in self.weld_goals]
+        if unknown:
+            raise ConfigError(field, f"unknown weld(s) {unknown}; choose from {list(self.weld_goals)}")
+
+    # ------------------------------------------------------------------------------ episode
+    def sample_welds(self, rng: np.random.Generator, options: dict) -> list[str]:
+        """This episode's welds: ``options["welds"]``, else one of ``tasks``, else all (a random ``n_welds``
+        subset, optionally shuffled), drawn from ``rng``."""
+        order = list(self.weld_goals)
+        if "welds" in options:
+            order = list(options["welds"])
+            self._check_welds(order, "options.welds")
+        elif self.tasks is not None:
+            order = list(self.tasks[rng.integers(len(self.tasks))])
+        else:
+            if self.n_welds is not None:
+                order = list(rng.choice(order, size=self.n_welds, replace=False))
+            if self.shuffle_welds:
+                order = list(rng.permutation(order))
+        return [str(w) for w in order]
+
+    def begin(self, order: list[str], goal_index: int = 0) -> None:
+        self.goal_names = list(order) + ["home"]
+        self.goals = [self.weld_goals[n] for n in order] + [self.home.copy()]
+        self.goal_index = goal_index
+
+    @property
+    def goal(self) -> np.ndarray:
+        return self.goals[min(self.goal_index, len(self.goals) - 1)]
+
+    @property
+    def goal_name(self) -> str:
+        return self.goal_names[min(self.goal_index, len(self.goal_names) - 1)]
+
+    @property
+    def n_goals(self) -> int:
+        return len(self.goals)
+
+    @property
+    def progress(self) -> float:
+        return self.goal_index / len(self.goals)
+
+    def terminated(self) -> bool:
+        """The episode ends when Home is reached after the last weld."""
+        return self.goal_index >= len(self.goals)
+
+    def near_goal(self, q: np.ndarray) -> bool:
+        """Within half a step of the goal in every joint: the robot finishes the move onto it."""
+        return bool(np.max(np.abs(q - self.goal)) <= 0.5 * self.step_size + 1e-9)
+
+    def potential(self, q: np.ndarray) -> float:
+        return float(np.max(np.abs(q - self.goal)) / self.step_size)
+
+    # ------------------------------------------------------------------------------ reward
+    def cost(self, measures):
+        """The wear cost C(gamma) of the chosen variant, with its terms."""
+        return self.cost_fn(measures, self.wear_config)
+
+    def reward(self, q_before: np.ndarray, q_after: np.ndarray, step_time: float, cost, reached: bool,
+               invalid: bool) -> tuple[float, dict[str, float]]:
+        """The step's reward and its named terms (computed before the goal index advances)."""
+        w = self.weights
+        terms = dict.fromkeys(REWARD_TERMS, 0.0)
+        terms["time"] = -w["time"] * step_time
+        terms["wear"] = -w["wear"] * cost.total * (step_time if self.wear_integral else 1.0)
+        terms["progress"] = w["progress"] * (self.potential(q_before) - self.potential(q_after))
+        terms["goal"] = w["goal"] if reached else 0.0
+        terms["invalid"] = -w["invalid"] if invalid else 0.0
+        return float(sum(terms.values())), terms
