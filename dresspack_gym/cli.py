@@ -152,7 +152,6 @@ def cmd_restrictions(args) -> int:
 
 
 def cmd_robustness(args) -> int:
-
     from .loading import load_station, read_yaml
     from .robustness.algorithm import RobustnessSettings
     from .robustness.grid import RobustnessGrid

@@ -202,8 +202,9 @@ def test_maskable_ppo_runs_on_the_env():
 
 
 def test_sim_timestep_builds_a_station_from_the_changed_config():
-    """The timestep is a physics setting: everything derived from it (constraint impedances) must follow it,
-    exactly as in a station compiled at that timestep; a caller's station keeps its own."""
+    """The timestep is a physics setting: the env's station is compiled at it, exactly as a station built at
+    that timestep; a caller's station keeps its own. (Since physics v2 no constraint parameter depends on the
+    timestep: the edge and clamp stiffness are set in force units.)"""
     from dataclasses import replace
 
     from dresspack_gym.loading import load_station
@@ -215,8 +216,9 @@ def test_sim_timestep_builds_a_station_from_the_changed_config():
     at_4ms = Station(replace(config, simulation=replace(config.simulation, timestep=0.004)))
     assert e.station.model.opt.timestep == 0.004 and e.station.config.simulation.timestep == 0.004
     np.testing.assert_array_equal(e.station.model.eq_solref, at_4ms.model.eq_solref)
-    assert not np.array_equal(e.station.model.eq_solref, station.model.eq_solref)
-    assert station.model.opt.timestep == config.simulation.timestep
+    np.testing.assert_array_equal(e.station.model.flexedge_invweight0, at_4ms.model.flexedge_invweight0)
+    np.testing.assert_array_equal(e.station.model.eq_solref, station.model.eq_solref)  # timestep-independent
+    assert e.station is not station and station.model.opt.timestep == config.simulation.timestep
 
 
 def test_observation_size_comes_from_its_structure():
