@@ -105,21 +105,12 @@ class CableLayout:
     free_vertices: tuple[int, ...]  # global indices of the vertices that have their own (slider) body
 
 
-def node_vertex(dresspack: DresspackConfig, node: CableNode) -> int:
-    return int(round(node.arc_length / dresspack.segment_length))
-
-
-def is_end_node(dresspack: DresspackConfig, node: CableNode) -> bool:
-    """True for a node at the far end of the cable (its clamp holds the last edge, pointing back)."""
-    return node_vertex(dresspack, node) == dresspack.segments
-
-
 def node_vertices(dresspack: DresspackConfig, node: CableNode) -> tuple[int, ...]:
     """Cable vertices a node holds: its own, plus the next one (previous one at the end) for a clamp."""
-    v = node_vertex(dresspack, node)
+    v = dresspack.vertex_of(node)
     if node.direction is None:
         return (v,)
-    return (v, v - 1) if is_end_node(dresspack, node) else (v, v + 1)
+    return (v, v - 1) if dresspack.is_end_node(node) else (v, v + 1)
 
 
 def node_world_points(dresspack: DresspackConfig, node: CableNode, frame: np.ndarray) -> list[np.ndarray]:
@@ -129,7 +120,7 @@ def node_world_points(dresspack: DresspackConfig, node: CableNode, frame: np.nda
     pts = [p]
     if node.direction is not None:
         d = frame[:3, :3] @ np.asarray(node.direction)
-        pts.append(p - d * h if is_end_node(dresspack, node) else p + d * h)
+        pts.append(p - d * h if dresspack.is_end_node(node) else p + d * h)
     return pts
 
 
@@ -142,17 +133,17 @@ def rod_pieces(robot: str, dresspack: DresspackConfig) -> list[RodPiece]:
             held[v] = True
     cuts = [0]  # first vertex of each piece
     for node in dresspack.nodes[1:]:
-        if node.direction is not None and not is_end_node(dresspack, node):
-            cuts.append(node_vertex(dresspack, node))
+        if node.direction is not None and not dresspack.is_end_node(node):
+            cuts.append(dresspack.vertex_of(node))
     pieces = []
     for p, start in enumerate(cuts):
         stop = cuts[p + 1] + 1 if p + 1 < len(cuts) else n  # a cut clamp's edge (v, v+1) ends this piece
         verts = tuple(range(start, stop + 1))
         first_clamped = held.get(start, False) and held.get(start + 1, False) and any(
-            nd.direction is not None and node_vertex(dresspack, nd) == start for nd in dresspack.nodes)
+            nd.direction is not None and dresspack.vertex_of(nd) == start for nd in dresspack.nodes)
         last_clamped = p + 1 < len(cuts) or (
             held.get(stop, False) and held.get(stop - 1, False)
-            and any(nd.direction is not None and node_vertex(dresspack, nd) == stop for nd in dresspack.nodes))
+            and any(nd.direction is not None and dresspack.vertex_of(nd) == stop for nd in dresspack.nodes))
         flags = tuple(held.get(v, False) for v in verts)
         if all(flags) or len(verts) < 4:
             raise ConfigError("dresspack.nodes", f"the cable between vertices {start} and {stop} has no free vertex "

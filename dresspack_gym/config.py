@@ -185,9 +185,18 @@ class DresspackConfig:
     def segment_length(self) -> float:
         return self.length / self.segments
 
+    def vertex_of(self, node: CableNode) -> int:
+        """The cable vertex a node sits on (its arc length rounded to the discretisation)."""
+        return int(round(node.arc_length / self.segment_length))
+
+    def is_end_node(self, node: CableNode) -> bool:
+        """True for a node on the cable's last vertex (its clamp then holds the last edge, pointing back)."""
+        return self.vertex_of(node) == self.segments
+
     @property
     def free_end(self) -> bool:
-        return self.nodes[-1].arc_length < self.length - 1e-9
+        """The cable's far end hangs free (no node on its last vertex)."""
+        return not self.is_end_node(self.nodes[-1])
 
     @staticmethod
     def from_dict(data: Mapping[str, Any], path: str = "dresspack") -> "DresspackConfig":

@@ -6,7 +6,7 @@ All functions read a compiled :class:`~dresspack_gym.station.Station` and an ``M
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -34,9 +34,6 @@ class WearMeasures:
     max_compression: float = 0.0  # [N], largest push in an edge (reported apart from the tension)
     max_node_force: float = 0.0  # [N], largest force a node (clamp/ring) carries
     max_node_torque: float = 0.0  # [N m], largest torque a clamp carries
-
-    def as_dict(self) -> dict:
-        return asdict(self)
 
     @staticmethod
     def worst(items: list["WearMeasures"]) -> "WearMeasures":

@@ -16,8 +16,10 @@ import mujoco
 import numpy as np
 
 from .errors import ConfigError, SimulationError
+from .joint_limits import check_within_limits
 from .measures import ClearanceProbe, WearMeasures, cable_points, measure_cable, node_loads
 from .station import Station
+from .time_law import cubic_position, cubic_speed, segment_durations
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_INTEGRATION | mujoco.mjtState.mjSTATE_PLASTIC
 # Settling checks the equilibrium residual every this many steps (one extra forward pass each).
@@ -173,8 +175,8 @@ class CableSimulator:
                 record_every: float | None = None, until: float | None = None) -> MotionTrace:
         """Move all robots along a straight joint-space segment to ``q_target`` and (optionally) settle.
 
-        Duration: the slowest joint at ``speed_fraction`` of its rated speed, stretched by 1.5 for the
-        cubic time law (whose peak speed is 1.5x the mean). Returns samples every ``record_every`` s.
+        Duration: the slowest joint at ``speed_fraction`` of its rated speed under the cubic time law
+        (:mod:`time_law`). Returns samples every ``record_every`` s.
         With ``until`` (a motion time) the motion stops there, mid-segment, without settling.
         The settle's outcome is kept in ``last_settle``.
         """
@@ -185,15 +187,15 @@ class CableSimulator:
         start = self.q.copy()
         delta = target - start
         speeds = np.stack([r.robot.joint_speed for r in self.station.config.robots]) * frac
-        duration = 1.5 * float(np.max(np.abs(delta) / speeds)) if np.any(delta) else 0.0
+        duration = float(np.max(segment_durations(delta, speeds))) if np.any(delta) else 0.0
         dt = self.model.opt.timestep
         steps = int(np.ceil(duration / dt)) if duration > 0 else 0
         trace = MotionTrace()
         stride = max(1, int(round(record_every / dt))) if record_every else 0
         # The whole segment is computed up front (same arithmetic as per step) to keep the loop lean.
-        taus = [k / steps for k in range(1, steps + 1)]
-        path = start.ravel() + np.array([3 * t**2 - 2 * t**3 for t in taus])[:, None] * delta.ravel()
-        vel = np.array([(6 * t - 6 * t**2) / duration for t in taus])[:, None] * delta.ravel()
+        taus = np.arange(1, steps + 1) / steps if steps else np.zeros(0)
+        path = start.ravel() + cubic_position(taus)[:, None] * delta.ravel()
+        vel = cubic_speed(taus, duration)[:, None] * delta.ravel() if steps else np.zeros((0, delta.size))
         v_before = self.data.qvel[self._free_dof_idx].copy()
         g_window = _residual_gravity(self.config.gravity) * SETTLE_CHECK_EVERY * dt
         for k in range(1, steps + 1):
@@ -218,17 +220,6 @@ class CableSimulator:
             self.settle()
         if stride and steps == 0:
             self._record(trace, self.motion_time, self.q)
-        return trace
-
-    def follow(self, path, *, speed_fraction: float | None = None, settle_each: bool = False,
-               record_every: float | None = None) -> MotionTrace:
-        """Move through the waypoints of ``path`` (K x 6, or K x n_robots x 6) in order, settle at the end."""
-        path = np.asarray(path, dtype=float)
-        trace = MotionTrace()
-        for i, q in enumerate(path):
-            last = i == len(path) - 1
-            trace.extend(self.move_to(q, speed_fraction=speed_fraction, settle=settle_each or last,
-                                      record_every=record_every))
         return trace
 
     def settle(self, max_time: float | None = None, *, timestep: float | None = None) -> SettleResult:
@@ -374,13 +365,8 @@ class CableSimulator:
         if not np.isfinite(q).all():
             raise ConfigError(field, "joint angles must be finite")
         for i, r in enumerate(self.station.config.robots):
-            lim = r.robot.joint_limits
-            bad = np.where((q[i] < lim[:, 0] - 1e-9) | (q[i] > lim[:, 1] + 1e-9))[0]
-            if len(bad):
-                j = int(bad[0])
-                raise ConfigError(f"{field}[{j}]" if n == 1 else f"{field}[{i}][{j}]",
-                                  f"{np.degrees(q[i, j]):.2f} deg is outside joint {j + 1}'s limits "
-                                  f"[{np.degrees(lim[j, 0]):.0f}, {np.degrees(lim[j, 1]):.0f}] deg of robot {r.name!r}")
+            check_within_limits(q[i], r.robot.joint_limits, field if n == 1 else f"{field}[{i}]", digits=2,
+                                owner=f" of robot {r.name!r}")
         return q
 
     def _check_finite(self) -> None:

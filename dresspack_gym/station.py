@@ -110,21 +110,7 @@ class Station:
                                            for a in c.attachments])
         self.home = np.stack([r.home for r in config.robots])
         self.weld_configurations = self._solve_welds(config)
-        self.restrictions = [r.restrictions for r in config.robots]
-        self.allowed_weld_configurations = {
-            w.name: self._allowed(config.robots[config.robot_index(w.robot)], self.weld_configurations[w.name])
-            for w in config.weld_points}
         self.home_cable_shapes = self._home_shapes()
-
-    @staticmethod
-    def _allowed(placement, q: np.ndarray) -> np.ndarray:
-        """The configurations that pass the joint restrictions and, if the robot has a map, are robust."""
-        if len(q) == 0:
-            return q
-        ok = placement.restrictions.allowed(q)
-        if placement.robustness_map is not None:
-            ok &= placement.robustness_map.robust_joints(q)
-        return q[ok]
 
     def _home_shapes(self) -> list[np.ndarray]:
         """Cable shapes at Home; fails early (naming the robot) if a cable cannot span its nodes."""

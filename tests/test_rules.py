@@ -59,12 +59,3 @@ def test_bad_choice_names_the_field_and_the_allowed_values():
         check_choice("planner", "astar", ["ompl", "ppo"])
 
 
-def test_the_tasks_weld_filter_matches_the_stations_until_that_copy_goes():
-    """tasks.allowed_weld_configurations is the task side's one filter; Station.allowed_weld_configurations is
-    the older copy (station.py, to be removed): both must agree meanwhile."""
-    from dresspack_gym.tasks import allowed_weld_configurations
-
-    station = Station(load_station("default"))
-    for w in station.config.weld_points:
-        np.testing.assert_array_equal(allowed_weld_configurations(station, 0, w.name),
-                                      station.allowed_weld_configurations[w.name])

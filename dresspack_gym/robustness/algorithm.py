@@ -32,6 +32,7 @@ import numpy as np
 
 from ..config import StationConfig
 from ..errors import ConfigError
+from ..joint_limits import LIMIT_TOL
 from ..simulation import CableSimulator
 from ..station import Station
 
@@ -155,7 +156,7 @@ class RobustnessEvaluator:
         j3_mid = 0.5 * (lim[2, 0] + lim[2, 1])
         j2 = float(np.clip(ry - j3_mid, lim[1, 0], lim[1, 1]))
         j3 = ry - j2
-        if not lim[2, 0] - 1e-9 <= j3 <= lim[2, 1] + 1e-9:
+        if not lim[2, 0] - LIMIT_TOL <= j3 <= lim[2, 1] + LIMIT_TOL:
             lo, hi = np.degrees(lim[1, 0] + lim[2, 0]), np.degrees(lim[1, 1] + lim[2, 1])
             raise ConfigError("grid.ry", f"Ry = {np.degrees(ry):.1f} deg is outside the range the robot's joints 2 "
                                          f"and 3 can pitch link 3 to: [{lo:.0f}, {hi:.0f}] deg")

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..config import StationConfig
 from ..errors import ConfigError
+from ..validation import check_choice
 from .algorithm import RobustnessEvaluator, RobustnessSettings
 from .grid import RobustnessGrid
 from .query import RobustnessMap  # noqa: F401  (re-exported: the map API next to the runner)
@@ -127,8 +128,7 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
     Rows are appended and flushed as work units finish, so an interruption loses at most the units in
     flight. ``limit`` stops after that many new configurations (for trying a grid or benchmarking).
     """
-    if backend not in BACKENDS:
-        raise ConfigError("backend", f"{backend!r} is not one of the allowed values {list(BACKENDS)}")
+    check_choice("backend", backend, BACKENDS)
     if workers < 1:
         raise ConfigError("workers", f"must be at least 1, got {workers}")
     out = Path(out)
