@@ -189,6 +189,7 @@ def cmd_robustness_paths(args) -> int:
     from .robustness.algorithm import RobustnessSettings
     from .robustness.grid import RobustnessGrid
     from .robustness.paths import compare_paths
+    from .shipped import find_shipped
 
     grid = RobustnessGrid.from_dict(read_yaml(find_shipped(args.grid, "grids", "grid"), "grid"))
     report = compare_paths(grid, load_station(args.station), args.out, RobustnessSettings(), args.k_paths,

@@ -93,7 +93,6 @@ class RobotCollisionChecker:
         not change), so a move of several joints displaces no point more than ``chain_reach() @ |dq|``."""
         if getattr(self, "_chain_reach", None) is None:
             d = self.data  # anchors and geoms of the last posed configuration; the bound does not depend on it
-            m = self.model
             anchors = d.xanchor[self.joint_ids]
             link_len = np.linalg.norm(np.diff(anchors, axis=0), axis=1)  # anchor j -> anchor j+1
             reach = np.zeros(6)

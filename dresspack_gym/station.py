@@ -8,7 +8,8 @@ import mujoco
 import numpy as np
 
 from .cable_model import (LOAD_CELL_NQ, LOAD_CELL_NV, CableLayout, NodeAttachment, RodPiece, add_cable,
-                          apply_edge_invweight, edge_constraint, reference_shape)
+                          apply_edge_invweight, edge_constraint)
+from .cable_shape import reference_shape
 from .config import StationConfig
 from .errors import ConfigError, KinematicsError
 from .kinematics import RobotKinematics, rpy_matrix, weld_configurations

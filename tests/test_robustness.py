@@ -188,3 +188,14 @@ def test_path_comparison_reports_consistent_counts(tmp_path, station):
     assert json.loads((tmp_path / "paths_report.json").read_text())["agreement"] == rep["agreement"]
     with pytest.raises(ConfigError, match="sample"):
         compare_paths(grid, station, tmp_path / "x", FAST, k_paths=2, n_sample=99)
+
+
+def test_cli_robustness_paths_json(tmp_path, capsys):
+    import yaml
+
+    grid = tmp_path / "tiny.yaml"
+    grid.write_text(yaml.safe_dump(TINY))
+    assert main(["robustness-paths", "--grid", str(grid), "--station", "default", "--out", str(tmp_path / "p"),
+                 "--k-paths", "2", "--sample", "1", "--backend", "serial", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["n_compared"] == 1 and 0.0 <= out["agreement"] <= 1.0
