@@ -79,7 +79,8 @@ def test_reward_is_the_sum_of_its_documented_terms(env):
         terms = sum(info[f"reward_{k}"] for k in ("time", "wear", "progress", "goal", "invalid"))
         assert r == pytest.approx(terms, abs=1e-12)
         assert info["reward_wear"] == pytest.approx(-info["cost"])
-        assert info["cost"] == pytest.approx(info["cost_curvature"] + info["cost_tension"] + info["cost_distance"])
+        assert info["cost"] == pytest.approx(info["cost_curvature"] + info["cost_tension"] + info["cost_distance"]
+                                             + info["cost_twist"])
         assert info["reward_time"] == pytest.approx(-info["step_time"])
         for key in ("max_curvature", "max_tension", "min_clearance", "max_twist_rate", "cycle_time", "progress"):
             assert np.isfinite(info[key])

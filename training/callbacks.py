@@ -9,18 +9,20 @@ from tqdm.auto import tqdm
 
 class EpisodeMetricsCallback(BaseCallback):
     """Logs, per finished episode (averaged over the episodes of each rollout), under ``episode/``:
-    success, goals reached, cycle time, the episode's max curvature / tension / twist rate, min clearance,
+    success, goals reached, cycle time, the episode's max curvature / tension / twist rate / total twist /
+    clamp torque, min clearance,
     and the time-integrated cost terms (eq. 4.10) — the numbers the evaluation reports, seen while training."""
 
-    MAX_KEYS = ("max_curvature", "max_tension", "max_twist_rate", "cost")
-    COST_KEYS = ("cost", "cost_curvature", "cost_tension", "cost_distance")
+    MAX_KEYS = ("max_curvature", "max_tension", "max_twist_rate", "total_twist", "max_node_torque", "cost")
+    COST_KEYS = ("cost", "cost_curvature", "cost_tension", "cost_distance", "cost_twist")
 
     def _on_training_start(self) -> None:
         self._acc = [self._fresh() for _ in range(self.training_env.num_envs)]
 
     @staticmethod
     def _fresh() -> dict:
-        return {"max_curvature": 0.0, "max_tension": 0.0, "max_twist_rate": 0.0, "cost": 0.0,
+        return {"max_curvature": 0.0, "max_tension": 0.0, "max_twist_rate": 0.0, "total_twist": 0.0,
+                "max_node_torque": 0.0, "cost": 0.0,
                 "min_clearance": np.inf, "integral": dict.fromkeys(EpisodeMetricsCallback.COST_KEYS, 0.0)}
 
     def _on_step(self) -> bool:
@@ -37,7 +39,8 @@ class EpisodeMetricsCallback(BaseCallback):
                 log("episode/goals_reached_fraction", float(info["progress"]))
                 log("episode/cycle_time", float(info["cycle_time"]))
                 log("episode/invalid_actions", float(info.get("invalid_action", False)))
-                for k in ("max_curvature", "max_tension", "max_twist_rate", "min_clearance"):
+                for k in ("max_curvature", "max_tension", "max_twist_rate", "total_twist", "max_node_torque",
+                          "min_clearance"):
                     log(f"episode/{k}", acc[k])
                 log("episode/max_cost", acc["cost"])
                 for k, v in acc["integral"].items():
