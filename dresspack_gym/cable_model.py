@@ -107,29 +107,21 @@ class CableLayout:
 def rod_pieces(robot: str, dresspack: DresspackConfig) -> list[RodPiece]:
     """Split the cable at its interior clamps into rods whose end edges the clamps hold."""
     n = dresspack.segments
-    held = {}
-    for node in dresspack.nodes:
-        for v in node_vertices(dresspack, node):
-            held[v] = True
-    cuts = [0]  # first vertex of each piece
-    for node in dresspack.nodes[1:]:
-        if node.direction is not None and not dresspack.is_end_node(node):
-            cuts.append(dresspack.vertex_of(node))
+    held = {v for node in dresspack.nodes for v in node_vertices(dresspack, node)}
+    clamps = {dresspack.vertex_of(nd): nd for nd in dresspack.nodes if nd.direction is not None}
+    cuts = [0] + [v for v, nd in clamps.items() if v > 0 and not dresspack.is_end_node(nd)]  # first vertex per piece
     pieces = []
     for p, start in enumerate(cuts):
         stop = cuts[p + 1] + 1 if p + 1 < len(cuts) else n  # a cut clamp's edge (v, v+1) ends this piece
         verts = tuple(range(start, stop + 1))
-        first_clamped = held.get(start, False) and held.get(start + 1, False) and any(
-            nd.direction is not None and dresspack.vertex_of(nd) == start for nd in dresspack.nodes)
-        last_clamped = p + 1 < len(cuts) or (
-            held.get(stop, False) and held.get(stop - 1, False)
-            and any(nd.direction is not None and dresspack.vertex_of(nd) == stop for nd in dresspack.nodes))
-        flags = tuple(held.get(v, False) for v in verts)
+        first_clamped = start in clamps and not dresspack.is_end_node(clamps[start])
+        last_clamped = p + 1 < len(cuts) or (stop in clamps and dresspack.is_end_node(clamps[stop]))
+        flags = tuple(v in held for v in verts)
         if all(flags) or len(verts) < 4:
             raise ConfigError("dresspack.nodes", f"the cable between vertices {start} and {stop} has no free vertex "
                                                  f"at {n} segments; increase 'segments' or separate the nodes")
         name = f"{robot}/cable" if p == 0 else f"{robot}/cable_p{p}"
-        pieces.append(RodPiece(name, verts, flags, bool(first_clamped), bool(last_clamped)))
+        pieces.append(RodPiece(name, verts, flags, first_clamped, last_clamped))
     return pieces
 
 
@@ -216,7 +208,7 @@ def apply_edge_invweight(model: mujoco.MjModel, flex_ids, invweight: float) -> N
 
 
 def add_cable(spec: mujoco.MjSpec, robot: str, dresspack: DresspackConfig, *, zero_frames: list[np.ndarray],
-              home_frames: list[np.ndarray], home_shape: np.ndarray, cable_damping: float,
+              home_frames: list[np.ndarray], home_shape: np.ndarray,
               bending_damping: float) -> CableLayout:
     """Add the dresspack of ``robot`` to ``spec``.
 
@@ -284,6 +276,8 @@ def add_cable(spec: mujoco.MjSpec, robot: str, dresspack: DresspackConfig, *, ze
             continue
         mass = rho_h * (0.5 if v == n else 1.0)
         b = spec.worldbody.add_body(name=f"{robot}/cable_{v}", pos=list(on_line(v)))
+        # Slide joints only, undamped: flex vertices cannot carry joint damping, so the simulator applies the
+        # cable's viscous drag itself (simulation.cable_damping).
         b.mass, b.inertia, b.explicitinertial = mass, [mass * 1e-4] * 3, True
         for axis in np.eye(3):
             b.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=list(axis))
@@ -316,5 +310,4 @@ def add_cable(spec: mujoco.MjSpec, robot: str, dresspack: DresspackConfig, *, ze
         f.solref = list(CONTACT_SOLREF)
         spec.add_equality(name=f"{piece.flex}_edges", type=mujoco.mjtEq.mjEQ_FLEX, name1=piece.flex,
                           solref=list(solref), solimp=list(solimp))
-    del cable_damping  # applied by the simulator as explicit viscous drag (flex vertices cannot have joint damping)
     return CableLayout(tuple(attachments), tuple(pieces), tuple(free))

@@ -105,17 +105,16 @@ def node_loads(model: mujoco.MjModel, data: mujoco.MjData, cable: CableIndex) ->
     return forces, torques
 
 
-def node_tensions(data: mujoco.MjData, cable: CableIndex, points: np.ndarray, forces: np.ndarray,
-                  body_rot: list[np.ndarray]) -> np.ndarray:
+def node_tensions(cable: CableIndex, points: np.ndarray, forces: np.ndarray, body_rot: list[np.ndarray]) -> np.ndarray:
     """Tension where the cable enters each node [N]: the node load's component pulling into the cable.
 
-    For a hanging cable clamped at its top this is the weight of the free cable below the clamp.
+    For a cable hanging from a clamp at its top this is the cable's whole weight.
     """
     out = np.zeros(len(cable.attachments))
     n = len(points) - 1
     for k, att in enumerate(cable.attachments):
         f_world = body_rot[k] @ forces[k]
-        outer = max(att.vertices) if min(att.vertices) == att.vertices[0] else min(att.vertices)
+        outer = att.vertices[-1]  # a clamp's second (outer) vertex; a ring's only one
         sides = [s for s in (outer + 1, outer - 1) if 0 <= s <= n and s not in att.vertices]
         out[k] = max((float(f_world @ ((points[s] - points[outer]) / max(np.linalg.norm(points[s] - points[outer]),
                                                                         1e-12))) for s in sides), default=0.0)
@@ -136,12 +135,6 @@ def vertex_twists(model: mujoco.MjModel, data: mujoco.MjData, cable: CableIndex)
         ref = data.plastic[p.plastic_adr + 6 * ne:p.plastic_adr + 6 * ne + ne - 1]
         out.append(np.diff(theta) + ref)
     return out
-
-
-def twist_rates(model: mujoco.MjModel, data: mujoco.MjData, cable: CableIndex) -> np.ndarray:
-    """|material twist| per unit length [rad/m] at every interior vertex of every rod."""
-    tw = vertex_twists(model, data, cable)
-    return np.abs(np.concatenate(tw)) / cable.segment_length if tw else np.zeros(0)
 
 
 class ClearanceProbe:
@@ -214,7 +207,7 @@ def measure_cable(station: Station, data: mujoco.MjData, cable: CableIndex, prob
     edges = edge_tensions(m, data, cable)
     forces, torques = node_loads(m, data, cable)
     rot = [data.xmat[b].reshape(3, 3) for b in cable.node_bodies]
-    tension = np.concatenate([np.nan_to_num(edges, nan=-np.inf), node_tensions(data, cable, points, forces, rot)])
+    tension = np.concatenate([np.nan_to_num(edges, nan=-np.inf), node_tensions(cable, points, forces, rot)])
     twists = vertex_twists(m, data, cable)
     twist = np.abs(np.concatenate(twists)) / h if twists else np.zeros(0)
     dist, edge, obstacle = probe.min_distance(data, cable, points)

@@ -36,9 +36,10 @@ class Equilibrium:
 
     ``force_residual``: the largest net static force (elastic, gravity, contact, constraint; velocities
     zeroed) on any free vertex divided by that vertex's weight; ``torque_residual``: the largest net
-    torque on a twist hinge divided by the weight torque of one segment at the cable radius
-    (rho h g r; g taken as at least 1 m/s^2 so that a weightless cable has a scale too); ``kinetic_energy`` [J] of the cables. ``converged`` when all are within the station's
-    tolerances (``simulation.equilibrium_tolerance`` and ``simulation.equilibrium_speed``).
+    torque on a twist hinge divided by the weight torque of one segment at the cable radius (rho h g r;
+    g taken as at least 1 m/s^2 so that a weightless cable has a scale too); ``kinetic_energy`` [J] of the
+    cables. ``converged`` when all are within the station's tolerances (``simulation.equilibrium_tolerance``
+    and ``simulation.equilibrium_speed``).
     """
 
     force_residual: float
@@ -66,17 +67,15 @@ class MotionTrace:
     time: list[float] = field(default_factory=list)
     q: list[np.ndarray] = field(default_factory=list)
     measures: list[WearMeasures] = field(default_factory=list)
-    # Largest kinetic energy of the cables during the motion [J] and the dynamic indicator of a quasi-static
-    # motion: the largest free-vertex acceleration over g, averaged over SETTLE_CHECK_EVERY steps (the net
-    # force on a vertex in units of its weight; the averaging removes the integrator's stiff jitter).
-    max_kinetic_energy: float = 0.0
+    # The dynamic indicator of a quasi-static motion: the largest free-vertex acceleration over g, averaged
+    # over SETTLE_CHECK_EVERY steps (the net force on a vertex in units of its weight; the averaging removes
+    # the integrator's stiff jitter).
     max_acceleration_ratio: float = 0.0
 
     def extend(self, other: "MotionTrace") -> None:
         self.time += other.time
         self.q += other.q
         self.measures += other.measures
-        self.max_kinetic_energy = max(self.max_kinetic_energy, other.max_kinetic_energy)
         self.max_acceleration_ratio = max(self.max_acceleration_ratio, other.max_acceleration_ratio)
 
 
@@ -102,6 +101,7 @@ class CableSimulator:
         self.model = station.model
         self.data = mujoco.MjData(self.model)
         self._scratch = mujoco.MjData(self.model)  # static-force evaluations for the equilibrium residual
+        self._state_buffer = np.empty(mujoco.mj_stateSize(self.model, STATE_SPEC))
         self.config = station.config.simulation
         self.probe = ClearanceProbe(station)
         self.q = station.home.copy()  # commanded robot joints, (n_robots, 6)
@@ -204,7 +204,6 @@ class CableSimulator:
                 v_now = self.data.qvel[self._free_dof_idx]
                 accel = float(np.max(np.linalg.norm((v_now - v_before).reshape(-1, 3), axis=1))) / g_window
                 trace.max_acceleration_ratio = max(trace.max_acceleration_ratio, accel)
-                trace.max_kinetic_energy = max(trace.max_kinetic_energy, self.kinetic_energy())
                 v_before = v_now.copy()
             if stride and (k % stride == 0 or k == steps):
                 self._record(trace, self.motion_time + k * dt, path[k - 1].reshape(start.shape))
@@ -257,10 +256,7 @@ class CableSimulator:
     def _step(self, q_flat: np.ndarray, qdot_flat: np.ndarray) -> None:
         """One physics step with the robots at ``q_flat`` moving at ``qdot_flat`` (load cells held)."""
         d = self.data
-        d.qpos[self._robot_qpos] = q_flat
-        d.qvel[self._robot_dof] = qdot_flat
-        d.qpos[self._load_qpos] = self._load_values
-        d.qvel[self._load_dof] = 0.0
+        self._drive(q_flat, qdot_flat)
         d.qfrc_applied[self._free_dof_idx] = self._drag * d.qvel[self._free_dof_idx]
         mujoco.mj_step(self.model, d)
 
@@ -275,8 +271,7 @@ class CableSimulator:
         unless given), the step at which settled shapes are found: a state is an equilibrium when one
         relaxation step would leave it at rest.
         """
-        m, s = self.model, self._scratch
-        state = np.empty(mujoco.mj_stateSize(m, STATE_SPEC))
+        m, s, state = self.model, self._scratch, self._state_buffer
         mujoco.mj_getState(m, self.data, state, STATE_SPEC)
         mujoco.mj_setState(m, s, state, STATE_SPEC)
         s.qvel[:] = 0.0
@@ -291,10 +286,7 @@ class CableSimulator:
         net = s.qfrc_spring + s.qfrc_constraint - s.qfrc_bias
         force = np.linalg.norm(net[self._free_dof].reshape(-1, 3), axis=1) / self._free_weight
         torque = np.abs(net[self._twist_dof]) / self._twist_scale if len(self._twist_dof) else np.zeros(1)
-        v = self.data.qvel
-        kinetic = 0.5 * float(self._free_dof_mass @ v[self._free_dof] ** 2)
-        if len(self._twist_dof):
-            kinetic += 0.5 * float(self._twist_inertia @ v[self._twist_dof] ** 2)
+        kinetic = self.kinetic_energy()
         tol = self.config.equilibrium_tolerance
         kinetic_tol = 0.5 * self._cable_mass * self.config.equilibrium_speed ** 2
         f, t = float(force.max()), float(torque.max())
@@ -317,15 +309,13 @@ class CableSimulator:
         return cable_points(self.data, self.station.cables[robot])
 
     def kinetic_energy(self) -> float:
-        """Kinetic energy of the cables' free vertices [J]."""
+        """Kinetic energy of the cables [J]: free vertices and twist hinges."""
         v = self.data.qvel[self._free_dof_idx]
-        return 0.5 * float(self._free_dof_mass @ (v * v))
-
-    def potential_scale(self) -> float:
-        """M g L summed over the cables [J]: the gravity energy scale a kinetic energy is compared with."""
-        g = _residual_gravity(self.config.gravity)
-        return sum(float(c.free_mass.sum()) * g * r.dresspack.length
-                   for c, r in zip(self.station.cables, self.station.config.robots))
+        kinetic = 0.5 * float(self._free_dof_mass @ (v * v))
+        if len(self._twist_dof):
+            w = self.data.qvel[self._twist_dof]
+            kinetic += 0.5 * float(self._twist_inertia @ (w * w))
+        return kinetic
 
     def max_vertex_speed(self) -> float:
         return float(np.max(np.abs(self.data.qvel[self._free_dof])))
@@ -345,6 +335,7 @@ class CableSimulator:
             opt.timestep, opt.tolerance = before
 
     def _drive(self, q: np.ndarray, qdot: np.ndarray) -> None:
+        """Write the robots' joints (and hold the load cells): the kinematic part of the state."""
         self.data.qpos[self._robot_qpos] = q.ravel()
         self.data.qvel[self._robot_dof] = qdot.ravel()
         self.data.qpos[self._load_qpos] = self._load_values

@@ -15,6 +15,7 @@ from .errors import ConfigError, KinematicsError
 from .kinematics import RobotKinematics, rpy_matrix, weld_configurations
 from .robot_model import OBSTACLE_BITS, _set_primitive, add_robot, body_name, joint_name, mat_to_quat
 
+DOWN = np.array([0.0, 0.0, -1.0])  # gravity's direction (simulation.gravity is its magnitude along -z)
 LINK_INDEX = {"base": 0, "link1": 1, "link2": 2, "link3": 3, "link4": 4, "link5": 5, "link6": 6}
 
 
@@ -85,7 +86,8 @@ class Station:
         m.opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
         m.opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
         for r, layout in zip(config.robots, self._attachments):
-            apply_edge_invweight(m, [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, p.flex) for p in layout.pieces], edge_constraint(r.dresspack)[2])
+            flexes = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, p.flex) for p in layout.pieces]
+            apply_edge_invweight(m, flexes, edge_constraint(r.dresspack)[2])
         self.robots = []
         layout_of = {r.name: layout for r, layout in zip(config.robots, self._attachments)}
         for r in config.robots:
@@ -111,19 +113,7 @@ class Station:
                                            for a in c.attachments])
         self.home = np.stack([r.home for r in config.robots])
         self.weld_configurations = self._solve_welds(config)
-        self.home_cable_shapes = self._home_shapes()
-
-    def _home_shapes(self) -> list[np.ndarray]:
-        """Cable shapes at Home; fails early (naming the robot) if a cable cannot span its nodes."""
-        try:
-            return self.initial_cable_shapes(self.home)
-        except ConfigError as exc:
-            for i in range(self.n_robots):  # find the robot whose cable failed
-                try:
-                    self.initial_cable_shapes_for(i, self.home[i])
-                except ConfigError:
-                    break
-            raise ConfigError(f"robots[{i}].{exc.field}", str(exc).split(": ", 1)[1]) from None
+        self.home_cable_shapes = self._home_shapes  # reference shapes at Home, made while building the model
 
     def _solve_welds(self, config: StationConfig) -> dict[str, np.ndarray]:
         """All IK solutions (within joint limits) of every weld point; unreachable ones are config errors."""
@@ -169,17 +159,18 @@ class Station:
         self._attachments = []
         for r in config.robots:
             add_robot(spec, r)
+        self._home_shapes = []
         for i, r in enumerate(config.robots):
             kin = RobotKinematics(r.robot, r.base_pos, r.base_yaw)
             zero_frames = _node_frames(r, kin.link_frames(np.zeros(6)))
             home_frames = _node_frames(r, kin.link_frames(r.home))
             try:  # the Home reference shape fixes the clamps' roll (installed untwisted at Home)
-                home_shape = reference_shape(r.dresspack, home_frames, np.array([0.0, 0.0, -1.0]))
+                home_shape = reference_shape(r.dresspack, home_frames, DOWN)
             except ConfigError as exc:
                 raise ConfigError(f"robots[{i}].{exc.field}", str(exc).split(": ", 1)[1]) from None
+            self._home_shapes.append(home_shape)
             self._attachments.append(add_cable(spec, r.name, r.dresspack, zero_frames=zero_frames,
                                                home_frames=home_frames, home_shape=home_shape,
-                                               cable_damping=sim.cable_damping,
                                                bending_damping=sim.bending_damping))
         return spec
 
@@ -213,10 +204,8 @@ class Station:
             for j, v in enumerate(piece.vertices):
                 if point_rows[v] < 0:
                     point_rows[v] = vadr + j
-            held = np.array(piece.held)
             pieces.append(PieceIndex(piece, fid, m.equality(f"{piece.flex}_edges").id, twist_q, twist_v,
-                                     held[:-1] & held[1:] & _same_node(layout, piece), int(m.flex_plasticadr[fid]),
-                                     vadr))
+                                     _same_node(layout, piece), int(m.flex_plasticadr[fid]), vadr))
         free = np.array(layout.free_vertices, dtype=int)
         bodies = np.array([m.body(f"{name}/cable_{v}").id for v in free], dtype=int)
         fq = np.array([m.jnt_qposadr[m.body_jntadr[b]:m.body_jntadr[b] + 3] for b in bodies], dtype=int)
@@ -239,12 +228,8 @@ class Station:
         return [self.initial_cable_shapes_for(i, q) for i, q in enumerate(q_robots)]
 
     def initial_cable_shapes_for(self, i: int, q: np.ndarray) -> np.ndarray:
-        r, rob = self.config.robots[i], self.robots[i]
-        g = np.asarray(self.model.opt.gravity, dtype=float)
-        gdir = g / np.linalg.norm(g) if np.linalg.norm(g) > 0 else np.array([0, 0, -1.0])
-        frames = rob.kinematics.link_frames(q)
-        node_frames = [np.eye(4) if nd.body == "world" else frames[LINK_INDEX[nd.body]] for nd in r.dresspack.nodes]
-        return reference_shape(r.dresspack, node_frames, gdir)
+        r = self.config.robots[i]
+        return reference_shape(r.dresspack, _node_frames(r, self.robots[i].kinematics.link_frames(q)), DOWN)
 
 
 def _node_frames(placement, link_frames: list[np.ndarray]) -> list[np.ndarray]:

@@ -60,7 +60,8 @@ def main() -> None:
     report = {}
     for key in ("rest", "moving"):
         a, b = max(r[key] for r in runs["v0"]), max(r[key] for r in runs["v2"])
-        report[key] = {"v0_steps_per_s": round(a), "v2_steps_per_s": round(b), "v2_cost_per_step_vs_v0": round(a / b, 3)}
+        report[key] = {"v0_steps_per_s": round(a), "v2_steps_per_s": round(b),
+                       "v2_cost_per_step_vs_v0": round(a / b, 3)}
     print(json.dumps(report, indent=2))
 
 

@@ -60,8 +60,10 @@ def test_twist_term_is_optional_and_follows_its_threshold():
 
 
 def test_worst_over_cables_takes_twist_and_node_loads():
-    a = WearMeasures(5.0, 10.0, 0.3, 1.0, total_twist=2.0, max_compression=0.5, max_node_force=30.0, max_node_torque=1.0)
-    b = WearMeasures(9.0, 2.0, 0.6, 3.0, total_twist=1.0, max_compression=1.5, max_node_force=10.0, max_node_torque=4.0)
+    a = WearMeasures(5.0, 10.0, 0.3, 1.0, total_twist=2.0, max_compression=0.5, max_node_force=30.0,
+                     max_node_torque=1.0)
+    b = WearMeasures(9.0, 2.0, 0.6, 3.0, total_twist=1.0, max_compression=1.5, max_node_force=10.0,
+                     max_node_torque=4.0)
     w = WearMeasures.worst([a, b])
     assert (w.max_twist_rate, w.total_twist, w.max_compression, w.max_node_force, w.max_node_torque) == \
         (3.0, 2.0, 1.5, 30.0, 4.0)

@@ -199,7 +199,7 @@ class RobustnessEvaluator:
         Starts from the settled state of v's Ry, or (``continue_from_current``) from the simulator's
         current state. With ``n_paths = K > 0`` the two paths are replaced by K random ones: each moves
         to a uniformly random point of the excursion box around v and back; the second number is then 0.
-        If an excursion is too fast (kinetic energy above ``max_dynamic_ratio`` M g L), the whole
+        If an excursion is too fast (a cable vertex accelerating above ``max_dynamic_ratio`` g), the whole
         configuration is redone from the same start state at half the speed.
         """
         s = self.settings
@@ -220,7 +220,7 @@ class RobustnessEvaluator:
         _, converged = self._go(q, True, speed)
         s0 = self._shape()
         exc = np.asarray(s.excursion)
-        kinetic = 0.0
+        ratio = 0.0
         if s.n_paths > 0:
             rng = np.random.default_rng([s.seed, index])
             deltas = [rng.uniform(-1.0, 1.0, 4) * exc for _ in range(s.n_paths)]
@@ -228,11 +228,11 @@ class RobustnessEvaluator:
             deltas = [-exc, exc]
         devs = []
         for delta in deltas:
-            k_out, _ = self._go(self.joints(v, delta), False, speed)
-            k_back, ok = self._go(q, True, speed)
-            kinetic = max(kinetic, k_out, k_back)
+            out_ratio, _ = self._go(self.joints(v, delta), False, speed)
+            back_ratio, ok = self._go(q, True, speed)
+            ratio = max(ratio, out_ratio, back_ratio)
             converged &= ok
             devs.append(float(np.linalg.norm(self._shape() - s0, axis=1).max()))
         if s.n_paths > 0:
-            return (max(devs), 0.0), kinetic, converged
-        return (devs[0], devs[1]), kinetic, converged
+            return (max(devs), 0.0), ratio, converged
+        return (devs[0], devs[1]), ratio, converged
