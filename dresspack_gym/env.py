@@ -201,6 +201,7 @@ class DresspackEnv(gym.Env):
             raise InvalidActionError(f"action {a} ({self.describe_action(a)}) is masked at q = "
                                      f"{np.round(np.degrees(q_before), 2).tolist()} deg: {self._why_masked(a)}")
         t0 = self.sim.motion_time
+        settle_before = self.sim.last_settle  # the step reports only a settle it made itself
         reached = False
         moved_through: list[np.ndarray] = []
         if invalid:
@@ -234,6 +235,11 @@ class DresspackEnv(gym.Env):
         truncated = not terminated and self.steps >= self.max_steps
         info = self._info(measures, cost, terms, step_time, invalid)
         info["moved_through"] = np.array(moved_through).reshape(-1, 6)  # the straight segments' end points
+        # The step's settle (at a weld: to equilibrium; after an ordinary step: bounded by settle_time) and the
+        # residual it ended with; NaN when the step did not settle.
+        settle = self.sim.last_settle if self.sim.last_settle is not settle_before else None
+        info["settle_converged"] = bool(settle is not None and settle.converged)
+        info["equilibrium_residual"] = settle.equilibrium.force_residual if settle is not None else float("nan")
         return self._observation(measures), reward, terminated, truncated, info
 
     def _get_rew(self, q_before: np.ndarray, step_time: float, cost, reached: bool,

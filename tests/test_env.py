@@ -228,3 +228,14 @@ def test_observation_size_comes_from_its_structure():
     assert list(e.observation_structure) == ["joints", "goal", "goal_error", "progress", "cable_points", "measures"]
     assert e.observation_structure["cable_points"] == 15
     assert obs.shape == e.observation_space.shape == (sum(e.observation_structure.values()),)
+
+
+def test_a_step_reports_the_residual_of_its_own_settle():
+    e = DresspackEnv(station="default", settle_time=0.0)
+    e.reset(seed=0)
+    _, _, _, _, info = e.step(STAY)  # waiting lets the cable settle (bounded by the wait)
+    assert np.isfinite(info["equilibrium_residual"]) and isinstance(info["settle_converged"], bool)
+    assert info["equilibrium_residual"] == pytest.approx(e.sim.last_settle.equilibrium.force_residual)
+    moves = [a for a in np.flatnonzero(e.action_masks()) if a != STAY]
+    _, _, _, _, info = e.step(int(moves[0]))  # settle_time=0: an ordinary step does not settle
+    assert np.isnan(info["equilibrium_residual"]) and not info["settle_converged"]

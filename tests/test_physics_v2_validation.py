@@ -215,3 +215,31 @@ def test_twist_sweep_twist_grows_with_the_wrist_sum():
     assert np.all(np.diff(rate[:4]) < 0) and np.all(np.diff(rate[3:]) > 0)
     torque = np.abs(np.array(sweep.node_twist_torque))
     assert torque[3].max() < 1e-6 and torque[0].min() > 0.01 and torque[-1].min() > 0.01
+
+
+@pytest.mark.parametrize("segments", [20, 40])
+def test_standing_column_compression(segments):
+    """A stiff rod clamped at its foot, standing up (below its self-weight buckling length): each edge is
+    pushed by the weight above it, rho g (L - s), reported as compression, never as tension; the clamp
+    carries the whole weight pushing down."""
+    length, rho, ei = 0.5, 1.25, 20.0  # self-weight buckling needs L > 1.986 (EI / rho g)^(1/3) = 2.3 m
+    station = world_cable_station([{"name": "foot", "body": "world", "pos": [0, 0, 1.0], "direction": [0, 0, 1]}],
+                                  cable={"length": length, "bending_stiffness": ei, "segments": segments},
+                                  simulation=TIGHT)
+    sim = CableSimulator(station)
+    cable = station.cables[0]
+    h = length / segments
+    # The reference shape lets a free end hang down; stand the column up and let it settle there.
+    upright = np.array([0.0, 0.0, 1.0]) + np.outer(np.arange(segments + 1) * h, [0.0, 0.0, 1.0])
+    sim.data.qpos[cable.free_qpos] = upright[cable.free_vertices] - station.model.body_pos[cable.free_bodies]
+    sim.data.qvel[:] = 0.0
+    assert sim.settle().converged
+    assert np.abs(sim.cable_points()[:, :2]).max() < 1e-6 and sim.cable_points()[-1, 2] > 1.49  # it stands
+    push = -edge_tensions(station.model, sim.static_forces(), station.cables[0])[1:]
+    s_mid = (np.arange(1, segments) + 0.5) * h
+    np.testing.assert_allclose(push, rho * G * (length - s_mid), rtol=0.02, atol=0.02)
+    m = sim.measures()
+    assert m.max_compression == pytest.approx(rho * G * (length - 1.5 * h), rel=0.02)
+    assert m.max_tension == 0.0
+    forces, _ = sim.node_loads()
+    assert forces[0][0] == pytest.approx(-rho * G * length, rel=0.005)  # x = up: the column pushes down
