@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .cli_args import ensure_parent, number, output_dir, output_file, positive_int, seed
 from .errors import ConfigError, DresspackError
 
 
@@ -99,8 +100,9 @@ def cmd_inspect(args) -> int:
     print(f"\nObstacles: {len(cfg.obstacles)}" + (" + floor" if cfg.floor else ""))
     print(f"Weld points: {len(cfg.weld_points)}")
     for w in cfg.weld_points:
-        print(f"  {w.name}: pos {w.pos}, approach {[round(float(a), 3) for a in w.approach]}, "
-              f"{len(station.weld_configurations[w.name])} IK solutions within limits")
+        reach = station.unreachable_welds.get(w.name) or \
+            f"{len(station.weld_configurations[w.name])} IK solutions within limits"
+        print(f"  {w.name}: pos {w.pos}, approach {[round(float(a), 3) for a in w.approach]}, {reach}")
     print("\nSettled at Home:")
     print(f"  max curvature  {report['max_curvature']:8.3f} 1/m   (at {report['curvature_at']:.2f} m along the cable)")
     print(f"  max tension    {report['max_tension']:8.3f} N     (at {report['tension_at']:.2f} m)")
@@ -127,7 +129,7 @@ def cmd_render(args) -> int:
     station, sim = _load(args.station)
     renderer = StationRenderer(station.model, width=args.width, height=args.height)
     cam = default_camera(station.model, azimuth=args.azimuth, elevation=args.elevation, distance=args.distance)
-    save_png(renderer.render(sim.data, cam), args.out)
+    save_png(renderer.render(sim.data, cam), ensure_parent(args.out))
     renderer.close()
     print(f"wrote {args.out}")
     return 0
@@ -144,7 +146,7 @@ def cmd_restrictions(args) -> int:
     if args.plot:
         from .restriction_plot import plot_restrictions
 
-        summary = plot_restrictions(cfg, args.plot)
+        summary = plot_restrictions(cfg, ensure_parent(args.plot))
         for name, frac in summary.items():
             print(f"{name}: {100 * frac:.1f} % of the (j5, j6) plane is forbidden at Home's j4")
         print(f"wrote {args.plot}")
@@ -214,16 +216,14 @@ def cmd_twist_sweep(args) -> int:
 
     if not 0 < args.step <= args.span:
         raise ConfigError("--step", f"must be in (0, --span={args.span}] degrees, got {args.step}")
-    _check_out_parent(args.plot, "--plot")
-    _check_out_parent(args.out, "--out")
     station, sim = _load(args.station)
     with tqdm(total=2 * int(round(args.span / args.step)) + 1, desc="twist sweep", unit="step",
               disable=args.json) as bar:
         sweep = twist_sweep(sim, span_deg=args.span, step_deg=args.step, progress=bar)
     if args.plot:
-        plot_twist_sweep(sweep, args.plot)
+        plot_twist_sweep(sweep, ensure_parent(args.plot))
     if args.out:
-        Path(args.out).write_text(json.dumps(sweep.as_dict(), indent=1))
+        ensure_parent(args.out).write_text(json.dumps(sweep.as_dict(), indent=1))
     if args.json:
         print(json.dumps(sweep.as_dict()))
         return 0
@@ -233,11 +233,6 @@ def cmd_twist_sweep(args) -> int:
         print(f"{s:11.0f} {tq:>30} {sweep.max_twist_rate[i]:15.3f} {sweep.max_curvature[i]:14.2f} "
               f"{sweep.converged[i]}")
     return 0
-
-
-def _check_out_parent(path, flag: str) -> None:
-    if path and not Path(path).resolve().parent.is_dir():
-        raise ConfigError(flag, f"the folder of {path!r} does not exist")
 
 
 def cmd_bench(args) -> int:
@@ -262,11 +257,35 @@ def registered_commands() -> list:
     return [ep.load() for ep in sorted(entry_points(group="dresspack.commands"), key=lambda ep: ep.name)]
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, except that while :func:`main` runs with ``--json`` a usage error becomes a :class:`UsageError`,
+    so scripts that asked for JSON get a JSON error object too."""
+
+    json_errors = False
+
+    def error(self, message):
+        if _Parser.json_errors:
+            raise UsageError(self.prog, message)
+        super().error(message)
+
+
+class UsageError(DresspackError):
+    """A command line argparse refused (reported as JSON under ``--json``)."""
+
+    def __init__(self, prog: str, message: str):
+        self.field = message.split(":", 1)[0].removeprefix("argument ") if message.startswith("argument ") else ""
+        super().__init__(f"{prog}: {message}")
+
+
+MAX_WORKERS = 256  # worker processes (one per core; Ray clusters may have more)
+
+
 def build_parser(extensions=None) -> argparse.ArgumentParser:
     """The ``dresspack`` parser with the core subcommands and ``extensions`` (default: the registered ones)."""
+    from .rendering import OFFSCREEN_HEIGHT, OFFSCREEN_WIDTH
     from .robustness.algorithm import START_MODES
 
-    p = argparse.ArgumentParser(prog="dresspack", description="Robot dresspack wear simulation and planning.")
+    p = _Parser(prog="dresspack", description="Robot dresspack wear simulation and planning.")
     sub = p.add_subparsers(dest="command", required=True)
     for add in registered_commands() if extensions is None else extensions:
         add(sub)
@@ -276,83 +295,92 @@ def build_parser(extensions=None) -> argparse.ArgumentParser:
     q.set_defaults(func=cmd_inspect)
     r = sub.add_parser("render", help="write a PNG picture of the station at Home")
     r.add_argument("station")
-    r.add_argument("--out", required=True, help="output PNG path")
-    r.add_argument("--width", type=int, default=960)
-    r.add_argument("--height", type=int, default=720)
-    r.add_argument("--azimuth", type=float, default=-60.0)
-    r.add_argument("--elevation", type=float, default=-22.0)
-    r.add_argument("--distance", type=float, default=5.5)
+    r.add_argument("--out", required=True, type=output_file, help="output PNG path (missing folders are made)")
+    r.add_argument("--width", type=number(1, OFFSCREEN_WIDTH, integer=True, unit="px"), default=960)
+    r.add_argument("--height", type=number(1, OFFSCREEN_HEIGHT, integer=True, unit="px"), default=720)
+    r.add_argument("--azimuth", type=number(-360, 360, unit="deg"), default=-60.0)
+    r.add_argument("--elevation", type=number(-90, 90, unit="deg"), default=-22.0)
+    r.add_argument("--distance", type=number(0, 100, lo_open=True, unit="m"), default=5.5)
     r.set_defaults(func=cmd_render)
     x = sub.add_parser("restrictions", help="list a station's joint restrictions and plot the forbidden j5/j6 zones")
     x.add_argument("station")
-    x.add_argument("--plot", help="output PNG path for the forbidden-zone plot (thesis Figure 4.2)")
+    x.add_argument("--plot", type=output_file, help="output PNG path for the forbidden-zone plot (thesis Figure 4.2)")
     x.set_defaults(func=cmd_restrictions)
     rm = sub.add_parser("robustness-map", help="map non-robust cable configurations (thesis Algorithm 1), resumable")
     rm.add_argument("--grid", required=True, help="grid YAML or shipped grid name (thesis_24336, thesis_67500, small)")
     rm.add_argument("--station", required=True, help="station YAML or shipped name (its robot and dresspack are mapped)")
-    rm.add_argument("--out", required=True, help="output folder; rerunning with the same folder resumes")
-    rm.add_argument("--workers", type=int, default=2)
+    rm.add_argument("--out", required=True, type=output_dir,
+                    help="output folder; rerunning with the same folder resumes")
+    rm.add_argument("--workers", type=number(1, MAX_WORKERS, integer=True), default=2)
     rm.add_argument("--backend", choices=["serial", "process", "ray"], default="process")
     rm.add_argument("--ray-address", default=None, help="address of an existing Ray cluster (backend ray)")
-    rm.add_argument("--threshold", type=float, default=None, help="d_thresh [m] (default 0.1)")
-    rm.add_argument("--samples", type=int, default=None, help="N_s shape samples (default 20)")
-    rm.add_argument("--excursion", type=float, nargs=4, default=None, metavar=("RY", "J4", "J5", "J6"),
+    rm.add_argument("--threshold", type=number(0, 10, lo_open=True, unit="m"), default=None, help="d_thresh [m] (default 0.1)")
+    rm.add_argument("--samples", type=number(2, 10000, integer=True), default=None, help="N_s shape samples (default 20)")
+    rm.add_argument("--excursion", type=number(0, 180, unit="deg"), nargs=4, default=None, metavar=("RY", "J4", "J5", "J6"),
                     help="excursion sizes [deg] (default 20 100 100 100)")
-    rm.add_argument("--n-paths", type=int, default=None, help="K random approach paths instead of the thesis's two")
-    rm.add_argument("--speed-fraction", type=float, default=None,
+    rm.add_argument("--n-paths", type=number(0, 1000, integer=True), default=None, help="K random approach paths instead of the thesis's two")
+    rm.add_argument("--speed-fraction", type=number(0, 1, lo_open=True), default=None,
                     help="excursion speed tried first, as a fraction of the rated joint speeds (default 0.25)")
-    rm.add_argument("--min-speed-fraction", type=float, default=None,
+    rm.add_argument("--min-speed-fraction", type=number(0, 1, lo_open=True), default=None,
                     help="slowest excursion speed tried when the motion is too dynamic (default 1/16)")
-    rm.add_argument("--max-dynamic-ratio", type=float, default=None,
+    rm.add_argument("--max-dynamic-ratio", type=number(0, 1000, lo_open=True), default=None,
                     help="quasi-static bound: largest cable vertex acceleration / g during excursions (default 0.5)")
-    rm.add_argument("--settle-time", type=float, default=None,
+    rm.add_argument("--settle-time", type=number(0, 60, lo_open=True, unit="s"), default=None,
                     help="max relaxation to equilibrium after each return [s] (default 5)")
     rm.add_argument("--cable-robot-contact", action="store_true",
                     help="let the cable touch the robot's links (the thesis maps the cable alone: off by default)")
-    rm.add_argument("--timestep", type=float, default=None, help="physics step during motions [s] (default 0.004)")
-    rm.add_argument("--settle-timestep", type=float, default=None,
+    rm.add_argument("--timestep", type=number(1e-4, 0.01, unit="s"), default=None, help="physics step during motions [s] (default 0.004)")
+    rm.add_argument("--settle-timestep", type=number(1e-4, 0.02, unit="s"), default=None,
                     help="physics step while the cable relaxes [s] (default 0.016)")
     rm.add_argument("--start", choices=START_MODES, default=None,
                     help="row: each configuration continues from the previous one of its grid row (default); "
                          "ry: every configuration from the settled state of its Ry")
-    rm.add_argument("--limit", type=int, default=None, help="compute at most this many new configurations")
+    rm.add_argument("--limit", type=positive_int, default=None, help="compute at most this many new configurations")
     rm.add_argument("--json", action="store_true")
     rm.set_defaults(func=cmd_robustness)
     rp = sub.add_parser("robustness-paths", help="how often the thesis's 2-path test and a K-path test disagree")
     rp.add_argument("--grid", required=True, help="grid YAML or shipped grid name (the sample is drawn from it)")
     rp.add_argument("--station", required=True)
-    rp.add_argument("--out", required=True, help="output folder (two resumable maps and paths_report.json)")
-    rp.add_argument("--k-paths", type=int, default=8, help="K random approach paths (default 8)")
-    rp.add_argument("--sample", type=int, default=100, help="configurations drawn from the grid (default 100)")
-    rp.add_argument("--seed", type=int, default=0)
-    rp.add_argument("--workers", type=int, default=2)
+    rp.add_argument("--out", required=True, type=output_dir, help="output folder (two resumable maps and paths_report.json)")
+    rp.add_argument("--k-paths", type=number(1, 1000, integer=True), default=8, help="K random approach paths (default 8)")
+    rp.add_argument("--sample", type=positive_int, default=100, help="configurations drawn from the grid (default 100)")
+    rp.add_argument("--seed", type=seed, default=0)
+    rp.add_argument("--workers", type=number(1, MAX_WORKERS, integer=True), default=2)
     rp.add_argument("--backend", choices=["serial", "process", "ray"], default="process")
     rp.add_argument("--json", action="store_true")
     rp.set_defaults(func=cmd_robustness_paths)
     tw = sub.add_parser("twist-sweep", help="clamp torque, twist and curvature against j4 + j6 (thesis 4.1)")
     tw.add_argument("station")
-    tw.add_argument("--span", type=float, default=400.0, help="largest change of j4 + j6 from Home [deg]")
-    tw.add_argument("--step", type=float, default=10.0, help="step of j4 + j6 [deg]")
-    tw.add_argument("--plot", help="output PNG path")
-    tw.add_argument("--out", help="output JSON path")
+    tw.add_argument("--span", type=number(0, 720, lo_open=True, unit="deg"), default=400.0, help="largest change of j4 + j6 from Home [deg]")
+    tw.add_argument("--step", type=number(0, 720, lo_open=True, unit="deg"), default=10.0, help="step of j4 + j6 [deg]")
+    tw.add_argument("--plot", type=output_file, help="output PNG path")
+    tw.add_argument("--out", type=output_file, help="output JSON path")
     tw.add_argument("--json", action="store_true")
     tw.set_defaults(func=cmd_twist_sweep)
     b = sub.add_parser("bench", help="benchmarks")
     b.add_argument("what", choices=["physics", "restrictions", "env", "robustness"], help="which benchmark")
     b.add_argument("--station", default="default")
-    b.add_argument("--repeats", type=int, default=None, help="repetitions (best is reported)")
+    b.add_argument("--repeats", type=number(1, 1000, integer=True), default=None, help="repetitions (best is reported)")
     b.add_argument("--json", action="store_true")
     b.set_defaults(func=cmd_bench)
     return p
 
 
 def main(argv: list[str] | None = None, extensions=None) -> int:
-    args = build_parser(extensions).parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    as_json = "--json" in argv  # every failure of a --json call is one JSON object on stdout, exit code 2
+    _Parser.json_errors = as_json
     try:
+        args = build_parser(extensions).parse_args(argv)
         return args.func(args)
     except DresspackError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        if as_json:
+            print(json.dumps({"error": str(exc), "field": getattr(exc, "field", "")}))
+        else:
+            print(f"error: {exc}", file=sys.stderr)
         return 2
+    finally:
+        _Parser.json_errors = False
 
 
 if __name__ == "__main__":

@@ -15,7 +15,7 @@ import numpy as np
 
 from .errors import ConfigError
 from .restrictions import RestrictionSet
-from .validation import Section, check_number, check_vector
+from .validation import Section, check_number, check_vector, check_unique
 
 ROBOT_LINKS = ("base", "link1", "link2", "link3", "link4", "link5", "link6")
 NODE_BODIES = ROBOT_LINKS + ("world",)
@@ -236,6 +236,7 @@ class DresspackConfig:
                                    hint="'start', 'end' or an arc length along the cable")
             n.done()
             nodes.append(CableNode(nname, body, pos, direction, arc))
+        check_unique([nd.name for nd in nodes], f"{path}.nodes", "node")
         if nodes[0].arc_length != 0.0:
             raise ConfigError(f"{path}.nodes[0].at", "the first node must be at the cable start ('start' or 0)")
         arcs = [n.arc_length for n in nodes]
@@ -250,6 +251,11 @@ class DresspackConfig:
                                   f"nodes are closer than the cable discretisation allows ({segments} segments "
                                   f"of {h:.3f} m); increase 'segments' or separate the nodes")
         return DresspackConfig(name, source, length, radius, rho, ei, ea, gj, segments, tuple(nodes), collide)
+
+
+# Largest wear-cost weight: the thesis's weights span 1e-5 (tension, N) to 100 (distance); far beyond this one
+# term swamps the others to float64 rounding, which is a unit error rather than a choice.
+WEIGHT_MAX = 1e9
 
 
 @dataclass(frozen=True)
@@ -279,19 +285,19 @@ class WearCostConfig:
         s = Section(data, path)
         d = WearCostConfig()
         out = WearCostConfig(
-            w_curvature=s.number("w_curvature", d.w_curvature, lo=0.0),
-            curvature_threshold=s.number("curvature_threshold", d.curvature_threshold, lo=0.0, unit="1/m"),
-            w_tension=s.number("w_tension", d.w_tension, lo=0.0),
-            w_distance=s.number("w_distance", d.w_distance, lo=0.0),
+            w_curvature=s.number("w_curvature", d.w_curvature, lo=0.0, hi=WEIGHT_MAX),
+            curvature_threshold=s.number("curvature_threshold", d.curvature_threshold, lo=0.0, hi=1e3, unit="1/m"),
+            w_tension=s.number("w_tension", d.w_tension, lo=0.0, hi=WEIGHT_MAX),
+            w_distance=s.number("w_distance", d.w_distance, lo=0.0, hi=WEIGHT_MAX),
             clearance=s.number("clearance", d.clearance, lo=0.0, hi=100.0, unit="m"),
-            w_twist=s.number("w_twist", d.w_twist, lo=0.0),
+            w_twist=s.number("w_twist", d.w_twist, lo=0.0, hi=WEIGHT_MAX),
             twist_threshold=s.number("twist_threshold", d.twist_threshold, lo=0.0, hi=1e3, unit="rad/m"),
-            curvature_scale=s.number("curvature_scale", d.curvature_scale, lo=0.0, lo_open=True, unit="1/m"),
-            tension_scale=s.number("tension_scale", d.tension_scale, lo=0.0, lo_open=True, unit="N"),
-            clearance_scale=s.number("clearance_scale", d.clearance_scale, lo=0.0, lo_open=True, unit="m"),
+            curvature_scale=s.number("curvature_scale", d.curvature_scale, lo=0.0, lo_open=True, hi=1e3, unit="1/m"),
+            tension_scale=s.number("tension_scale", d.tension_scale, lo=0.0, lo_open=True, hi=1e7, unit="N"),
+            clearance_scale=s.number("clearance_scale", d.clearance_scale, lo=0.0, lo_open=True, hi=100.0, unit="m"),
             twist_scale=s.number("twist_scale", d.twist_scale, lo=0.0, lo_open=True, hi=1e3, unit="rad/m"),
             normalized_weights=s.vector("normalized_weights", 3, d.normalized_weights, lo=0.0),
-            normalized_twist_weight=s.number("normalized_twist_weight", d.normalized_twist_weight, lo=0.0),
+            normalized_twist_weight=s.number("normalized_twist_weight", d.normalized_twist_weight, lo=0.0, hi=WEIGHT_MAX),
         )
         s.done()
         return out

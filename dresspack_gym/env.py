@@ -54,12 +54,14 @@ import gymnasium as gym
 import numpy as np
 
 from .collision import RobotCollisionChecker
-from .errors import ConfigError, DresspackError
+from .cost_variants import COST_VARIANTS
+from .errors import ConfigError, DresspackError, EnvUsageError
 from .loading import load_station
+from .rendering import check_frame_size
 from .simulation import CableSimulator
 from .station import Station
 from .tasks import random_start
-from .validation import check_choice
+from .validation import check_choice, check_integer, check_number
 from .validity import MotionValidity
 from .weld_cycle import REWARD_TERMS, WeldCycleTask
 
@@ -74,6 +76,59 @@ TOWARD_GOAL = 13
 
 class InvalidActionError(DresspackError, ValueError):
     """A masked or malformed action was taken with ``invalid_action="raise"``."""
+
+
+RESET_OPTIONS = ("welds", "start")
+# Ranges of the numeric keyword arguments: (low, high, integer). Everything a trainer passes through from its
+# YAML is checked here, once, so a bad value fails at construction naming the argument, not as NaN logits later.
+_NUMBER_ARGS = {
+    "robot": (0, 64, True),
+    "n_welds": (1, 10_000, True),
+    "joint_step_deg": (0.1, 90.0, False),
+    "max_steps": (1, 1_000_000, True),
+    "time_weight": (0.0, 1e6, False),
+    "wear_weight": (0.0, 1e6, False),
+    "goal_reward": (0.0, 1e6, False),
+    "progress_weight": (0.0, 1e6, False),
+    "invalid_penalty": (0.0, 1e6, False),
+    "settle_time": (0.0, 10.0, False),
+    "cable_samples": (2, 1000, True),
+    "collision_margin": (0.0, 1.0, False),
+    "mask_resolution_deg": (0.01, 90.0, False),
+    "start_noise_deg": (0.0, 180.0, False),
+    "sim_timestep": (1e-4, 0.01, False),
+}
+_BOOL_ARGS = ("shuffle_welds", "goal_action", "wear_integral")
+
+
+def _check_arguments(kw: dict[str, Any]) -> None:
+    """Every keyword argument typed, finite and in range, or a ConfigError naming it and what it allows."""
+    if not isinstance(kw["station"], (str, Station)):
+        raise ConfigError("station", f"expected a station name, YAML path or Station, got {kw['station']!r}")
+    for name, (lo, hi, integer) in _NUMBER_ARGS.items():
+        value = kw[name]
+        if value is None and name in ("n_welds", "sim_timestep"):
+            continue
+        if integer:
+            check_integer(value, name, lo=lo, hi=hi)
+        else:
+            check_number(value, name, lo=lo, hi=hi, unit="deg" if name.endswith("_deg") else "")
+    if kw["mask_resolution_deg"] > kw["joint_step_deg"]:
+        raise ConfigError("mask_resolution_deg", f"{kw['mask_resolution_deg']} must not exceed joint_step_deg "
+                                                 f"({kw['joint_step_deg']}): a step is checked at this resolution")
+    for name in _BOOL_ARGS:
+        if not isinstance(kw[name], (bool, np.bool_)):
+            raise ConfigError(name, f"expected true or false, got {kw[name]!r}")
+    if kw["welds"] is not None and (isinstance(kw["welds"], str) or not isinstance(kw["welds"], (list, tuple))
+                                    or not all(isinstance(w, str) for w in kw["welds"])):
+        raise ConfigError("welds", f"expected a list of weld-point names, got {kw['welds']!r}")
+    check_choice("cost_variant", kw["cost_variant"], COST_VARIANTS)
+    check_choice("invalid_action", kw["invalid_action"], ("penalize", "raise"))
+    check_choice("render_mode", kw["render_mode"], (None, "rgb_array"))
+    size = kw["render_size"]
+    if not isinstance(size, (list, tuple)) or len(size) != 2:
+        raise ConfigError("render_size", f"expected (width, height) in pixels, got {size!r}")
+    check_frame_size(size[0], size[1])
 
 
 class DresspackEnv(gym.Env):
@@ -93,17 +148,8 @@ class DresspackEnv(gym.Env):
         self._kwargs = dict(locals())
         for k in ("self", "__class__"):
             self._kwargs.pop(k, None)
-        check_choice("invalid_action", invalid_action, ("penalize", "raise"))
-        check_choice("render_mode", render_mode, (None, "rgb_array"))
-        for name, value, lo in (("joint_step_deg", joint_step_deg, 0.1), ("max_steps", max_steps, 1),
-                                ("settle_time", settle_time, 0.0), ("cable_samples", cable_samples, 2),
-                                ("mask_resolution_deg", mask_resolution_deg, 0.01),
-                                ("collision_margin", collision_margin, 0.0), ("start_noise_deg", start_noise_deg, 0.0)):
-            if not (isinstance(value, (int, float)) and value >= lo):
-                raise ConfigError(name, f"must be a number >= {lo}, got {value!r}")
+        _check_arguments(self._kwargs)
         if sim_timestep is not None:
-            if not (isinstance(sim_timestep, (int, float)) and 1e-4 <= sim_timestep <= 0.01):
-                raise ConfigError("sim_timestep", f"must be a number in [0.0001, 0.01] s, got {sim_timestep!r}")
             # a station compiled from the changed config: everything derived from the timestep (the cable's
             # constraint impedances) follows it, and a caller's Station keeps its own
             config = station.config if isinstance(station, Station) else load_station(station)
@@ -144,6 +190,7 @@ class DresspackEnv(gym.Env):
         self.action_space = gym.spaces.Discrete(self.n_actions)
         self._mask_cache: tuple[bytes, np.ndarray] | None = None
         self._setup_episode(list(self.task.weld_goals))
+        self._needs_reset = True  # Gymnasium's order: reset() before the first step()
 
     # ----------------------------------------------------------------------------- task
     def _setup_episode(self, order: list[str], goal_index: int = 0) -> None:
@@ -170,8 +217,14 @@ class DresspackEnv(gym.Env):
 
     # ----------------------------------------------------------------------------- gym API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        super().reset(seed=seed)
+        if options is not None and not isinstance(options, dict):
+            raise ConfigError("options", f"expected a dict with keys from {list(RESET_OPTIONS)} or None, "
+                                         f"got {options!r}")
         options = options or {}
+        unknown = sorted(set(options) - set(RESET_OPTIONS))
+        if unknown:
+            raise ConfigError(f"options.{unknown[0]}", f"unknown reset option; allowed: {list(RESET_OPTIONS)}")
+        super().reset(seed=seed)
         order = self.task.sample_welds(self.np_random, options)
         if "start" in options:
             start = np.asarray(options["start"], dtype=float)
@@ -188,11 +241,15 @@ class DresspackEnv(gym.Env):
             q_all[self.robot_index] = start
             self.sim.reset(q_all)
         self._setup_episode(order)
+        self._needs_reset = False
         measures = self.sim.measures()
         info = self._info(measures, self.task.cost(measures), dict.fromkeys(REWARD_TERMS, 0.0), 0.0, False)
         return self._observation(measures), info
 
     def step(self, action):
+        if self._needs_reset:
+            raise EnvUsageError("step() before reset(): call reset() first" if self.steps == 0 else
+                                "step() after the episode ended (terminated or truncated): call reset() first")
         a = self._check_action(action)
         masks = self.action_masks()
         q_before = self.q
@@ -233,6 +290,7 @@ class DresspackEnv(gym.Env):
         self._mask_cache = None
         terminated = self.task.terminated()
         truncated = not terminated and self.steps >= self.max_steps
+        self._needs_reset = terminated or truncated
         info = self._info(measures, cost, terms, step_time, invalid)
         info["moved_through"] = np.array(moved_through).reshape(-1, 6)  # the straight segments' end points
         # The step's settle (at a weld: to equilibrium; after an ordinary step: bounded by settle_time) and the
@@ -285,13 +343,14 @@ class DresspackEnv(gym.Env):
     def __getstate__(self) -> dict[str, Any]:
         return {"kwargs": self._kwargs, "sim": self.sim.get_state(), "goal_names": self.task.goal_names[:-1],
                 "goal_index": self.goal_index, "steps": self.steps, "cycle_time": self.cycle_time,
-                "rng": self._np_random.bit_generator.state if self._np_random is not None else None}
+                "needs_reset": self._needs_reset, "rng": self._np_random.bit_generator.state if self._np_random is not None else None}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__init__(**state["kwargs"])
         self.sim.set_state(state["sim"])
         self._setup_episode(state["goal_names"], state["goal_index"])
         self.steps, self.cycle_time = state["steps"], state["cycle_time"]
+        self._needs_reset = state.get("needs_reset", False)
         if state["rng"] is not None:
             self._np_random = np.random.Generator(np.random.PCG64())
             self._np_random.bit_generator.state = state["rng"]
@@ -305,13 +364,15 @@ class DresspackEnv(gym.Env):
         return f"j{a // 2 + 1} {'+' if a % 2 == 0 else '-'}{math.degrees(self.step_size):g} deg"
 
     def _check_action(self, action) -> int:
-        try:
-            a = int(np.asarray(action).item())
-        except (TypeError, ValueError):
-            raise InvalidActionError(f"action must be an integer in [0, {self.n_actions - 1}], got {action!r}") from None
-        if a != np.asarray(action).item() or not 0 <= a < self.n_actions:
+        """An action of the action space: an integer (Python, numpy, or a one-element integer array) in range;
+        bools and floats are refused, as ``Discrete.contains`` does."""
+        value = action
+        if isinstance(action, np.ndarray) and action.size == 1 and action.ndim <= 1:
+            value = action.reshape(()).item() if np.issubdtype(action.dtype, np.integer) else action
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
+                or not 0 <= value < self.n_actions:
             raise InvalidActionError(f"action must be an integer in [0, {self.n_actions - 1}], got {action!r}")
-        return a
+        return int(value)
 
     def _target(self, q: np.ndarray, a: int) -> np.ndarray:
         target = q.copy()

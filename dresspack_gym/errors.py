@@ -23,3 +23,7 @@ class KinematicsError(DresspackError):
 
 class SimulationError(DresspackError):
     """The physics produced an invalid state (NaN, diverged constraint, ...)."""
+
+
+class EnvUsageError(DresspackError, RuntimeError):
+    """The environment's API was used out of order: a step before ``reset`` or after the episode ended."""

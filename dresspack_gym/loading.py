@@ -16,9 +16,23 @@ from .errors import ConfigError
 from .joint_limits import check_within_limits
 from .restrictions import RestrictionSet
 from .shipped import find_shipped, shipped_names, shipped_root
-from .validation import Section
+from .validation import Section, check_unique
 
 CONFIG_DIR = shipped_root()  # the shipped configs (robots/, dresspacks/, stations/, grids/, training/)
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """YAML's safe loader, refusing a key given twice in one mapping (plain YAML keeps the last silently)."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"duplicate key {key!r} (first at line {seen[key] + 1})", key_node.start_mark)
+            seen[key] = key_node.start_mark.line
+        return super().construct_mapping(node, deep)
 
 
 def read_yaml(path: str | Path, field: str = "file") -> dict[str, Any]:
@@ -26,7 +40,8 @@ def read_yaml(path: str | Path, field: str = "file") -> dict[str, Any]:
     if not path.is_file():
         raise ConfigError(field, f"file not found: {path}")
     try:
-        data = yaml.safe_load(path.read_text())
+        with path.open() as f:
+            data = yaml.load(f, Loader=_UniqueKeyLoader)
     except yaml.YAMLError as exc:
         raise ConfigError(field, f"{path} is not valid YAML: {exc}") from None
     if not isinstance(data, dict):
@@ -96,14 +111,12 @@ def station_from_dict(data: Mapping[str, Any], base_dir: Path = CONFIG_DIR / "st
     if not robots:
         raise ConfigError("robots", "a station needs at least one robot")
     names = [r.name for r in robots]
-    if len(set(names)) != len(names):
-        raise ConfigError("robots", f"robot names must be unique, got {names}")
+    check_unique(names, "robots", "robot")
     obstacles = tuple(obstacle_from_section(o) for o in s.sections("obstacles", []))
-    onames = [o.name for o in obstacles]
-    if len(set(onames)) != len(onames):
-        raise ConfigError("obstacles", f"obstacle names must be unique, got {onames}")
+    check_unique([o.name for o in obstacles], "obstacles", "obstacle")
     obstacles = tuple(_absolute_mesh(o, base_dir) for o in obstacles)
     welds = tuple(weld_point_from_section(w, names) for w in s.sections("weld_points", []))
+    check_unique([w.name for w in welds], "weld_points", "weld point")
     wear = WearCostConfig.from_dict(s.raw("wear_cost", {}), "wear_cost")
     sim = SimulationConfig.from_dict(s.raw("simulation", {}), "simulation")
     floor = s.boolean("floor", True)

@@ -5,7 +5,10 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from .errors import DresspackError
+from .errors import ConfigError, DresspackError
+
+# The offscreen framebuffer every station is compiled with (station.py): the largest frame it can render.
+OFFSCREEN_WIDTH, OFFSCREEN_HEIGHT = 1280, 960
 
 
 def default_camera(model: mujoco.MjModel, azimuth: float = -60.0, elevation: float = -22.0,
@@ -22,6 +25,7 @@ class StationRenderer:
     """Renders RGB frames of a model/data pair; reuse one instance for many frames."""
 
     def __init__(self, model: mujoco.MjModel, width: int = 960, height: int = 720):
+        check_frame_size(width, height, model)
         try:
             self.renderer = mujoco.Renderer(model, height=height, width=width)
         except Exception as exc:  # no GL context available
@@ -38,6 +42,15 @@ class StationRenderer:
 
     def close(self) -> None:
         self.renderer.close()
+
+
+def check_frame_size(width, height, model: mujoco.MjModel | None = None, field: str = "render_size") -> None:
+    """A frame size the offscreen buffer can hold: positive integers up to its size."""
+    w_max = int(model.vis.global_.offwidth) if model is not None else OFFSCREEN_WIDTH
+    h_max = int(model.vis.global_.offheight) if model is not None else OFFSCREEN_HEIGHT
+    for name, v, hi in (("width", width, w_max), ("height", height, h_max)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= hi:
+            raise ConfigError(f"{field}.{name}", f"{v!r} is not allowed: must be an integer in [1, {hi}] px")
 
 
 def save_png(image: np.ndarray, path: str) -> None:

@@ -173,8 +173,10 @@ def restriction_from_dict(data: Mapping[str, Any], path: str):
             return TwistSum(-v, v, offset)
         if lower is None and upper is None:
             raise ConfigError(path, "twist_sum needs abs_max_deg, lower_deg or upper_deg")
-        lo = -math.inf if lower is None else math.radians(check_number(lower, f"{path}.lower_deg", unit="deg"))
-        hi = math.inf if upper is None else math.radians(check_number(upper, f"{path}.upper_deg", unit="deg"))
+        lo = -math.inf if lower is None else math.radians(check_number(lower, f"{path}.lower_deg", lo=-1080,
+                                                                                    hi=1080, unit="deg"))
+        hi = math.inf if upper is None else math.radians(check_number(upper, f"{path}.upper_deg", lo=-1080,
+                                                                                    hi=1080, unit="deg"))
         if lo > hi:
             raise ConfigError(path, "lower_deg must not exceed upper_deg")
         return TwistSum(lo, hi, offset)

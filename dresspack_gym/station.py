@@ -13,6 +13,8 @@ from .cable_shape import reference_shape
 from .config import StationConfig
 from .errors import ConfigError, KinematicsError
 from .kinematics import RobotKinematics, rpy_matrix, weld_configurations
+from .rendering import OFFSCREEN_HEIGHT, OFFSCREEN_WIDTH
+from .station_checks import check_station
 from .robot_model import OBSTACLE_BITS, _set_primitive, add_robot, body_name, joint_name, mat_to_quat
 
 DOWN = np.array([0.0, 0.0, -1.0])  # gravity's direction (simulation.gravity is its magnitude along -z)
@@ -112,19 +114,22 @@ class Station:
         self.load_values = np.concatenate([np.asarray(a.load_qpos, dtype=float) for c in self.cables
                                            for a in c.attachments])
         self.home = np.stack([r.home for r in config.robots])
-        self.weld_configurations = self._solve_welds(config)
         self.home_cable_shapes = self._home_shapes  # reference shapes at Home, made while building the model
+        check_station(self)
+        self.weld_configurations, self.unreachable_welds = self._solve_welds(config)
 
-    def _solve_welds(self, config: StationConfig) -> dict[str, np.ndarray]:
-        """All IK solutions (within joint limits) of every weld point; unreachable ones are config errors."""
-        out = {}
+    def _solve_welds(self, config: StationConfig) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+        """All IK solutions (within joint limits) of every weld point, and why each unreachable one is: a station
+        with an unreachable weld still loads; a task that uses it fails naming it (tasks.select_weld_goals)."""
+        out, unreachable = {}, {}
         for i, w in enumerate(config.weld_points):
             kin = self.robots[config.robot_index(w.robot)].kinematics
             try:
                 out[w.name] = weld_configurations(kin, w)
             except KinematicsError as exc:
-                raise ConfigError(f"weld_points[{i}].pos", str(exc)) from None
-        return out
+                out[w.name] = np.zeros((0, 6))
+                unreachable[w.name] = f"weld_points[{i}].pos: {exc}"
+        return out, unreachable
 
     @property
     def n_robots(self) -> int:
@@ -141,8 +146,7 @@ class Station:
         # No model-wide fluid: cable damping is explicit viscous drag on the free vertices (simulation.py),
         # so no option acts on the rod's twist bodies or the node bodies.
         spec.option.viscosity = 0.0
-        spec.visual.global_.offwidth = 1280
-        spec.visual.global_.offheight = 960
+        spec.visual.global_.offwidth, spec.visual.global_.offheight = OFFSCREEN_WIDTH, OFFSCREEN_HEIGHT
         spec.worldbody.add_light(pos=[0, 0, 6], dir=[0, 0, -1], diffuse=[0.8, 0.8, 0.8])
         spec.worldbody.add_light(pos=[4, -4, 5], dir=[-1, 1, -1], diffuse=[0.4, 0.4, 0.4])
         if config.floor:

@@ -68,6 +68,8 @@ def select_weld_goals(station: Station, robot: int, collides, welds: list[str] |
         raise ConfigError(field, "the task has no weld points for this robot")
     goals = {}
     for name in names:
+        if name in station.unreachable_welds:
+            raise ConfigError(f"weld_points.{name}", station.unreachable_welds[name])
         free = allowed_weld_configurations(station, robot, name, collides)
         if not len(free):
             robust = " and the robustness map" if placement.robustness_map is not None else ""

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from typing import Any, Iterable, Mapping, Sequence
 
+import numpy as np
+
 from .errors import ConfigError
 
 
@@ -41,12 +43,7 @@ class Section:
         return check_number(value, self.field(key), lo=lo, hi=hi, lo_open=lo_open, unit=unit, hint=hint)
 
     def integer(self, key: str, default: Any = ..., *, lo: int | None = None, hi: int | None = None) -> int:
-        value = self.raw(key, default)
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(self.field(key), f"expected an integer, got {value!r}")
-        if (lo is not None and value < lo) or (hi is not None and value > hi):
-            raise ConfigError(self.field(key), f"{value} is outside the allowed range [{lo}, {hi}]")
-        return value
+        return check_integer(self.raw(key, default), self.field(key), lo=lo, hi=hi)
 
     def string(self, key: str, default: Any = ..., *, choices: Sequence[str] | None = None) -> str:
         value = self.raw(key, default)
@@ -85,19 +82,28 @@ class Section:
 
 def check_number(value: Any, field: str, *, lo: float | None = None, hi: float | None = None,
                  lo_open: bool = False, unit: str = "", hint: str = "") -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ConfigError(field, f"expected a number{' in ' + unit if unit else ''}, got {value!r}")
     value = float(value)
+    left = "(" if lo_open else "["
+    rng = f"{left}{lo if lo is not None else '-inf'}, {hi if hi is not None else 'inf'}]{' ' + unit if unit else ''}"
     if not math.isfinite(value):
-        raise ConfigError(field, f"must be finite, got {value}")
+        raise ConfigError(field, f"must be a finite number in {rng}, got {value}")
     below = lo is not None and (value <= lo if lo_open else value < lo)
     above = hi is not None and value > hi
     if below or above:
-        left = "(" if lo_open else "["
-        rng = f"{left}{lo if lo is not None else '-inf'}, {hi if hi is not None else 'inf'}]"
-        msg = f"{value:g} is outside the allowed range {rng}{' ' + unit if unit else ''}"
+        msg = f"{value:g} is outside the allowed range {rng}"
         raise ConfigError(field, msg + (f" ({hint})" if hint else ""))
     return value
+
+
+def check_integer(value: Any, field: str, *, lo: int | None = None, hi: int | None = None) -> int:
+    """An integer (Python or numpy; not a bool, not 1.5) in [lo, hi]."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ConfigError(field, f"expected an integer in [{lo}, {hi}], got {value!r}")
+    if (lo is not None and value < lo) or (hi is not None and value > hi):
+        raise ConfigError(field, f"{value} is outside the allowed range [{lo}, {hi}]")
+    return int(value)
 
 
 def check_vector(value: Any, field: str, length: int, *, lo: float | None = None, hi: float | None = None,
@@ -113,3 +119,12 @@ def check_choice(field: str, value: Any, choices: Iterable) -> Any:
     if value not in choices:
         raise ConfigError(field, f"{value!r} is not one of the allowed values {choices}")
     return value
+
+
+def check_unique(names: Sequence[str], field: str, what: str) -> None:
+    """Names that identify things must be unique: a repeated one would silently replace the first."""
+    seen = set()
+    for i, n in enumerate(names):
+        if n in seen:
+            raise ConfigError(f"{field}[{i}].name", f"{what} name {n!r} is used twice; {what} names must be unique")
+        seen.add(n)

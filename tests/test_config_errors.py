@@ -87,11 +87,19 @@ def test_unknown_robot_and_station_names_list_the_shipped_ones():
     assert "default" in str(e)
 
 
-def test_unreachable_weld_point_names_the_weld():
+def test_unreachable_weld_point_is_named_by_the_task_that_uses_it():
+    """A station with one unreachable weld still loads (tasks on its other welds run); a task using it fails
+    naming the weld and the reason."""
+    from dresspack_gym.tasks import make_task
+
     d = default_station_dict()
-    d["weld_points"] = [{"name": "far", "pos": [6.0, 0.0, 1.0], "approach": [0, 0, -1]}]
-    e = expect_field(lambda: Station(station_from_dict(d)), "weld_points[0].pos")
-    assert "far" in str(e)
+    d["weld_points"].append({"name": "far", "pos": [6.0, 0.0, 1.0], "approach": [0, 0, -1]})
+    station = Station(station_from_dict(d))
+    assert "far" in station.unreachable_welds and len(station.weld_configurations["far"]) == 0
+    task = make_task(station, 0, None, ["sill_front"])
+    assert task.weld_names == ("sill_front",)
+    e = expect_field(lambda: make_task(station, 0, None, ["sill_front", "far"]), "weld_points.far")
+    assert "not reachable" in str(e)
 
 
 def test_cable_shorter_than_its_nodes_demand():
@@ -112,7 +120,7 @@ def test_unknown_obstacle_type_and_duplicate_names():
     e = expect_field(lambda: station_from_dict(d), "obstacles[0].type")
     assert "box" in str(e)
     box = {"name": "x", "type": "box", "pos": [3, 3, 1], "half_size": [0.1, 0.1, 0.1]}
-    expect_field(lambda: station_from_dict(station_with(obstacles=[box, box])), "obstacles")
+    expect_field(lambda: station_from_dict(station_with(obstacles=[box, box])), "obstacles[1].name")
 
 
 def test_unknown_top_level_key():

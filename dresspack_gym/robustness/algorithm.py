@@ -70,7 +70,7 @@ class RobustnessSettings:
             "excursion": (len(self.excursion) == 4 and all(0 <= e <= np.pi for e in self.excursion),
                           "four angles (Ry, j4, j5, j6) in [0, 180] deg"),
             "n_samples": (self.n_samples >= 2, "at least 2"),
-            "threshold": (self.threshold > 0, "a positive distance [m]"),
+            "threshold": (0 < self.threshold <= 10, "a distance in (0, 10] m"),
             "speed_fraction": (0 < self.speed_fraction <= 1, "in (0, 1]"),
             "settle_time": (0 < self.settle_time <= 60, "in (0, 60] s"),
             "max_dynamic_ratio": (0 < self.max_dynamic_ratio <= 1000, "in (0, 1000] (vertex acceleration / g)"),

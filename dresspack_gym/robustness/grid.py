@@ -12,6 +12,10 @@ from ..errors import ConfigError
 from ..validation import Section, check_vector
 
 AXES = ("ry", "j4", "j5", "j6")
+# A map costs ~1 s of one core per configuration (maps/README.md): 2 million is ~12 days on 2 cores, a day
+# or two on a Ray cluster. Larger grids are refused before anything is allocated or written.
+MAX_AXIS_VALUES = 10_000
+MAX_CONFIGURATIONS = 2_000_000
 
 
 def _axis(s: Section, key: str) -> np.ndarray:
@@ -24,10 +28,14 @@ def _axis(s: Section, key: str) -> np.ndarray:
         a.done()
         if stop < start:
             raise ConfigError(a.field("stop"), f"stop {stop} must not be below start {start}")
+        count = int(np.floor((stop - start) / step + 1e-9)) + 1
+        if count > MAX_AXIS_VALUES:
+            raise ConfigError(a.field("step"), f"gives {count:,} values on this axis; at most {MAX_AXIS_VALUES:,} "
+                                               f"are allowed (use a larger step)")
         values = np.arange(start, stop + 1e-9, step)
     else:
         lo, hi = check_vector(a.raw("range"), a.field("range"), 2, lo=-720, hi=720, unit="deg")
-        count = a.integer("count", lo=1, hi=100_000)
+        count = a.integer("count", lo=1, hi=MAX_AXIS_VALUES)
         endpoint = a.boolean("endpoint", False)
         a.done()
         if hi <= lo:
@@ -76,4 +84,8 @@ class RobustnessGrid:
         name = s.string("name", "grid")
         axes = [_axis(s, k) for k in AXES]
         s.done()
+        total = int(np.prod([len(a) for a in axes], dtype=object))
+        if total > MAX_CONFIGURATIONS:
+            raise ConfigError(path, f"{' x '.join(str(len(a)) for a in axes)} = {total:,} configurations; at most "
+                                    f"{MAX_CONFIGURATIONS:,} are allowed (coarser steps or fewer counts)")
         return RobustnessGrid(name, *axes)

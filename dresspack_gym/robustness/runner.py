@@ -34,27 +34,43 @@ def _fingerprint(grid: RobustnessGrid, station_name: str, settings: RobustnessSe
     return h.hexdigest()[:16]
 
 
-def _work_units(grid: RobustnessGrid, todo: list[int], start: str) -> list[tuple[list[int], list[int]]]:
-    """(indices to compute, indices to report) per work unit.
+def _work_units(grid: RobustnessGrid, todo: list[int], start: str,
+                limit: int | None = None) -> list[tuple[list[int], list[int]]]:
+    """(indices to compute, indices to report) per work unit, computing at most ``limit`` configurations.
 
-    "row" start: one unit per grid row holding a pending index (the whole row is computed, since each
-    configuration continues from the previous one; only the pending ones are reported). "ry": pending
-    indices grouped by Ry (the per-Ry start state is reused inside a unit), in chunks of CHUNK.
+    "row" start: one unit per grid row holding a pending index, computed from the row's start up to its last
+    pending index (each configuration continues from the previous one; only the pending ones are reported).
+    "ry": pending indices grouped by Ry (the per-Ry start state is reused inside a unit), in chunks of CHUNK.
+    A unit cut by ``limit`` keeps its prefix, whose results equal those of the whole unit.
     """
+    units: list[tuple[list[int], list[int]]] = []
     if start == "row":
         n = len(grid.j6)
-        rows = sorted({i // n for i in todo})
         wanted = set(todo)
-        return [(list(range(r * n, (r + 1) * n)), [i for i in range(r * n, (r + 1) * n) if i in wanted])
-                for r in rows]
-    per_ry = len(grid) // len(grid.ry)
-    units: list[tuple[list[int], list[int]]] = []
-    by_ry: dict[int, list[int]] = {}
-    for i in todo:
-        by_ry.setdefault(i // per_ry, []).append(i)
-    for _, idx in sorted(by_ry.items()):
-        units.extend((idx[k:k + CHUNK], idx[k:k + CHUNK]) for k in range(0, len(idx), CHUNK))
-    return units
+        for r in sorted({i // n for i in todo}):
+            last = max(i for i in range(r * n, (r + 1) * n) if i in wanted)
+            compute = list(range(r * n, last + 1))
+            units.append((compute, [i for i in compute if i in wanted]))
+    else:
+        per_ry = len(grid) // len(grid.ry)
+        by_ry: dict[int, list[int]] = {}
+        for i in todo:
+            by_ry.setdefault(i // per_ry, []).append(i)
+        for _, idx in sorted(by_ry.items()):
+            units.extend((idx[k:k + CHUNK], idx[k:k + CHUNK]) for k in range(0, len(idx), CHUNK))
+    if limit is None:
+        return units
+    capped, left = [], limit
+    for compute, report in units:
+        if left <= 0:
+            break
+        compute = compute[:left]
+        keep = set(compute)
+        report = [i for i in report if i in keep]
+        left -= len(compute)
+        if report:
+            capped.append((compute, report))
+    return capped
 
 
 _WORKER: RobustnessEvaluator | None = None
@@ -131,7 +147,14 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
     check_choice("backend", backend, BACKENDS)
     if workers < 1:
         raise ConfigError("workers", f"must be at least 1, got {workers}")
+    wanted = range(len(grid)) if indices is None else sorted({int(i) for i in indices})
+    if indices is not None and wanted and not 0 <= wanted[0] <= wanted[-1] < len(grid):
+        raise ConfigError("indices", f"configuration indices must be in [0, {len(grid)})")
+    if limit is not None and not (isinstance(limit, int) and limit >= 1):
+        raise ConfigError("limit", f"must be a positive number of configurations, got {limit!r}")
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ConfigError("out", f"{out} is an existing file: give a folder for the map")
     out.mkdir(parents=True, exist_ok=True)
     fp = _fingerprint(grid, config.name, settings)
     meta_path = out / META
@@ -146,27 +169,23 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
                                          "grid_axes": grid_to_meta(grid)}, indent=2,
                                         default=float))
     configs = grid.configurations()
-    done = done_indices(out)
-    wanted = range(len(grid)) if indices is None else sorted({int(i) for i in indices})
-    if indices is not None and wanted and not 0 <= wanted[0] <= wanted[-1] < len(grid):
-        raise ConfigError("indices", f"configuration indices must be in [0, {len(grid)})")
-    todo = [i for i in wanted if i not in done]
-    if limit is not None:
-        todo = todo[:limit]
     results = out / RESULTS
     new_file = not results.is_file() or results.stat().st_size == 0
     if not new_file:
-        repair_last_line(results)
+        repair_last_line(results)  # before reading what is done: the rows counted done are the rows kept
+    done = done_indices(out)
+    todo = [i for i in wanted if i not in done]
+    units = _work_units(grid, todo, settings.start, limit)
+    n_report = sum(len(report) for _, report in units)
     bar = None
-    if progress and todo:
+    if progress and n_report:
         from tqdm import tqdm
 
-        bar = tqdm(total=len(todo), unit="config", desc=f"robustness {grid.name}", smoothing=0.05)
+        bar = tqdm(total=n_report, unit="config", desc=f"robustness {grid.name}", smoothing=0.05)
     with results.open("a", newline="") as f:
         writer = csv.writer(f)
         if new_file:
             writer.writerow(COLUMNS)
-        units = _work_units(grid, todo, settings.start)
         for rows in _iterate(backend, workers, config, settings, units, configs, ray_address):
             for i, r in rows:
                 v = np.degrees(configs[i])

@@ -68,7 +68,14 @@ def _rows(out: str | Path) -> dict[int, tuple[np.ndarray, float, bool, bool]]:
 
 
 def repair_last_line(path: Path) -> None:
-    """Drop a partial last line left by a hard interruption, so appended rows start on a fresh line."""
+    """End the file on a line break after a hard interruption: a last line that holds a whole row (every column,
+    "robust" last) only lost its line break and is kept; a torn one is dropped (recomputed on resume)."""
     data = path.read_bytes()
-    if data and not data.endswith(b"\n"):
-        path.write_bytes(data[: data.rfind(b"\n") + 1])
+    if not data or data.endswith(b"\n"):
+        return
+    cut = data.rfind(b"\n") + 1
+    fields = data[cut:].decode(errors="replace").split(",")
+    if len(fields) == len(COLUMNS) and fields[-1].strip() in ("0", "1"):
+        path.write_bytes(data + b"\n")
+    else:
+        path.write_bytes(data[:cut])
