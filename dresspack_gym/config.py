@@ -145,6 +145,88 @@ class CableNode:
     arc_length: float
 
 
+# Largest wear-cost weight: the thesis's weights span 1e-5 (tension, N) to 100 (distance); far beyond this one
+# term swamps the others to float64 rounding, which is a unit error rather than a choice.
+WEIGHT_MAX = 1e9
+
+
+DAMAGE_TERMS = ("bend", "bend_moment", "bend_rate", "twist", "twist_torque", "twist_rate", "stretch", "tension",
+                "stretch_rate", "contact_normal", "friction")
+
+
+@dataclass(frozen=True)
+class DamageWeights:
+    """Weights of the per-segment damage terms (the AGX CableDamage set): damage = sum over terms of weight x
+    (the quantity integrated over time, or, for the ``*_rate`` terms, its total variation).
+
+    Units of the integrated quantities: bend [1/m s], bend_moment [N m s], twist [rad/m s], twist_torque
+    [N m s], stretch [s] (strain x s), tension [N s], bend_rate [1/m], twist_rate [rad/m], stretch_rate [-],
+    contact_normal [N s], friction [J] (friction force x sliding speed). The defaults weigh deformation and
+    sliding so that 1 /m of curvature, 1 rad/m of twist, 0.1 % strain, 100 N of contact pressure and 10 W of
+    sliding friction each add about one unit per second; forces, moments and rates are off (set them to use).
+    """
+
+    bend: float = 1.0
+    bend_moment: float = 0.0
+    bend_rate: float = 0.0
+    twist: float = 1.0
+    twist_torque: float = 0.0
+    twist_rate: float = 0.0
+    stretch: float = 1000.0
+    tension: float = 0.0
+    stretch_rate: float = 0.0
+    contact_normal: float = 0.01
+    friction: float = 0.1
+
+    @staticmethod
+    def from_dict(data: Mapping[str, Any], path: str) -> "DamageWeights":
+        s = Section(data, path)
+        d = DamageWeights()
+        out = DamageWeights(**{k: s.number(k, getattr(d, k), lo=0.0, hi=WEIGHT_MAX) for k in DAMAGE_TERMS})
+        s.done()
+        return out
+
+
+# Strain-life defaults: Manson's universal slopes (Manson 1965, Exp. Mech. 5(7)), total strain range
+# 3.5 (S_u/E) N^-0.12 + D^0.6 N^-0.6, written as Coffin-Manson-Basquin eps_a = s'(2N)^b + e'(2N)^c, with handbook
+# properties of annealed copper: S_u = 220 MPa, E = 115 GPa, reduction of area 70 % (D = ln(1/0.3)). A model from
+# tensile data, not a fatigue test of any dresspack conductor: replace it with test data where you have them.
+_SU_OVER_E = 220e6 / 115e9
+_DUCTILITY = math.log(1.0 / 0.3)
+
+
+@dataclass(frozen=True)
+class FatigueConfig:
+    """Strain-life curve and the radius at which the conductors' strain is taken.
+
+    ``strain_radius`` [m]: distance of the strained fibre from the bending axis. The conductors of a dresspack
+    slide on each other inside the bundle, so each bends about its own axis: the default is the radius of a
+    16 mm^2 conductor (2.26 mm). Bending strain = strain_radius x curvature, shear strain = strain_radius x twist
+    rate (counted as the von Mises equivalent gamma / sqrt(3)), axial strain = tension / EA.
+    """
+
+    strain_radius: float = 0.00226
+    sigma_f_over_e: float = 1.75 * 2 ** 0.12 * _SU_OVER_E  # s' (elastic line at 2N = 1)
+    b: float = -0.12  # Basquin exponent
+    eps_f: float = 0.5 * 2 ** 0.6 * _DUCTILITY ** 0.6  # e' (plastic line at 2N = 1)
+    c: float = -0.6  # Coffin-Manson exponent
+
+    @staticmethod
+    def from_dict(data: Mapping[str, Any], path: str) -> "FatigueConfig":
+        s = Section(data, path)
+        d = FatigueConfig()
+        out = FatigueConfig(
+            strain_radius=s.number("strain_radius", d.strain_radius, lo=0.0, lo_open=True, hi=0.2, unit="m"),
+            sigma_f_over_e=s.number("sigma_f_over_e", d.sigma_f_over_e, lo=0.0, lo_open=True, hi=1.0),
+            b=s.number("b", d.b, lo=-1.0, hi=0.0, lo_open=True),
+            eps_f=s.number("eps_f", d.eps_f, lo=0.0, lo_open=True, hi=10.0),
+            c=s.number("c", d.c, lo=-2.0, hi=0.0, lo_open=True))
+        if out.c >= 0 or out.b >= 0:
+            raise ConfigError(path, "the strain-life exponents b and c must be negative")
+        s.done()
+        return out
+
+
 @dataclass(frozen=True)
 class DresspackConfig:
     """Cable material (thesis Table 3.1 style), discretisation and attachment nodes."""
@@ -160,6 +242,8 @@ class DresspackConfig:
     segments: int
     nodes: tuple[CableNode, ...]
     collide_with_robot: bool = True
+    damage: DamageWeights = DamageWeights()
+    fatigue: FatigueConfig = FatigueConfig()
 
     @property
     def second_moment(self) -> float:
@@ -211,6 +295,8 @@ class DresspackConfig:
         gj = s.number("torsional_stiffness", lo=0.0, lo_open=True, hi=1e4, unit="N m^2")
         segments = s.integer("segments", 24, lo=3, hi=400)
         collide = s.boolean("collide_with_robot", True)
+        damage = DamageWeights.from_dict(s.raw("damage", {}), f"{path}.damage")
+        fatigue = FatigueConfig.from_dict(s.raw("fatigue", {}), f"{path}.fatigue")
         node_sections = s.sections("nodes")
         s.done()
         if not node_sections:
@@ -250,12 +336,8 @@ class DresspackConfig:
                 raise ConfigError(f"{path}.nodes[{i}].at",
                                   f"nodes are closer than the cable discretisation allows ({segments} segments "
                                   f"of {h:.3f} m); increase 'segments' or separate the nodes")
-        return DresspackConfig(name, source, length, radius, rho, ei, ea, gj, segments, tuple(nodes), collide)
-
-
-# Largest wear-cost weight: the thesis's weights span 1e-5 (tension, N) to 100 (distance); far beyond this one
-# term swamps the others to float64 rounding, which is a unit error rather than a choice.
-WEIGHT_MAX = 1e9
+        return DresspackConfig(name, source, length, radius, rho, ei, ea, gj, segments, tuple(nodes), collide, damage,
+                               fatigue)
 
 
 @dataclass(frozen=True)

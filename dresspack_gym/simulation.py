@@ -18,6 +18,7 @@ import numpy as np
 from .errors import ConfigError, SimulationError
 from .joint_limits import check_within_limits
 from .measures import ClearanceProbe, WearMeasures, cable_points, measure_cable, node_loads
+from .segment_state import SegmentState, SegmentStateReader
 from .station import Station
 from .time_law import cubic_position, cubic_speed, segment_durations
 
@@ -67,6 +68,7 @@ class MotionTrace:
     time: list[float] = field(default_factory=list)
     q: list[np.ndarray] = field(default_factory=list)
     measures: list[WearMeasures] = field(default_factory=list)
+    states: list[list[SegmentState]] = field(default_factory=list)  # per sample, per cable (if recorded)
     # The dynamic indicator of a quasi-static motion: the largest free-vertex acceleration over g, averaged
     # over SETTLE_CHECK_EVERY steps (the net force on a vertex in units of its weight; the averaging removes
     # the integrator's stiff jitter).
@@ -104,6 +106,7 @@ class CableSimulator:
         self._state_buffer = np.empty(mujoco.mj_stateSize(self.model, STATE_SPEC))
         self.config = station.config.simulation
         self.probe = ClearanceProbe(station)
+        self._segment_readers: list[SegmentStateReader] | None = None
         self.q = station.home.copy()  # commanded robot joints, (n_robots, 6)
         self.motion_time = 0.0  # simulated seconds spent in robot motion (the cycle time)
         self.last_settle: SettleResult | None = None
@@ -172,7 +175,8 @@ class CableSimulator:
 
     # ------------------------------------------------------------------------------ motion
     def move_to(self, q_target, *, speed_fraction: float | None = None, settle: bool = True,
-                record_every: float | None = None, until: float | None = None) -> MotionTrace:
+                record_every: float | None = None, until: float | None = None,
+                record_states: bool = False) -> MotionTrace:
         """Move all robots along a straight joint-space segment to ``q_target`` and (optionally) settle.
 
         Duration: the slowest joint at ``speed_fraction`` of its rated speed under the cubic time law
@@ -206,7 +210,7 @@ class CableSimulator:
                 trace.max_acceleration_ratio = max(trace.max_acceleration_ratio, accel)
                 v_before = v_now.copy()
             if stride and (k % stride == 0 or k == steps):
-                self._record(trace, self.motion_time + k * dt, path[k - 1].reshape(start.shape))
+                self._record(trace, self.motion_time + k * dt, path[k - 1].reshape(start.shape), record_states)
             if until is not None and self.motion_time + k * dt >= until:  # frozen mid-motion (e.g. to render)
                 self.q = path[k - 1].reshape(start.shape).copy()
                 self.motion_time += k * dt
@@ -218,7 +222,7 @@ class CableSimulator:
         if settle:
             self.settle()
         if stride and steps == 0:
-            self._record(trace, self.motion_time, self.q)
+            self._record(trace, self.motion_time, self.q, record_states)
         return trace
 
     def settle(self, max_time: float | None = None, *, timestep: float | None = None) -> SettleResult:
@@ -341,10 +345,24 @@ class CableSimulator:
         self.data.qpos[self._load_qpos] = self._load_values
         self.data.qvel[self._load_dof] = 0.0
 
-    def _record(self, trace: MotionTrace, t: float, q: np.ndarray) -> None:
+    def _record(self, trace: MotionTrace, t: float, q: np.ndarray, states: bool = False) -> None:
         trace.time.append(t)
         trace.q.append(np.array(q, dtype=float))
-        trace.measures.append(self.measures())
+        static = self.static_forces()
+        trace.measures.append(WearMeasures.worst([measure_cable(self.station, static, c, self.probe)
+                                                  for c in self.station.cables]))
+        if states:
+            trace.states.append(self._segment_states(static))
+
+    def segment_states(self) -> list[SegmentState]:
+        """Per cable, the state of every segment now (bending, twist, strain, contact; see segment_state)."""
+        return self._segment_states(self.static_forces())
+
+    def _segment_states(self, static: mujoco.MjData) -> list[SegmentState]:
+        if self._segment_readers is None:
+            self._segment_readers = [SegmentStateReader(self.model, c, r.dresspack.tensile_stiffness)
+                                     for c, r in zip(self.station.cables, self.station.config.robots)]
+        return [reader.read(static, self.data) for reader in self._segment_readers]
 
     def _as_q(self, q, field: str) -> np.ndarray:
         q = np.asarray(q, dtype=float)

@@ -11,7 +11,9 @@ import numpy as np
 
 from . import time_law
 from .cost_variants import cost_function
+from .damage import SegmentDamage, accumulate
 from .errors import ConfigError
+from .fatigue import FatigueLife, fatigue_life
 from .simulation import CableSimulator
 
 MEASURES = ("curvature", "tension", "clearance", "twist_rate")
@@ -68,6 +70,8 @@ class Replay:
     cycle_time: float
     thresholds: dict[str, float] = field(default_factory=dict)
     unconverged_stops: int = 0  # stops whose settle did not reach the equilibrium residual (flagged, not hidden)
+    damage: SegmentDamage | None = None  # per-segment damage of the cycle (recorded with states)
+    fatigue: FatigueLife | None = None  # per-segment fatigue life, the cycle repeated
 
     def integrated_cost(self) -> float:
         """Integral of C over the cycle [cost x s] (trapezoid over the samples)."""
@@ -89,15 +93,19 @@ class Replay:
             "max_cost": float(self.cost.max()),
             "cost_terms": {k: float(np.trapezoid(v, self.time)) if len(self.time) > 1 else 0.0
                            for k, v in self.cost_terms.items()},
+            **(self.damage.summary() if self.damage is not None else {}),
+            **(self.fatigue.summary() if self.fatigue is not None else {}),
         }
 
 
 def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_every: float = 0.05,
            speed_fraction: float | None = None, cost_variant: str = "thesis", start_state=None,
-           until: float | None = None) -> Replay:
+           until: float | None = None, record_states: bool = True) -> Replay:
     """Run ``traj`` in the simulator from a settled start (``start_state`` or a fresh reset at its first
     waypoint) and record the measures every ``record_every`` s and after settling at every stop.
-    With ``until`` the replay stops at that motion time and leaves ``sim`` in that state (to render it)."""
+    With ``until`` the replay stops at that motion time and leaves ``sim`` in that state (to render it).
+    With ``record_states`` every sample also records each segment's state, from which the replay's per-segment
+    damage and fatigue life are computed (the trajectory taken as one period of a repeated station cycle)."""
     cost_fn = cost_function(cost_variant)
     station = sim.station
     q_all = station.home.copy()
@@ -114,15 +122,17 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
         sim.reset(full(traj.waypoints[0]))
     sim.motion_time = 0.0
     samples_t, samples_q, samples_m = [0.0], [traj.waypoints[0].copy()], [sim.measures()]
+    samples_s = [sim.segment_states()[robot]] if record_states else []
     stops = set(traj.stops)
     stop_times = []
     unconverged = 0
     for i, q in enumerate(traj.waypoints[1:], start=1):
         trace = sim.move_to(full(q), speed_fraction=speed_fraction, settle=i in stops, record_every=record_every,
-                            until=until)
+                            until=until, record_states=record_states)
         samples_t += trace.time
         samples_q += [x[robot] for x in trace.q]
         samples_m += trace.measures
+        samples_s += [x[robot] for x in trace.states]
         if until is not None and sim.motion_time >= until:
             break
         if i in stops:
@@ -131,6 +141,8 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
             samples_t.append(sim.motion_time)
             samples_q.append(q.copy())
             samples_m.append(sim.measures())
+            if record_states:
+                samples_s.append(sim.segment_states()[robot])
     cfg = station.config.wear_cost
     costs = [cost_fn(m, cfg) for m in samples_m]
     measures = {
@@ -143,6 +155,11 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
         "node_torque": np.array([m.max_node_torque for m in samples_m]),
     }
     terms = {k: np.array([getattr(c, k) for c in costs]) for k in ("curvature", "tension", "distance", "twist")}
+    damage = life = None
+    if record_states:
+        dresspack = station.config.robots[robot].dresspack
+        damage = accumulate(samples_t, samples_s, dresspack)
+        life = fatigue_life(samples_s, dresspack.fatigue, damage.arc)
     return Replay(np.array(samples_t), np.array(samples_q), measures, np.array([c.total for c in costs]), terms,
                   stop_times, sim.motion_time,
-                  {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance}, unconverged)
+                  {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance}, unconverged, damage, life)

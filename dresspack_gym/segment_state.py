@@ -1,0 +1,143 @@
+"""The state of every cable segment at one instant: bending (signed, in the material frame), twist, strain and
+contact (normal force, friction force, sliding speed) -- the inputs of per-segment damage and fatigue life.
+
+A segment is the piece of cable around one vertex (vertex i covers arc lengths (i - 1/2) h .. (i + 1/2) h). Bending
+and twist live at vertices (discrete elastic rods), strain on edges (averaged onto the two vertices of each edge),
+and MuJoCo reports cable contacts per vertex.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from .measures import cable_points, edge_tensions, vertex_curvatures, vertex_twists
+from .station import CableIndex
+
+SLIP_SPEED = 1e-3  # [m/s] below this a contact sticks (relaxation creep, not sliding)
+
+
+@dataclass(frozen=True)
+class SegmentState:
+    """Per vertex (n + 1 values each) at one instant."""
+
+    curvature: np.ndarray  # [1/m], Menger curvature (0 at the ends), as measures.vertex_curvatures
+    bend: np.ndarray  # (n + 1, 2) curvature vector in the material frame (d1, d2) [1/m]; |bend| = curvature
+    twist_rate: np.ndarray  # material twist per length [rad/m], signed
+    strain: np.ndarray  # axial strain (tension / EA; negative = compressed)
+    normal_force: np.ndarray  # contact normal force on the segment [N]
+    friction_force: np.ndarray  # contact friction force on the segment [N]
+    slip_speed: np.ndarray  # tangential speed of the segment relative to what it touches [m/s]
+
+    @property
+    def friction_power(self) -> np.ndarray:
+        """Friction force x sliding speed [W]: the rate of sliding wear (zero while sticking or free)."""
+        return self.friction_force * self.slip_speed
+
+
+class SegmentStateReader:
+    """Reads :class:`SegmentState` of one cable from a simulator's MjData (private scratch, no side effects)."""
+
+    def __init__(self, model: mujoco.MjModel, cable: CableIndex, tensile_stiffness: float):
+        self.model = model
+        self.cable = cable
+        self.ea = float(tensile_stiffness)
+        n = cable.n_vertices
+        self.flex_vertex = {}  # flex id -> global vertex index of each of its local vertices
+        for p in cable.pieces:
+            self.flex_vertex[p.flex_id] = np.asarray(p.piece.vertices, dtype=int)
+        self.vertex_body = np.full(n, -1, dtype=int)
+        for p in cable.pieces:
+            adr = int(model.flex_vertadr[p.flex_id])
+            for j, v in enumerate(p.piece.vertices):
+                self.vertex_body[v] = int(model.flex_vertbodyid[adr + j])
+        self._force = np.zeros(6)
+        self._vel = np.zeros(6)
+
+    def read(self, data: mujoco.MjData, live: mujoco.MjData | None = None) -> SegmentState:
+        """The state of ``data`` (the simulator's static-force pass: shape, tensions, contact forces at rest)
+        with sliding speeds from ``live`` (the running simulation's velocities; none: no sliding)."""
+        m, cable = self.model, self.cable
+        n = cable.n_vertices
+        h = cable.segment_length
+        points = cable_points(data, cable)
+        kappa = np.zeros(n)
+        kappa[1:-1] = vertex_curvatures(points)
+        bend = np.zeros((n, 2))
+        twist = np.zeros(n)
+        d1 = self._material_d1(data)
+        e0, e1 = points[1:-1] - points[:-2], points[2:] - points[1:-1]
+        kb = np.cross(e0, e1)  # the curvature binormal's direction
+        norm = np.linalg.norm(kb, axis=1)
+        axis = np.divide(kb, norm[:, None], out=np.zeros_like(kb), where=norm[:, None] > 1e-15)
+        t = e0 / np.linalg.norm(e0, axis=1)[:, None]
+        d1v = d1[:-1]  # the material frame of the edge entering each interior vertex
+        d2v = np.cross(t, d1v)
+        bend[1:-1, 0] = kappa[1:-1] * np.einsum("ij,ij->i", axis, d1v)
+        bend[1:-1, 1] = kappa[1:-1] * np.einsum("ij,ij->i", axis, d2v)
+        for p, tw in zip(cable.pieces, vertex_twists(m, data, cable)):
+            twist[np.asarray(p.piece.vertices[1:-1], dtype=int)] = tw / h
+        tension = np.nan_to_num(edge_tensions(m, data, cable), nan=0.0)
+        edge_strain = tension / self.ea
+        strain = np.zeros(n)
+        strain[:-1] += 0.5 * edge_strain
+        strain[1:] += 0.5 * edge_strain
+        strain[0] *= 2.0  # the end vertices have one edge
+        strain[-1] *= 2.0
+        normal, friction, slip = self._contacts(data, live, n)
+        return SegmentState(kappa, bend, twist, strain, normal, friction, slip)
+
+    def _material_d1(self, data: mujoco.MjData) -> np.ndarray:
+        """(n, 3) material director d1 of every edge: MuJoCo's time-parallel reference frame (tangent, d1_ref per
+        edge in mjData.plastic) turned by the edge's twist angle; a clamped edge's frame is its node's."""
+        d1 = np.zeros((self.cable.n_vertices - 1, 3))
+        for p in self.cable.pieces:
+            ne = p.piece.n_edges
+            frames = data.plastic[p.plastic_adr:p.plastic_adr + 6 * ne].reshape(ne, 6)
+            tan, ref = frames[:, :3], frames[:, 3:]
+            theta = np.where(p.twist_qpos >= 0, data.qpos[np.maximum(p.twist_qpos, 0)], 0.0)
+            # d1 = cos(theta) d1_ref + sin(theta) (t x d1_ref): checked against the clamps of a twisted rod, whose
+            # material frame turns continuously from one clamp's frame to the other's.
+            d1[np.asarray(p.piece.vertices[:-1], dtype=int)] = (np.cos(theta)[:, None] * ref
+                                                                + np.sin(theta)[:, None] * np.cross(tan, ref))
+        return d1
+
+    def _contacts(self, data: mujoco.MjData, live: mujoco.MjData | None, n: int):
+        """Per vertex: normal force, friction force and sliding speed of its contacts. A sliding contact carries
+        Coulomb friction mu * N (the static pass only knows the friction that would hold it at rest)."""
+        m = self.model
+        normal, friction, slip = np.zeros(n), np.zeros(n), np.zeros(n)
+        for i in range(data.ncon):
+            c = data.contact[i]
+            for side in (0, 1):
+                verts = self.flex_vertex.get(int(c.flex[side]))
+                if verts is None or c.vert[side] < 0:
+                    continue
+                v = int(verts[c.vert[side]])
+                mujoco.mj_contactForce(m, data, i, self._force)
+                frame = c.frame.reshape(3, 3)  # rows: normal, two tangents
+                speed = 0.0
+                if live is not None:
+                    rel = self._velocity_at(live, self.vertex_body[v], c.pos) - self._other_velocity(live, c, side)
+                    speed = float(np.linalg.norm(rel - np.dot(rel, frame[0]) * frame[0]))
+                fn = abs(float(self._force[0]))
+                normal[v] += fn
+                friction[v] += c.friction[0] * fn if speed > SLIP_SPEED else float(np.linalg.norm(self._force[1:3]))
+                slip[v] = max(slip[v], speed)
+        return normal, friction, slip
+
+    def _velocity_at(self, data: mujoco.MjData, body: int, point: np.ndarray) -> np.ndarray:
+        """Linear velocity of ``body``'s material point at ``point`` (world frame)."""
+        mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_BODY, int(body), self._vel, 0)
+        return self._vel[3:] + np.cross(self._vel[:3], point - data.xipos[body])
+
+    def _other_velocity(self, data: mujoco.MjData, c, side: int) -> np.ndarray:
+        other = 1 - side
+        if c.geom[other] >= 0:
+            return self._velocity_at(data, int(self.model.geom_bodyid[c.geom[other]]), c.pos)
+        verts = self.flex_vertex.get(int(c.flex[other]))
+        if verts is not None and c.vert[other] >= 0:  # the cable touching itself
+            return self._velocity_at(data, self.vertex_body[int(verts[c.vert[other]])], c.pos)
+        return np.zeros(3)

@@ -1,0 +1,167 @@
+"""Per-segment damage and fatigue life: each effect alone against what it must be (issue: damage and fatigue)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dresspack_gym.config import FatigueConfig
+from dresspack_gym.damage import accumulate
+from dresspack_gym.fatigue import (MAX_LIFE, count_cycles, cycles_to_failure, fatigue_life, miner_damage,
+                                   strain_amplitude)
+from dresspack_gym.loading import load_station, station_from_dict
+from dresspack_gym.simulation import CableSimulator
+from dresspack_gym.station import Station
+from dresspack_gym.tasks import make_task
+from dresspack_gym.trajectory import Trajectory, replay
+
+from helpers import settled, world_cable_station
+
+CURVE = FatigueConfig()
+
+
+def _arc_then_straight(extra_edges: int = 6):
+    """A rod clamped into an arc of radius R (no gravity) that continues straight past the second clamp."""
+    radius, n, h = 0.5, 20, 0.05
+    step = 2 * np.arcsin(h / (2 * radius))
+    angles = (np.arange(n + 1) - n / 2) * step
+    p = [np.array([radius * np.sin(a), 0.0, 2.0 + radius * np.cos(a)]) for a in angles]
+    station = world_cable_station(
+        [{"name": "a", "body": "world", "pos": p[0].tolist(), "direction": (p[1] - p[0]).tolist()},
+         # an interior clamp holds its vertex and the next: the arc's last chord, the cable goes on straight
+         {"name": "b", "body": "world", "pos": p[-2].tolist(), "direction": (p[-1] - p[-2]).tolist(),
+          "at": (n - 1) * h}],
+        cable={"length": (n + extra_edges) * h, "segments": n + extra_edges}, gravity=0.0)
+    return station, radius, n
+
+
+def test_constant_bending_gives_constant_damage_on_the_arc_and_none_on_the_straight_part():
+    station, radius, n = _arc_then_straight()
+    sim = settled(station, 4.0)
+    states, times = [], []
+    for k in range(4):
+        sim.settle(0.2)
+        states.append(sim.segment_states()[0])
+        times.append(0.5 * k)
+    s = states[-1]
+    interior = slice(2, n - 1)  # the arc's interior vertices (the clamps hold the end edges as chords)
+    np.testing.assert_allclose(s.curvature[interior], 1 / radius, rtol=0.03)
+    np.testing.assert_allclose(np.linalg.norm(s.bend, axis=1), s.curvature, rtol=1e-9, atol=1e-12)
+    dp = station.config.robots[0].dresspack
+    damage = accumulate(times, states, dp)
+    bend = damage.terms["bend"]
+    np.testing.assert_allclose(bend[interior], dp.damage.bend * times[-1] / radius, rtol=0.03)
+    assert np.all(bend[n + 2:] < 1e-3 * bend[interior].mean())  # straight past the clamp: no bending damage
+    rate = damage.strip / np.diff(times)[:, None]  # the damage strip's rate is constant in time on the arc
+    np.testing.assert_allclose(rate[:, n // 2], rate[0, n // 2], rtol=1e-3)
+    assert damage.terms["friction"].max() == 0.0 and damage.terms["contact_normal"].max() == 0.0
+
+
+def test_a_cycle_replayed_twice_doubles_the_damage_and_halves_the_life():
+    station = Station(load_station("default"))
+    sim = CableSimulator(station)
+    task = make_task(station, 0, None, ["b_pillar_outer"])
+    once = Trajectory(task.waypoints(), stops=(1, 2))
+    w = task.waypoints()
+    twice = Trajectory(np.vstack([w, w[1:]]), stops=(1, 2, 3, 4))
+    r1 = replay(sim, once)
+    r2 = replay(sim, twice)
+    assert r2.damage.total.max() == pytest.approx(2 * r1.damage.total.max(), rel=0.02)
+    np.testing.assert_allclose(r2.damage.total, 2 * r1.damage.total, rtol=0.05, atol=0.02 * r1.damage.total.max())
+    assert r2.fatigue.damage_per_cycle.max() == pytest.approx(2 * r1.fatigue.damage_per_cycle.max(), rel=0.05)
+    assert r1.summary()["life_cycles"] == pytest.approx(2 * r2.summary()["life_cycles"], rel=0.05)
+
+
+def test_a_closed_strain_cycle_counts_as_one_cycle_of_its_amplitude():
+    t = np.linspace(0, 2 * np.pi, 201)
+    for amp, mean, phase in ((0.004, 0.0, 0.0), (0.01, 0.002, 1.0)):
+        cycles = count_cycles(mean + amp * np.sin(t + phase))
+        total = sum(c for a, c in cycles if a == pytest.approx(amp, rel=1e-3))
+        assert total == pytest.approx(1.0) and sum(c for _, c in cycles) == pytest.approx(1.0)
+    # a small cycle nested in a large one: one of each (ASTM E1049)
+    big_small = [0.0, 0.01, 0.004, 0.006, -0.01, 0.0]
+    cycles = sorted(count_cycles(big_small))
+    assert cycles[0] == (pytest.approx(0.001), 1.0) or sum(c for a, c in cycles if a == pytest.approx(0.001)) == 1.0
+    assert sum(c for a, c in cycles if a == pytest.approx(0.01)) == pytest.approx(1.0)
+    assert count_cycles([0.003] * 10) == []
+
+
+def test_life_falls_monotonically_with_strain_amplitude_and_inverts_the_curve():
+    amps = np.geomspace(2e-4, 0.05, 40)
+    life = cycles_to_failure(amps, CURVE)
+    assert np.all(np.diff(life) < 0)
+    np.testing.assert_allclose(strain_amplitude(life, CURVE), amps, rtol=1e-6)
+    assert cycles_to_failure(1e-7, CURVE)[0] == MAX_LIFE
+    # Miner: two identical cycles per period fail in half the periods
+    one = [0.0, 0.003, -0.003, 0.0]
+    assert miner_damage(one + one[1:], CURVE) == pytest.approx(2 * miner_damage(one, CURVE))
+
+
+def test_fatigue_life_of_a_bending_cycle_equals_the_curve_at_r_kappa():
+    """A segment bent to curvature k and back to straight, in a fixed material frame: one cycle whose worst fibre
+    sees amplitude r k / 2 about a mean r k / 2 -- the life is the curve's at that amplitude."""
+    from dresspack_gym.segment_state import SegmentState
+
+    n = 3
+    k = 4.0
+    zeros = np.zeros(n)
+
+    def state(kappa):
+        bend = np.zeros((n, 2))
+        bend[1] = (kappa, 0.0)
+        return SegmentState(np.abs(bend[:, 0]), bend, zeros, zeros, zeros, zeros, zeros)
+
+    states = [state(x) for x in (0.0, k, 0.0)]
+    life = fatigue_life(states, CURVE, np.arange(n) * 0.1)
+    amp = CURVE.strain_radius * k / 2
+    assert life.max_strain_amplitude[1] == pytest.approx(amp, rel=1e-9)
+    assert life.life_cycles[1] == pytest.approx(cycles_to_failure(amp, CURVE)[0], rel=1e-6)
+    assert life.life_cycles[0] == MAX_LIFE and life.weakest_segment == 1
+
+
+def _dragged_cable_station():
+    """A robot holding a cable whose free end lies on the floor: turning j1 drags it across the floor."""
+    cable = {"name": "drag", "length": 1.9, "radius": 0.02, "linear_density": 1.0, "bending_stiffness": 0.05,
+             "tensile_stiffness": 1400, "torsional_stiffness": 0.05, "segments": 20, "collide_with_robot": False,
+             "nodes": [{"name": "tool", "body": "link6", "pos": [0.0, 0.0, 0.0], "direction": [1, 0, 0]}]}
+    data = {"name": "drag", "floor": True,
+            "robots": [{"name": "r1", "robot": "abb_irb6700_200_260", "dresspack": cable,
+                        "home_deg": [0, 10, 20, 0, 60, 0]}]}  # flange 1.49 m up, tool axis down
+    return Station(station_from_dict(data))
+
+
+def test_sliding_on_the_floor_adds_friction_damage_only_where_the_cable_touches():
+    station = _dragged_cable_station()
+    sim = CableSimulator(station)
+    sim.settle(3.0)
+    rest = sim.segment_states()[0]
+    touching = rest.normal_force > 0
+    assert 3 <= touching.sum() < len(touching) - 5  # the end lies on the floor, the rest hangs
+    # vertical balance: the floor's normal forces and the clamp carry the cable's weight rho g L
+    forces, _ = sim.node_loads()
+    weight = 1.0 * 9.81 * 1.9
+    assert np.linalg.norm(forces[0]) + rest.normal_force.sum() == pytest.approx(weight, rel=0.03)
+    q = station.home.copy()
+    q[0, 0] += np.radians(40)
+    traj = Trajectory(np.stack([station.home[0], q[0]]), stops=(1,))
+    rep = replay(sim, traj, speed_fraction=0.3)
+    friction = rep.damage.terms["friction"]
+    ever = np.any([s.normal_force > 0 for s in _states(sim, traj)], axis=0)
+    assert friction[ever].max() > 0.0
+    assert np.all(friction[~ever] == 0.0)  # segments that never touched have no friction damage
+    for st in _states(sim, traj):  # sliding contacts carry Coulomb friction mu N
+        sliding = st.slip_speed > 1e-3
+        np.testing.assert_allclose(st.friction_force[sliding], 1.0 * st.normal_force[sliding], rtol=1e-9)
+    hanging = np.flatnonzero(~ever)
+    assert len(hanging) >= 5 and rep.damage.terms["bend"][hanging].max() > 0  # they still bend
+
+
+def _states(sim, traj):
+    """The segment states of a replay of ``traj`` (what rep.damage was accumulated from)."""
+    out = []
+    sim.reset(np.asarray(traj.waypoints[:1]))
+    out.append(sim.segment_states()[0])
+    trace = sim.move_to(traj.waypoints[-1], speed_fraction=0.3, record_every=0.05, record_states=True)
+    out += [s[0] for s in trace.states]
+    out.append(sim.segment_states()[0])
+    return out
