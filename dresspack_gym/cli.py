@@ -47,6 +47,8 @@ def _measure_report(sim) -> dict:
         "max_compression": m.max_compression,
         "max_node_force": m.max_node_force,
         "max_node_torque": m.max_node_torque,
+        "max_damage_rate": m.max_damage_rate,
+        "damage_at": m.damage_at,
         "nodes": _node_report(sim),
         "equilibrium": _equilibrium_report(sim),
     }
@@ -113,6 +115,8 @@ def cmd_inspect(args) -> int:
         f, t = np.array(load["force"]), np.array(load["torque"])
         print(f"  node {name}: force {np.linalg.norm(f):7.2f} N (axial {f[0]:7.2f}), torque {np.linalg.norm(t):6.3f} N m "
               f"(twist {t[0]:6.3f})")
+    print(f"  damage rate    {report['max_damage_rate']:8.3f} /s    (at {report['damage_at']:.2f} m; dresspack "
+          f"damage weights)")
     eq = report["equilibrium"]
     print(f"  equilibrium: {'converged' if eq['converged'] else 'NOT CONVERGED'} (force residual "
           f"{eq['force_residual']:.4f} of a vertex weight, kinetic energy {eq['kinetic_energy']:.2e} J)")

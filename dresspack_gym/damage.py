@@ -41,6 +41,14 @@ def term_values(states: list[SegmentState], dresspack: DresspackConfig) -> dict[
 RATE_TERMS = ("bend_rate", "twist_rate", "stretch_rate")
 
 
+def damage_rate(state: SegmentState, dresspack: DresspackConfig) -> np.ndarray:
+    """(n,) damage per second each segment accrues in this state: the weighted value terms (the rate terms need
+    a history and are left out). Its integral over a motion is the value-term part of :func:`accumulate`."""
+    values = term_values([state], dresspack)
+    w = dresspack.damage
+    return np.sum([getattr(w, k) * values[k][0] for k in DAMAGE_TERMS if k not in RATE_TERMS], axis=0)
+
+
 @dataclass(frozen=True)
 class SegmentDamage:
     """Accumulated damage per term and segment, and its time course."""

@@ -55,7 +55,9 @@ import numpy as np
 
 from .collision import RobotCollisionChecker
 from .cost_variants import COST_VARIANTS
+from .damage import damage_rate
 from .errors import ConfigError, DresspackError, EnvUsageError
+from .fatigue import fatigue_life
 from .loading import load_station
 from .rendering import check_frame_size
 from .simulation import CableSimulator
@@ -191,6 +193,7 @@ class DresspackEnv(gym.Env):
         self._mask_cache: tuple[bytes, np.ndarray] | None = None
         self._setup_episode(list(self.task.weld_goals))
         self._needs_reset = True  # Gymnasium's order: reset() before the first step()
+        self._begin_damage()
 
     # ----------------------------------------------------------------------------- task
     def _setup_episode(self, order: list[str], goal_index: int = 0) -> None:
@@ -242,6 +245,7 @@ class DresspackEnv(gym.Env):
             self.sim.reset(q_all)
         self._setup_episode(order)
         self._needs_reset = False
+        self._begin_damage()
         measures = self.sim.measures()
         info = self._info(measures, self.task.cost(measures), dict.fromkeys(REWARD_TERMS, 0.0), 0.0, False)
         return self._observation(measures), info
@@ -291,7 +295,12 @@ class DresspackEnv(gym.Env):
         terminated = self.task.terminated()
         truncated = not terminated and self.steps >= self.max_steps
         self._needs_reset = terminated or truncated
+        self._add_damage(step_time)
         info = self._info(measures, cost, terms, step_time, invalid)
+        if terminated or truncated:  # the episode as one station cycle: its fatigue life (states at step ends)
+            dp = self.placement.dresspack
+            info["life_cycles"] = fatigue_life(self._episode_states, dp.fatigue,
+                                               np.arange(dp.segments + 1) * dp.segment_length).summary()["life_cycles"]
         info["moved_through"] = np.array(moved_through).reshape(-1, 6)  # the straight segments' end points
         # The step's settle (at a weld: to equilibrium; after an ordinary step: bounded by settle_time) and the
         # residual it ended with; NaN when the step did not settle.
@@ -339,11 +348,26 @@ class DresspackEnv(gym.Env):
             self._renderer.close()
             self._renderer = None
 
+    def _begin_damage(self) -> None:
+        state = self.sim.segment_states()[self.robot_index]
+        self._episode_states = [state]
+        self._damage_rate = damage_rate(state, self.placement.dresspack)
+        self._damage = np.zeros_like(self._damage_rate)
+
+    def _add_damage(self, step_time: float) -> None:
+        """Per segment, the damage of the step (value terms, trapezoid over its end states; see damage.py)."""
+        state = self.sim.segment_states()[self.robot_index]
+        self._episode_states.append(state)
+        rate = damage_rate(state, self.placement.dresspack)
+        self._damage += 0.5 * (self._damage_rate + rate) * step_time
+        self._damage_rate = rate
+
     # ----------------------------------------------------------------------------- pickling
     def __getstate__(self) -> dict[str, Any]:
         return {"kwargs": self._kwargs, "sim": self.sim.get_state(), "goal_names": self.task.goal_names[:-1],
                 "goal_index": self.goal_index, "steps": self.steps, "cycle_time": self.cycle_time,
-                "needs_reset": self._needs_reset, "rng": self._np_random.bit_generator.state if self._np_random is not None else None}
+                "needs_reset": self._needs_reset,
+                "damage": (self._damage, self._damage_rate, self._episode_states), "rng": self._np_random.bit_generator.state if self._np_random is not None else None}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__init__(**state["kwargs"])
@@ -351,6 +375,8 @@ class DresspackEnv(gym.Env):
         self._setup_episode(state["goal_names"], state["goal_index"])
         self.steps, self.cycle_time = state["steps"], state["cycle_time"]
         self._needs_reset = state.get("needs_reset", False)
+        if "damage" in state:
+            self._damage, self._damage_rate, self._episode_states = state["damage"]
         if state["rng"] is not None:
             self._np_random = np.random.Generator(np.random.PCG64())
             self._np_random.bit_generator.state = state["rng"]
@@ -451,6 +477,9 @@ class DresspackEnv(gym.Env):
             "cost_tension": cost.tension,
             "cost_distance": cost.distance,
             "cost_twist": cost.twist,
+            "cost_damage": cost.damage,
+            "damage_rate": measures.max_damage_rate,
+            "damage": float(self._damage.max()),
             "step_time": step_time,
             "cycle_time": self.cycle_time,
             "goals_reached": self.goal_index,

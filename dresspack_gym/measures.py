@@ -34,6 +34,8 @@ class WearMeasures:
     max_compression: float = 0.0  # [N], largest push in an edge (reported apart from the tension)
     max_node_force: float = 0.0  # [N], largest force a node (clamp/ring) carries
     max_node_torque: float = 0.0  # [N m], largest torque a clamp carries
+    max_damage_rate: float = 0.0  # damage per second of the worst segment (damage.damage_rate; value terms)
+    damage_at: float = 0.0
 
     @staticmethod
     def worst(items: list["WearMeasures"]) -> "WearMeasures":
@@ -41,11 +43,12 @@ class WearMeasures:
         kc = max(items, key=lambda m: m.max_curvature)
         kt = max(items, key=lambda m: m.max_tension)
         kd = min(items, key=lambda m: m.min_clearance)
+        kr = max(items, key=lambda m: m.max_damage_rate)
         return WearMeasures(kc.max_curvature, kt.max_tension, kd.min_clearance,
                             max(m.max_twist_rate for m in items), kc.curvature_at, kt.tension_at, kd.clearance_at,
                             kd.nearest_obstacle, max(m.total_twist for m in items),
                             max(m.max_compression for m in items), max(m.max_node_force for m in items),
-                            max(m.max_node_torque for m in items))
+                            max(m.max_node_torque for m in items), kr.max_damage_rate, kr.damage_at)
 
 
 def cable_points(data: mujoco.MjData, cable: CableIndex) -> np.ndarray:

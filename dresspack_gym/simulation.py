@@ -10,11 +10,12 @@ the path travelled. A settle ends when the equilibrium residual says so, never o
 from __future__ import annotations
 
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
 
+from .damage import damage_rate
 from .errors import ConfigError, SimulationError
 from .joint_limits import check_within_limits
 from .measures import ClearanceProbe, WearMeasures, cable_points, measure_cable, node_loads
@@ -302,8 +303,17 @@ class CableSimulator:
 
     def cable_measures(self) -> list[WearMeasures]:
         """Wear measures of every cable in its current shape; forces are the shape's static forces."""
-        static = self.static_forces()
-        return [measure_cable(self.station, static, c, self.probe) for c in self.station.cables]
+        return self._cable_measures(self.static_forces())
+
+    def _cable_measures(self, static: mujoco.MjData, states: list[SegmentState] | None = None) -> list[WearMeasures]:
+        states = self._segment_states(static) if states is None else states
+        out = []
+        for c, r, s in zip(self.station.cables, self.station.config.robots, states):
+            rate = damage_rate(s, r.dresspack)
+            k = int(np.argmax(rate))
+            out.append(replace(measure_cable(self.station, static, c, self.probe), max_damage_rate=float(rate[k]),
+                               damage_at=k * c.segment_length))
+        return out
 
     def node_loads(self, robot: int = 0):
         """Force [N] and torque [N m] each node of a cable carries, in the node frame (see measures.node_loads)."""
@@ -349,10 +359,10 @@ class CableSimulator:
         trace.time.append(t)
         trace.q.append(np.array(q, dtype=float))
         static = self.static_forces()
-        trace.measures.append(WearMeasures.worst([measure_cable(self.station, static, c, self.probe)
-                                                  for c in self.station.cables]))
+        segments = self._segment_states(static)
+        trace.measures.append(WearMeasures.worst(self._cable_measures(static, segments)))
         if states:
-            trace.states.append(self._segment_states(static))
+            trace.states.append(segments)
 
     def segment_states(self) -> list[SegmentState]:
         """Per cable, the state of every segment now (bending, twist, strain, contact; see segment_state)."""

@@ -154,7 +154,7 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
         "node_force": np.array([m.max_node_force for m in samples_m]),
         "node_torque": np.array([m.max_node_torque for m in samples_m]),
     }
-    terms = {k: np.array([getattr(c, k) for c in costs]) for k in ("curvature", "tension", "distance", "twist")}
+    terms = {k: np.array([c.terms()[k] for c in costs]) for k in costs[0].terms()}
     damage = life = None
     if record_states:
         dresspack = station.config.robots[robot].dresspack

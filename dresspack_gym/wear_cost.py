@@ -10,19 +10,22 @@ from .measures import WearMeasures
 
 @dataclass(frozen=True)
 class WearCost:
-    """C = C_kappa + C_F + C_d (+ the optional twist term C_t) for one configuration."""
+    """C = C_kappa + C_F + C_d (+ the optional twist term C_t) for one configuration; the damage variant's C is
+    its ``damage`` term alone."""
 
     curvature: float
     tension: float
     distance: float
     twist: float = 0.0
+    damage: float = 0.0
 
     @property
     def total(self) -> float:
-        return self.curvature + self.tension + self.distance + self.twist
+        return self.curvature + self.tension + self.distance + self.twist + self.damage
 
     def terms(self) -> dict[str, float]:
-        return {"curvature": self.curvature, "tension": self.tension, "distance": self.distance, "twist": self.twist}
+        return {"curvature": self.curvature, "tension": self.tension, "distance": self.distance, "twist": self.twist,
+                "damage": self.damage}
 
 
 def wear_cost(m: WearMeasures, cfg: WearCostConfig) -> WearCost:
@@ -49,3 +52,9 @@ def normalized_wear_cost(m: WearMeasures, cfg: WearCostConfig) -> WearCost:
         distance=wd * (min(0.0, m.min_clearance - cfg.clearance) / cfg.clearance_scale) ** 2,
         twist=cfg.normalized_twist_weight * (max(0.0, m.max_twist_rate - cfg.twist_threshold) / cfg.twist_scale) ** 2,
     )
+
+
+def damage_cost(m: WearMeasures, cfg: WearCostConfig) -> WearCost:
+    """The damage variant: C = the worst segment's damage rate (dresspack ``damage:`` weights), so that the
+    integral of C over a motion is the damage the worst segment accrues (value terms; see damage.damage_rate)."""
+    return WearCost(0.0, 0.0, 0.0, 0.0, damage=m.max_damage_rate)

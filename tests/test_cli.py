@@ -15,7 +15,7 @@ def test_inspect_json_has_the_documented_keys(capsys):
     out = json.loads(capsys.readouterr().out)
     for key in ("max_curvature", "max_tension", "min_clearance", "max_twist_rate", "cost", "cost_terms"):
         assert key in out
-    assert set(out["cost_terms"]) == {"curvature", "tension", "distance", "twist"}
+    assert set(out["cost_terms"]) == {"curvature", "tension", "distance", "twist", "damage"}
     assert out["cost"] == pytest.approx(sum(out["cost_terms"].values()))
     assert all(np.isfinite([out["max_curvature"], out["max_tension"], out["min_clearance"], out["cost"]]))
 

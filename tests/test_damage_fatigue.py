@@ -165,3 +165,35 @@ def _states(sim, traj):
     out += [s[0] for s in trace.states]
     out.append(sim.segment_states()[0])
     return out
+
+
+def test_damage_cost_variant_is_the_worst_segments_damage_rate():
+    """On the clamped arc (pure bending, no gravity) the damage variant's C = w_bend / R, and the thesis variant
+    carries no damage term."""
+    from dresspack_gym.cost_variants import cost_function
+
+    station, radius, _ = _arc_then_straight()
+    sim = settled(station, 4.0)
+    m = sim.measures()
+    w = station.config.robots[0].dresspack.damage
+    assert m.max_damage_rate == pytest.approx(w.bend / radius, rel=0.03)
+    cost = cost_function("damage")(m, station.config.wear_cost)
+    assert cost.total == cost.damage == m.max_damage_rate
+    assert cost_function("thesis")(m, station.config.wear_cost).damage == 0.0
+
+
+def test_env_reports_episode_damage_and_life():
+    from dresspack_gym.env import DresspackEnv
+
+    env = DresspackEnv(max_steps=4, settle_time=0.0, cost_variant="damage")
+    _, info = env.reset(seed=0)
+    assert info["damage"] == 0.0
+    damage, done = [], False
+    while not done:
+        action = int(np.flatnonzero(env.action_masks())[0])
+        _, _, term, trunc, info = env.step(action)
+        damage.append(info["damage"])
+        assert info["cost"] == pytest.approx(info["damage_rate"])
+        done = term or trunc
+    assert np.all(np.diff(damage) >= 0) and damage[-1] > 0
+    assert 0 < info["life_cycles"] <= 1e15
