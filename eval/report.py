@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from dresspack.agents.planning import COLORS
+from dresspack_gym.damage_plot import plot_damage_along_cable, plot_damage_strip
 from dresspack_gym.loading import load_station
 from dresspack_gym.replay_plot import plot_replays
 from dresspack_gym.restriction_plot import plot_restrictions
@@ -67,6 +68,8 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
             blocks.append(("img", str(fig_dir / name), "Measures over time (thesis Figures A.1–A.3): κ with the κ0 "
                            "line, F, d with the c line; dotted lines mark the welds and the return Home."
                            + (f" Not shown (failed every seed): {', '.join(failed)}." if failed else "")))
+            blocks += _damage_figures(task, task_replays, fig_dir, figures)
+    blocks += [("h2", "Damage and fatigue life"), *_life_blocks(rows, methods, replays)]
     blocks.append(("h2", "Joint restrictions"))
     restr = fig_dir / "restrictions.png"
     plot_restrictions(station.config, str(restr))
@@ -131,6 +134,61 @@ def _overview_plot(per_method: dict[str, dict], path: Path) -> str:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return str(path)
+
+
+def _damage_figures(task: str, task_replays: dict[str, Replay], fig_dir: Path, figures: dict) -> list[tuple]:
+    """Damage and life along the cable per method, and the damage strip of the method whose cable lives least."""
+    with_life = {k: r for k, r in task_replays.items() if r.fatigue is not None}
+    if not with_life:
+        return []
+    along = fig_dir / f"damage_{_slug(task)}.png"
+    plot_damage_along_cable(with_life, along, COLORS)
+    worst = min(with_life, key=lambda k: with_life[k].fatigue.life_cycles.min())
+    strip = fig_dir / f"damage_strip_{_slug(task)}.png"
+    plot_damage_strip(with_life[worst], strip, f"Damage strip: {worst} on {task} (shortest life)")
+    figures[f"damage {task}"], figures[f"damage strip {task}"] = str(along), str(strip)
+    return [("img", str(along), "Damage per cycle (all weighted terms) and fatigue life per segment along the "
+                                "cable, per method."),
+            ("img", str(strip), f"Where and when the cable of {worst}, the method whose cable lives least on this "
+                                "task, accrues damage (segment × time; dotted lines: welds and Home).")]
+
+
+def _life_blocks(rows: list[dict], methods, replays: dict[str, Replay]) -> list[tuple]:
+    """Per method: the shortest fatigue life over its runs and where, the mean damage, and whether ranking the
+    methods by life agrees with ranking them by ∫C dt (Spearman's rank correlation over the methods)."""
+    body, life_mean, cost_mean = [], {}, {}
+    for m in methods:
+        reps = [(r, replays[r["key"]]) for r in rows if r["method"] == m and r["success"] and r["key"] in replays]
+        reps = [(r, p) for r, p in reps if p.fatigue is not None]
+        if not reps:
+            body.append([m, "failed", "–", "–", "–"])
+            continue
+        lives = [p.fatigue.life_cycles.min() for _, p in reps]
+        k = int(np.argmin(lives))
+        worst = reps[k][1]
+        life_mean[m] = float(np.exp(np.mean(np.log(lives))))
+        cost_mean[m] = float(np.mean([r["cost"] for r, _ in reps]))
+        body.append([m, f"{min(lives):.3g}", f"{life_mean[m]:.3g}",
+                     f"{worst.fatigue.arc[worst.fatigue.weakest_segment]:.2f} m",
+                     f"{np.mean([p.damage.total.max() for _, p in reps]):.3g}"])
+    table = {"header": ["method", "shortest life [cycles]", "geometric-mean life", "weakest segment (shortest)",
+                        "damage per cycle (worst segment)"], "rows": body}
+    text = ("Fatigue life per station cycle from rainflow-counted conductor strains and the dresspack's strain–life "
+            "curve (a model: see the README's damage section; use it to rank, not as months of service).")
+    ranked = [m for m in methods if m in life_mean]
+    if len(ranked) >= 3:
+        by_life = _ranks([-life_mean[m] for m in ranked])  # longest life first
+        by_cost = _ranks([cost_mean[m] for m in ranked])  # lowest ∫C dt first
+        rho = float(np.corrcoef(by_life, by_cost)[0, 1])
+        order_l = ", ".join(m for _, m in sorted(zip(by_life, ranked)))
+        order_c = ", ".join(m for _, m in sorted(zip(by_cost, ranked)))
+        text += (f" Ranked by life: {order_l}. Ranked by ∫C dt: {order_c}. Spearman's ρ = {rho:.2f} "
+                 f"({'the two agree' if rho >= 0.8 else 'the two disagree'}).")
+    return [("p", text), ("table", table)]
+
+
+def _ranks(values) -> np.ndarray:
+    return np.argsort(np.argsort(values)).astype(float)
 
 
 def _replay_saved(sim: CableSimulator, out: Path, row: dict, robot: int) -> Replay | None:

@@ -104,3 +104,16 @@ def test_report_html_renders_in_headless_chromium(tiny_report, tmp_path):
     image = np.asarray(Image.open(shot).convert("L"), dtype=float)
     assert image.shape == (1600, 1200)
     assert image.std() > 20  # not a blank page: text, tables and figures
+
+
+def test_report_shows_damage_and_life_per_method(tiny_report):
+    """The damage section lists every method with its shortest life and weakest segment, and the figures of
+    damage along the cable and of the damage strip are written."""
+    md = (tiny_report / "report.md").read_text()
+    table = _table_rows(md, "Damage and fatigue life")
+    assert set(table) == {"ompl", "random"}
+    for m, row in table.items():
+        if row["shortest life [cycles]"] != "failed":
+            assert float(row["shortest life [cycles]"]) > 0 and row["weakest segment (shortest)"].endswith(" m")
+    assert list((tiny_report / "figures").glob("damage_roof_rail_top*.png"))
+    assert list((tiny_report / "figures").glob("damage_strip_roof_rail_top*.png"))
