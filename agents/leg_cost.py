@@ -45,7 +45,8 @@ class LegCost:
             return hit
         traj = Trajectory(np.asarray(waypoints), (len(waypoints) - 1,))
         rep = replay(self.sim, traj, robot=self.robot, record_every=self.record_every,
-                     cost_variant=self.cost_variant, start_state=start_state)
+                     cost_variant=self.cost_variant, start_state=start_state,
+                     record_states=False)  # a leg is no station cycle: no fatigue count (C carries the damage rate)
         self.evaluations += 1
         s = rep.summary()
         j = self.time_weight * rep.cycle_time + self.wear_weight * s["cost"]
