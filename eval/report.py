@@ -24,7 +24,7 @@ from .summary import by_method, by_task, fmt, json_summary, rows_to_csv
 
 HEADERS = {"cycle_time": "cycle time [s]", "max_curvature": "max κ [1/m]", "max_tension": "max F [N]",
            "min_clearance": "min d [m]", "max_twist_rate": "max twist [rad/m]", "cost": "∫C dt",
-           "planning_time": "plan/infer [s]"}
+           "damage": "damage (worst seg.)", "life_cycles": "life [cycles]", "planning_time": "plan/infer [s]"}
 
 
 def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dict[str, Replay] | None = None, *,

@@ -25,7 +25,8 @@ from dresspack_gym.tasks import Task, make_task, random_start
 from dresspack_gym.trajectory import Replay, Trajectory, replay
 from dresspack_gym.validity import PLANNER_MARGIN, MotionValidity
 
-METRICS = ("cycle_time", "max_curvature", "max_tension", "min_clearance", "max_twist_rate", "cost", "planning_time")
+METRICS = ("cycle_time", "max_curvature", "max_tension", "min_clearance", "max_twist_rate", "cost", "damage",
+           "life_cycles", "planning_time")
 
 
 @dataclass(frozen=True)
@@ -149,7 +150,7 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) ->
             row.update(success=True, error=None, planning_time=round(result.planning_time, 4),
                        waypoints=len(result.trajectory.waypoints),
                        **{k: s[k] for k in METRICS if k != "planning_time"},
-                       cost_terms=s["cost_terms"], max_cost=s["max_cost"])
+                       cost_terms=s["cost_terms"], max_cost=s["max_cost"], weakest_segment_m=s["weakest_segment_m"])
             np.savez(_trajectory_path(out, key), waypoints=result.trajectory.waypoints,
                      stops=np.array(result.trajectory.stops))
         with open(out / "results.jsonl", "a") as f:

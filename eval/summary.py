@@ -10,9 +10,10 @@ import numpy as np
 
 from .runs import METRICS
 
-JSON_KEYS = ("success_rate", "cycle_time", "max_curvature", "max_tension", "min_clearance", "cost")
-CSV_FIELDS = ("method", "task", "seed", "success", *METRICS, "cost_curvature", "cost_tension", "cost_distance",
-              "waypoints", "start_deg", "error")
+JSON_KEYS = ("success_rate", "cycle_time", "max_curvature", "max_tension", "min_clearance", "cost", "damage",
+             "life_cycles")
+CSV_FIELDS = ("method", "task", "seed", "success", *METRICS, "weakest_segment_m", "cost_curvature", "cost_tension",
+              "cost_distance", "waypoints", "start_deg", "error")
 
 
 def aggregate(rows: list[dict]) -> dict:
