@@ -197,3 +197,23 @@ def test_env_reports_episode_damage_and_life():
         done = term or trunc
     assert np.all(np.diff(damage) >= 0) and damage[-1] > 0
     assert 0 < info["life_cycles"] <= 1e15
+
+
+def test_planner_leg_cost_with_the_damage_variant_integrates_the_damage_rate():
+    """The planners' leg objective with cost_variant='damage': its wear part is the time integral of the worst
+    segment's damage rate, which bounds each segment's value-term damage of the same leg from above."""
+    pytest.importorskip("ompl")
+    from dresspack.agents.leg_cost import LegCost
+
+    station = Station(load_station("default"))
+    task = make_task(station, 0, None, ["b_pillar_outer"])
+    legs = LegCost(station, time_weight=0.0, wear_weight=1.0, cost_variant="damage")
+    start = legs.start_state(task.start)
+    j, _, summary = legs.cost(start, np.stack([task.start, task.goals[0]]))
+    assert j == pytest.approx(summary["cost"]) and j > 0
+    rep = replay(CableSimulator(station), Trajectory(np.stack([task.start, task.goals[0]]), (1,)),
+                 cost_variant="damage")
+    values = sum(v for k, v in rep.damage.terms.items() if not k.endswith("_rate"))
+    assert rep.integrated_cost() == pytest.approx(j, rel=1e-6)
+    assert values.max() <= j * (1 + 1e-6)
+    assert values.max() >= 0.5 * j  # the worst segment stays the same most of the time
