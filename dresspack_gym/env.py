@@ -300,7 +300,8 @@ class DresspackEnv(gym.Env):
         if terminated or truncated:  # the episode as one station cycle: its fatigue life (states at step ends)
             dp = self.placement.dresspack
             info["life_cycles"] = fatigue_life(self._episode_states, dp.fatigue,
-                                               np.arange(dp.segments + 1) * dp.segment_length).summary()["life_cycles"]
+                                               np.arange(dp.segments + 1) * dp.segment_length,
+                                               dp.tensile_stiffness).summary()["life_cycles"]
         info["moved_through"] = np.array(moved_through).reshape(-1, 6)  # the straight segments' end points
         # The step's settle (at a weld: to equilibrium; after an ordinary step: bounded by settle_time) and the
         # residual it ended with; NaN when the step did not settle.

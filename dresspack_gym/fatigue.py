@@ -92,18 +92,24 @@ class FatigueLife:
                 "max_strain_amplitude": float(self.max_strain_amplitude.max(initial=0.0))}
 
 
-def fibre_strains(states: list[SegmentState], config: FatigueConfig) -> np.ndarray:
-    """(T, n, N_FIBRES) normal strain at the fibres of every segment over time."""
+def fibre_strains(states: list[SegmentState], config: FatigueConfig, axial_scale: float = 1.0) -> np.ndarray:
+    """(T, n, N_FIBRES) normal strain at the fibres of every segment over time; the cable's axial strain is scaled
+    by ``axial_scale`` (the bundle's EA over the conductors' axial stiffness)."""
     phi = 2.0 * np.pi * np.arange(N_FIBRES) / N_FIBRES
     bend = np.array([s.bend for s in states])  # (T, n, 2)
-    axial = np.array([s.strain for s in states])  # (T, n)
+    axial = axial_scale * np.array([s.strain for s in states])  # (T, n)
     r = config.strain_radius
     return r * (bend[..., 0:1] * np.sin(phi) - bend[..., 1:2] * np.cos(phi)) + axial[..., None]
 
 
-def fatigue_life(states: list[SegmentState], config: FatigueConfig, arc: np.ndarray) -> FatigueLife:
-    """Per-segment fatigue life of the station cycle sampled by ``states`` (one period of the repeated cycle)."""
-    eps = fibre_strains(states, config)
+def fatigue_life(states: list[SegmentState], config: FatigueConfig, arc: np.ndarray,
+                 tensile_stiffness: float | None = None) -> FatigueLife:
+    """Per-segment fatigue life of the station cycle sampled by ``states`` (one period of the repeated cycle);
+    ``tensile_stiffness`` is the dresspack's EA the states' strains were computed with."""
+    scale = 1.0
+    if config.axial_stiffness is not None and tensile_stiffness is not None:
+        scale = tensile_stiffness / config.axial_stiffness
+    eps = fibre_strains(states, config, scale)
     shear = config.strain_radius * np.array([s.twist_rate for s in states]) / np.sqrt(3.0)  # (T, n)
     n = eps.shape[1]
     normal, tors, amp = np.zeros(n), np.zeros(n), np.zeros(n)

@@ -159,7 +159,7 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     if record_states:
         dresspack = station.config.robots[robot].dresspack
         damage = accumulate(samples_t, samples_s, dresspack)
-        life = fatigue_life(samples_s, dresspack.fatigue, damage.arc)
+        life = fatigue_life(samples_s, dresspack.fatigue, damage.arc, dresspack.tensile_stiffness)
     return Replay(np.array(samples_t), np.array(samples_q), measures, np.array([c.total for c in costs]), terms,
                   stop_times, sim.motion_time,
                   {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance}, unconverged, damage, life)

@@ -217,3 +217,24 @@ def test_planner_leg_cost_with_the_damage_variant_integrates_the_damage_rate():
     assert rep.integrated_cost() == pytest.approx(j, rel=1e-6)
     assert values.max() <= j * (1 + 1e-6)
     assert values.max() >= 0.5 * j  # the worst segment stays the same most of the time
+
+
+def test_axial_strain_follows_the_conductors_axial_stiffness():
+    """A pull cycle of strain e (tension e EA): one cycle of amplitude e/2 with the bundle's EA, and of
+    e/2 * EA / axial_stiffness when the conductors carry the pull with their own stiffness."""
+    from dataclasses import replace as dc_replace
+
+    from dresspack_gym.segment_state import SegmentState
+
+    n, e, ea = 3, 0.004, 1400.0
+    zeros = np.zeros(n)
+
+    def state(strain):
+        return SegmentState(zeros, np.zeros((n, 2)), zeros, np.full(n, strain), zeros, zeros, zeros)
+
+    states = [state(x) for x in (0.0, e, 0.0)]
+    own = fatigue_life(states, CURVE, np.arange(n) * 0.1, ea)
+    assert own.max_strain_amplitude[1] == pytest.approx(e / 2, rel=1e-9)
+    stiff = fatigue_life(states, dc_replace(CURVE, axial_stiffness=10 * ea), np.arange(n) * 0.1, ea)
+    assert stiff.max_strain_amplitude[1] == pytest.approx(e / 20, rel=1e-9)
+    assert stiff.life_cycles[1] > own.life_cycles[1]
