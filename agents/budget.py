@@ -11,6 +11,8 @@ from dresspack_gym.errors import ConfigError
 DEFAULT_ITERATIONS = 3000
 DEFAULT_ROUTES = 12
 DEFAULT_EVALUATIONS = 40
+MAX_WORK = 10**7  # iterations / routes / evaluations per plan: beyond this a plan runs for days
+MAX_WALL_TIME = 86_400.0  # [s] a day
 
 
 @dataclass(frozen=True)
@@ -33,11 +35,12 @@ class Budget:
     def __post_init__(self):
         for name in ("iterations", "evaluations", "routes"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ConfigError(name, f"must be an integer >= 1 (work units), got {value!r}")
-        if self.wall_time is not None and not (isinstance(self.wall_time, (int, float)) and self.wall_time > 0):
-            raise ConfigError("time_budget", f"the wall-time cap must be a number of seconds > 0 or None, "
-                                             f"got {self.wall_time!r}")
+            if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= MAX_WORK:
+                raise ConfigError(name, f"must be an integer in [1, {MAX_WORK}] (work units), got {value!r}")
+        if self.wall_time is not None and not (isinstance(self.wall_time, (int, float))
+                                               and 0 < self.wall_time <= MAX_WALL_TIME):
+            raise ConfigError("time_budget", f"the wall-time cap must be a number of seconds in (0, {MAX_WALL_TIME:g}] "
+                                             f"or None, got {self.wall_time!r}")
 
 
 class Allowance:

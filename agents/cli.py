@@ -4,19 +4,24 @@ from __future__ import annotations
 
 import json
 
-from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES
+from dresspack_gym.cli_args import ensure_parent, number, output_file, seed
+
+from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, MAX_WALL_TIME, MAX_WORK
+
+WORK = number(1, MAX_WORK, integer=True)
 
 
 def add_budget_arguments(p, iterations: int = DEFAULT_ITERATIONS, evaluations: int = DEFAULT_EVALUATIONS,
                          routes: int = DEFAULT_ROUTES, time_budget: float | None = None) -> None:
     """The planning budget flags (shared by ``dresspack plan``, ``dresspack-eval`` and ``dresspack demo``)."""
-    p.add_argument("--iterations", type=int, default=iterations,
+    p.add_argument("--iterations", type=WORK, default=iterations,
                    help=f"OMPL planner iterations per connection (work units; default {iterations})")
-    p.add_argument("--evaluations", type=int, default=evaluations,
+    p.add_argument("--evaluations", type=WORK, default=evaluations,
                    help=f"cable-leg cost queries of the wear-aware refinement per plan (default {evaluations})")
-    p.add_argument("--routes", type=int, default=routes,
+    p.add_argument("--routes", type=WORK, default=routes,
                    help=f"candidate routes per leg sampled and scored by ompl-wear (default {routes})")
-    p.add_argument("--time-budget", type=float, default=time_budget, metavar="SECONDS",
+    p.add_argument("--time-budget", type=number(0, MAX_WALL_TIME, lo_open=True, unit="s"), default=time_budget,
+                   metavar="SECONDS",
                    help="optional wall-time cap per plan [s]; a plan stopped by it depends on machine load "
                         f"(default: {'none' if time_budget is None else time_budget})")
 
@@ -27,12 +32,13 @@ def add_plan_command(sub) -> None:
     p = sub.add_parser("plan", help="plan the station's weld cycle and measure it in the cable simulator")
     p.add_argument("station", help="station or thesis scenario (YAML or shipped name, e.g. thesis_tension)")
     p.add_argument("--planner", choices=list(PLANNERS), default="ompl")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed, default=0)
     add_budget_arguments(p)
     p.add_argument("--welds", nargs="+", default=None, help="weld point names in visiting order (default: all)")
     p.add_argument("--policy", default=None, help="ppo only: run folder, model .zip or shipped policy name "
                                                   "(default: stud_welding)")
-    p.add_argument("--plot", default=None, help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3)")
+    p.add_argument("--plot", type=output_file, default=None,
+                   help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3; missing folders are made)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_plan)
 
@@ -56,7 +62,7 @@ def cmd_plan(args) -> int:
         return 1
     s = run.summary()
     if args.plot:
-        s["plot"] = plot_replays({args.planner: run.replay}, args.plot)
+        s["plot"] = plot_replays({args.planner: run.replay}, ensure_parent(args.plot))
     if args.json:
         print(json.dumps(s, indent=2, default=float))
         return 0

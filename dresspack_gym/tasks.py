@@ -79,7 +79,7 @@ def select_weld_goals(station: Station, robot: int, collides, welds: list[str] |
     return goals
 
 
-def make_task(station: Station, robot: int, collides, welds: list[str] | None = None) -> Task:
-    goals = select_weld_goals(station, robot, collides, welds)
+def make_task(station: Station, robot: int, collides, welds: list[str] | None = None, field: str = "welds") -> Task:
+    goals = select_weld_goals(station, robot, collides, welds, field)
     home = station.config.robots[robot].home.copy()
     return Task(robot, home, tuple(goals), np.array(list(goals.values())).reshape(-1, 6), home)

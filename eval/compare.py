@@ -12,6 +12,7 @@ from pathlib import Path
 
 from dresspack.agents.cli import add_budget_arguments
 from dresspack.agents.planning import PLANNERS
+from dresspack_gym.cli_args import number, output_dir, seed
 from dresspack_gym.errors import DresspackError
 
 from .report import write_report
@@ -26,14 +27,15 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
     p.add_argument("--tasks", nargs="+", default=[",".join(t) for t in defaults.tasks], metavar="WELDS",
                    help="one task per argument: comma-separated weld names in visiting order "
                         "(default: the two weld pairs held out from the shipped policy's training)")
-    p.add_argument("--seeds", nargs="+", type=int, default=list(defaults.seeds))
+    p.add_argument("--seeds", nargs="+", type=seed, default=list(defaults.seeds))
     add_budget_arguments(p, defaults.iterations, defaults.evaluations, defaults.routes, defaults.time_budget)
-    p.add_argument("--start-noise-deg", type=float, default=defaults.start_noise_deg,
+    p.add_argument("--start-noise-deg", type=number(0, 90, unit="deg"), default=defaults.start_noise_deg,
                    help="> 0: each seed starts at a valid configuration within this many degrees of Home")
     p.add_argument("--policy", default=None, help="ppo/random: run folder, model .zip or shipped policy name")
     p.add_argument("--robustness-map", default=None, help="robustness map folder to include in the report")
     p.add_argument("--no-render", action="store_true", help="skip the rendered worst-wear frames")
-    p.add_argument("--out", default="out/eval", help="report folder (an interrupted run resumes there)")
+    p.add_argument("--out", type=output_dir, default="out/eval",
+                   help="report folder (an interrupted run resumes there)")
     p.add_argument("--json", action="store_true", help="print the per-method summary as JSON")
 
 
@@ -49,6 +51,10 @@ def evaluate_and_report(args) -> int:
     """Run, write the report, print the summary (JSON or a short table)."""
     try:
         spec = spec_from_args(args)
+        if args.robustness_map is not None:  # checked now, not after the whole evaluation
+            from dresspack_gym.robustness.query import RobustnessMap
+
+            RobustnessMap(args.robustness_map)
         rows, replays = run_evaluation(spec, args.out, progress=not args.json)
         paths = write_report(spec, rows, args.out, replays, robustness_map=args.robustness_map,
                              render=not args.no_render)

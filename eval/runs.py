@@ -85,7 +85,7 @@ def build_tasks(station: Station, spec: EvalSpec) -> dict[tuple[tuple[str, ...],
     validity = MotionValidity(station, spec.robot, margin=PLANNER_MARGIN)
     tasks = {}
     for welds in spec.tasks:
-        base = make_task(station, spec.robot, validity.checker.collides, list(welds))
+        base = make_task(station, spec.robot, validity.checker.collides, list(welds), field="tasks")
         for seed in spec.seeds:
             start = eval_start(station, spec.robot, seed, spec.start_noise_deg, validity)
             tasks[(tuple(welds), seed)] = Task(base.robot, start, base.weld_names, base.goals, base.end)
@@ -107,14 +107,21 @@ def load_trajectory(out: Path, row: dict) -> Trajectory | None:
 def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) -> tuple[list[dict], dict]:
     """Every method x task x seed; returns the rows (in spec order) and the replays made in this call."""
     out = Path(out)
-    (out / "trajectories").mkdir(parents=True, exist_ok=True)
+    if out.exists() and not out.is_dir():
+        raise ConfigError("out", f"{out} is an existing file: give a folder for the report")
     spec_file = out / "spec.json"
     if spec_file.is_file() and json.loads(spec_file.read_text()) != spec.to_dict():
         raise ConfigError("out", f"{out} holds an evaluation with other settings (spec.json): choose another "
                                  "folder, or delete it to start over")
-    spec_file.write_text(json.dumps(spec.to_dict(), indent=2) + "\n")
+    # every input is checked before anything is written: a failed start leaves no spec.json behind
     station = Station(load_station(spec.station))
     tasks = build_tasks(station, spec)
+    if spec.policy is not None or any(m in POLICY_METHODS for m in spec.methods):
+        from dresspack.agents.policy import resolve_policy
+
+        resolve_policy(spec.policy)
+    (out / "trajectories").mkdir(parents=True, exist_ok=True)
+    spec_file.write_text(json.dumps(spec.to_dict(), indent=2) + "\n")
     done = _read_rows(out / "results.jsonl")
     # rewrite the log with the complete rows only: a line cut by an interruption would otherwise swallow the
     # next row appended to it

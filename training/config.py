@@ -2,19 +2,22 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 
 from dresspack_gym import ENV_IDS
+from dresspack_gym.cli_args import MAX_SEED
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.loading import read_yaml
 from dresspack_gym.shipped import find_shipped
 from dresspack_gym.validation import Section
 
 ACTIVATIONS = ("tanh", "relu")
+MAX_ENVS = 64  # environment processes (one per core)
+MAX_TIMESTEPS = 10**9  # ~100 days of env steps at today's speed on 2 cores: more is a typo
 
 
 @dataclass(frozen=True)
@@ -57,9 +60,6 @@ class TrainConfig:
         d["net_arch"] = list(self.net_arch)
         return d
 
-    def with_overrides(self, **kw) -> "TrainConfig":
-        return replace(self, **{k: v for k, v in kw.items() if v is not None})
-
 
 def load_train_config(ref: str | Path) -> TrainConfig:
     """Read a training config by path or by name in configs/training/ (e.g. ``stud_welding``)."""
@@ -98,20 +98,32 @@ def train_config_from_dict(data: dict, default_name: str = "run") -> TrainConfig
         name=s.string("name", d.name),
         env_id=env_id,
         env_kwargs=dict(env_kwargs),
-        n_envs=s.integer("n_envs", d.n_envs, lo=1, hi=64),
+        n_envs=s.integer("n_envs", d.n_envs, lo=1, hi=MAX_ENVS),
         vec_env=s.string("vec_env", d.vec_env, choices=("subproc", "dummy")),
-        total_timesteps=s.integer("total_timesteps", d.total_timesteps, lo=1),
-        seed=s.integer("seed", d.seed, lo=0),
+        total_timesteps=s.integer("total_timesteps", d.total_timesteps, lo=1, hi=MAX_TIMESTEPS),
+        seed=s.integer("seed", d.seed, lo=0, hi=MAX_SEED),
         net_arch=tuple(net_arch),
         activation=s.string("activation", d.activation, choices=ACTIVATIONS),
         ppo=ppo,
         checkpoint_every=s.integer("checkpoint_every", d.checkpoint_every, lo=1),
         eval_every=s.integer("eval_every", d.eval_every, lo=0),
         eval_episodes=s.integer("eval_episodes", d.eval_episodes, lo=1),
-        eval_seed=s.integer("eval_seed", d.eval_seed, lo=0),
+        eval_seed=s.integer("eval_seed", d.eval_seed, lo=0, hi=MAX_SEED),
     )
     s.done()
+    rollout = cfg.ppo.n_steps * cfg.n_envs
+    if cfg.ppo.batch_size > rollout:
+        raise ConfigError("ppo.batch_size", f"{cfg.ppo.batch_size} is larger than one rollout (ppo.n_steps x n_envs = "
+                                            f"{cfg.ppo.n_steps} x {cfg.n_envs} = {rollout}): must be at most {rollout}")
     return cfg
+
+
+def apply_overrides(data: dict, **overrides) -> dict:
+    """A config dict with command-line overrides set (None: not given), to be read by train_config_from_dict so
+    that an override passes the same checks as the YAML value it replaces."""
+    out = dict(data)
+    out.update({k: v for k, v in overrides.items() if v is not None})
+    return out
 
 
 def check_env_kwargs(cfg: TrainConfig) -> None:

@@ -27,7 +27,11 @@ import yaml
 from dresspack_gym import __version__
 from dresspack_gym.errors import ConfigError, DresspackError
 
-from .config import TrainConfig, check_env_kwargs, load_train_config, train_config_from_dict
+from dresspack_gym.cli_args import number, seed
+from dresspack_gym.loading import read_yaml
+from dresspack_gym.shipped import find_shipped
+
+from .config import MAX_ENVS, MAX_TIMESTEPS, TrainConfig, apply_overrides, check_env_kwargs, train_config_from_dict
 
 CHECKPOINT_PREFIX = "ckpt"
 
@@ -37,9 +41,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("config", nargs="?", help="training YAML (path, or a name in configs/training/)")
     p.add_argument("--run-dir", help="run folder (default: runs/train/<config name>)")
     p.add_argument("--resume", metavar="RUN_DIR", help="continue the run in RUN_DIR from its newest checkpoint")
-    p.add_argument("--total-timesteps", type=int, help="override total_timesteps")
-    p.add_argument("--n-envs", type=int, help="override n_envs")
-    p.add_argument("--seed", type=int, help="override seed")
+    p.add_argument("--total-timesteps", type=number(1, MAX_TIMESTEPS, integer=True), help="override total_timesteps")
+    p.add_argument("--n-envs", type=number(1, MAX_ENVS, integer=True), help="override n_envs")
+    p.add_argument("--seed", type=seed, help="override seed")
+    p.add_argument("--force", action="store_true",
+                   help="train into a run folder that holds a finished or begun run, deleting it first")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     return p
 
@@ -160,11 +166,8 @@ def train(cfg: TrainConfig, run_dir: Path, *, resume: bool = False, progress: bo
             model.save(path)
             print(f"\ninterrupted: saved {path}; continue with: dresspack-train --resume {run_dir}", file=sys.stderr)
         for e in (env, eval_env):
-            try:
-                if e is not None:
-                    e.close()
-            except (EOFError, BrokenPipeError, ConnectionError):
-                pass  # subprocesses already stopped by the same Ctrl-C
+            if e is not None:
+                close_vec_env(e)
     if not interrupted:
         model.save(run_dir / "final_model.zip")
     steps = model.num_timesteps - start_steps
@@ -199,25 +202,81 @@ def _summary(run_dir: Path, cfg: TrainConfig, total_steps: int, steps: int, wall
     return s
 
 
+CLOSE_TIMEOUT = 20.0  # [s] for the env subprocesses to finish their step and exit after an interrupt
+
+
+def close_vec_env(env, timeout: float = CLOSE_TIMEOUT) -> None:
+    """Close a vector env without ever hanging: an interrupt that lands while one worker answers and another
+    settles can leave ``SubprocVecEnv.close()`` waiting on a pipe forever, so close in a thread and terminate the
+    workers that have not exited by ``timeout``."""
+    import threading
+
+    def close():
+        try:
+            env.close()
+        except (EOFError, BrokenPipeError, ConnectionError, OSError):
+            pass  # workers already stopped by the same Ctrl-C
+
+    t = threading.Thread(target=close, daemon=True)
+    t.start()
+    t.join(timeout)
+    for proc in getattr(env, "processes", []):
+        proc.join(timeout=0 if t.is_alive() else 1.0)
+        if proc.is_alive():
+            proc.terminate()
+            proc.join(timeout=5.0)
+            if proc.is_alive():
+                proc.kill()
+
+
+def _finished(run_dir: Path) -> bool:
+    return (run_dir / "final_model.zip").is_file()
+
+
+def resolve_run(args) -> tuple[TrainConfig, Path, bool]:
+    """(config, run folder, resume) from the command line, every input checked before anything is written."""
+    overrides = {"total_timesteps": args.total_timesteps, "n_envs": args.n_envs, "seed": args.seed}
+    if args.resume:
+        run_dir = Path(args.resume)
+        path = run_dir / "config.yaml"
+        if not path.is_file():
+            raise ConfigError("--resume", f"{run_dir} is not a run folder (no config.yaml)")
+        try:
+            cfg = train_config_from_dict(apply_overrides(read_yaml(path, "--resume"), **overrides))
+        except ConfigError as exc:
+            raise ConfigError("--resume", f"{path} is not a valid training config: {exc}") from None
+        if _finished(run_dir) and args.total_timesteps is None:
+            raise ConfigError("--resume", f"{run_dir} is a finished run (final_model.zip); give a larger "
+                                          "--total-timesteps to continue it")
+        return cfg, run_dir, True
+    if not args.config:
+        raise ConfigError("config", "give a training config (e.g. stud_welding) or --resume RUN_DIR")
+    path = find_shipped(args.config, "training", "config")
+    data = read_yaml(path, "config")
+    data.setdefault("name", path.stem)
+    cfg = train_config_from_dict(apply_overrides(data, **overrides), default_name=path.stem)
+    run_dir = Path(args.run_dir) if args.run_dir else Path("runs") / "train" / cfg.name
+    if run_dir.exists() and not run_dir.is_dir():
+        raise ConfigError("--run-dir", f"{run_dir} is an existing file: give a folder")
+    begun = run_dir.is_dir() and any((run_dir / k).exists() for k in ("final_model.zip", "checkpoints",
+                                                                        "summary.json"))
+    if begun and not args.force:
+        what = "a finished run" if _finished(run_dir) else "a begun run"
+        raise ConfigError("--run-dir", f"{run_dir} holds {what}: continue it with --resume {run_dir}, choose "
+                                       "another --run-dir, or replace it with --force")
+    return cfg, run_dir, False
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        if args.resume:
-            run_dir = Path(args.resume)
-            if not (run_dir / "config.yaml").is_file():
-                raise ConfigError("--resume", f"{run_dir} is not a run folder (no config.yaml)")
-            cfg = train_config_from_dict(yaml.safe_load((run_dir / "config.yaml").read_text()))
-        elif args.config:
-            cfg = load_train_config(args.config)
-            run_dir = Path(args.run_dir) if args.run_dir else Path("runs") / "train" / cfg.name
-        else:
-            raise ConfigError("config", "give a training config (e.g. stud_welding) or --resume RUN_DIR")
-        for flag, value in (("--total-timesteps", args.total_timesteps), ("--n-envs", args.n_envs)):
-            if value is not None and value < 1:
-                raise ConfigError(flag, f"must be >= 1, got {value}")
-        cfg = cfg.with_overrides(total_timesteps=args.total_timesteps, n_envs=args.n_envs, seed=args.seed)
+        cfg, run_dir, resume = resolve_run(args)
         check_env_kwargs(cfg)
-        summary = train(cfg, run_dir, resume=bool(args.resume), progress=not args.no_progress)
+        if args.force and not resume and run_dir.is_dir():
+            import shutil
+
+            shutil.rmtree(run_dir)  # asked for: the old run is replaced, never mixed with the new one
+        summary = train(cfg, run_dir, resume=resume, progress=not args.no_progress)
     except KeyboardInterrupt:
         return 130
     except DresspackError as exc:
