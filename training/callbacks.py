@@ -14,7 +14,7 @@ class EpisodeMetricsCallback(BaseCallback):
     and the time-integrated cost terms (eq. 4.10) — the numbers the evaluation reports, seen while training."""
 
     MAX_KEYS = ("max_curvature", "max_tension", "max_twist_rate", "total_twist", "max_node_torque", "cost")
-    COST_KEYS = ("cost", "cost_curvature", "cost_tension", "cost_distance", "cost_twist")
+    COST_KEYS = ("cost", "cost_curvature", "cost_tension", "cost_distance", "cost_twist", "cost_damage")
 
     def _on_training_start(self) -> None:
         self._acc = [self._fresh() for _ in range(self.training_env.num_envs)]
@@ -43,6 +43,9 @@ class EpisodeMetricsCallback(BaseCallback):
                           "min_clearance"):
                     log(f"episode/{k}", acc[k])
                 log("episode/max_cost", acc["cost"])
+                log("episode/damage", float(info["damage"]))  # the worst segment's, over the episode
+                if "life_cycles" in info:  # fatigue life of the episode as a station cycle (log10: spans decades)
+                    log("episode/log10_life_cycles", float(np.log10(max(info["life_cycles"], 1e-12))))
                 for k, v in acc["integral"].items():
                     log(f"episode/integrated_{k}", v)
                 self._acc[i] = self._fresh()
