@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 from dresspack_gym.cli_args import ensure_parent, number, output_file, seed
+from dresspack_gym.cost_variants import COST_VARIANTS
 
 from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, MAX_WALL_TIME, MAX_WORK
 
@@ -35,6 +36,9 @@ def add_plan_command(sub) -> None:
     p.add_argument("--seed", type=seed, default=0)
     add_budget_arguments(p)
     p.add_argument("--welds", nargs="+", default=None, help="weld point names in visiting order (default: all)")
+    p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis",
+                   help="wear cost the wear-aware planners minimise and the replay reports: thesis (4.10), "
+                        "normalized, or damage (the worst segment's damage rate; see the README)")
     p.add_argument("--policy", default=None, help="ppo only: run folder, model .zip or shipped policy name "
                                                   "(default: stud_welding)")
     p.add_argument("--plot", type=output_file, default=None,
@@ -53,7 +57,7 @@ def cmd_plan(args) -> int:
         extra = {"policy": args.policy} if args.planner in POLICY_METHODS else {}
         run = plan_station(args.station, args.planner, seed=args.seed, iterations=args.iterations,
                            evaluations=args.evaluations, routes=args.routes, time_budget=args.time_budget,
-                           welds=args.welds, **extra)
+                           welds=args.welds, cost_variant=args.cost_variant, **extra)
     except PlanningError as exc:  # a failed plan is a result, not a crash
         if args.json:
             print(json.dumps({"method": args.planner, "success": False, "error": str(exc)}, indent=2))
@@ -70,6 +74,8 @@ def cmd_plan(args) -> int:
     print(f"  cycle time {s['cycle_time']:.2f} s   integrated wear cost {s['cost']:.4g}")
     print(f"  max curvature {s['max_curvature']:.2f} 1/m   max tension {s['max_tension']:.1f} N   "
           f"min clearance {1000 * s['min_clearance']:.0f} mm   max twist rate {s['max_twist_rate']:.3g} rad/m")
+    print(f"  damage (worst segment) {s['damage']:.4g} at {s['damage_at_m']:.2f} m   fatigue life "
+          f"{s['life_cycles']:.3g} cycles (weakest segment at {s['weakest_segment_m']:.2f} m)")
     if args.plot:
         print(f"wrote {args.plot}")
     return 0

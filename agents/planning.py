@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from dresspack_gym.cost_variants import cost_function
 from dresspack_gym.loading import load_station
 from dresspack_gym.simulation import CableSimulator
 from dresspack_gym.station import Station
@@ -27,6 +28,7 @@ PLANNERS: dict[str, type[Planner]] = {p.name: p for p in (
     RandomMaskedPlanner,
 )}
 POLICY_METHODS = tuple(name for name, p in PLANNERS.items() if p.uses_policy)
+WEAR_AWARE = (ThesisLocalPlanner.name, OmplWearPlanner.name)  # the planners that take a cost_variant
 COLORS = {name: p.color for name, p in PLANNERS.items()}
 
 
@@ -52,15 +54,20 @@ class PlannedRun:
 def plan_station(station_ref: str | Station, planner: str = "ompl", *, robot: int = 0, seed: int = 0,
                  iterations: int = DEFAULT_ITERATIONS, evaluations: int = DEFAULT_EVALUATIONS,
                  routes: int = DEFAULT_ROUTES, time_budget: float | None = None, welds: list[str] | None = None,
-                 task: Task | None = None, **planner_kwargs) -> PlannedRun:
+                 task: Task | None = None, cost_variant: str = "thesis", **planner_kwargs) -> PlannedRun:
     """Plan ``task`` (default: Home -> ``welds`` -> Home) and replay it; ``planner_kwargs`` go to the planner
     (e.g. ``policy=`` for ``ppo``). The budget is ``iterations`` / ``evaluations`` / ``routes`` (work units, see
-    :class:`~dresspack.agents.budget.Budget`), with ``time_budget`` [s] as an optional wall-time cap."""
+    :class:`~dresspack.agents.budget.Budget`), with ``time_budget`` [s] as an optional wall-time cap.
+    ``cost_variant`` is the wear cost the wear-aware planners minimise and the replay reports (thesis, normalized,
+    damage)."""
+    cost_function(cost_variant)  # a bad name fails before planning, naming the field
     station = station_ref if isinstance(station_ref, Station) else Station(load_station(station_ref))
+    if planner in WEAR_AWARE:
+        planner_kwargs = {"cost_variant": cost_variant, **planner_kwargs}
     p = make_planner(planner, station, robot, seed=seed, iterations=iterations, evaluations=evaluations,
                      routes=routes, time_budget=time_budget, **planner_kwargs)
     if task is None:
         task = make_task(station, robot, p.validity.checker.collides, welds)
     result = p.plan(task)
-    rep = replay(CableSimulator(station), result.trajectory, robot=robot)
+    rep = replay(CableSimulator(station), result.trajectory, robot=robot, cost_variant=cost_variant)
     return PlannedRun(task, result, rep)
