@@ -43,6 +43,8 @@ def add_plan_command(sub) -> None:
                                                   "(default: stud_welding)")
     p.add_argument("--plot", type=output_file, default=None,
                    help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3; missing folders are made)")
+    p.add_argument("--out", type=output_file, default=None,
+                   help="save the planned trajectory (.npz) for `dresspack export` (missing folders are made)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_plan)
 
@@ -65,6 +67,14 @@ def cmd_plan(args) -> int:
             print(f"{args.planner}: failed: {exc}")
         return 1
     s = run.summary()
+    if args.out:
+        from dresspack_gym.trajectory import save_trajectory
+
+        station = run.station
+        save_trajectory(ensure_parent(args.out), run.plan.trajectory, station=str(args.station),
+                        robot=station.config.robots[run.task.robot].name,
+                        speed_fraction=station.config.simulation.speed_fraction)
+        s["out"] = str(args.out)
     if args.plot:
         s["plot"] = plot_replays({args.planner: run.replay}, ensure_parent(args.plot))
     if args.json:
@@ -76,7 +86,8 @@ def cmd_plan(args) -> int:
           f"min clearance {1000 * s['min_clearance']:.0f} mm   max twist rate {s['max_twist_rate']:.3g} rad/m")
     print(f"  damage (worst segment) {s['damage']:.4g} at {s['damage_at_m']:.2f} m   fatigue life "
           f"{s['life_cycles']:.3g} cycles (weakest segment at {s['weakest_segment_m']:.2f} m)")
-    if args.plot:
-        print(f"wrote {args.plot}")
+    for key in ("plot", "out"):
+        if getattr(args, key):
+            print(f"wrote {getattr(args, key)}")
     return 0
 

@@ -42,6 +42,7 @@ class PlannedRun:
     task: Task
     plan: PlanResult
     replay: Replay
+    station: Station | None = None
 
     def summary(self) -> dict:
         s = {"method": self.plan.method, "success": True, "planning_time": round(self.plan.planning_time, 3),
@@ -70,4 +71,4 @@ def plan_station(station_ref: str | Station, planner: str = "ompl", *, robot: in
         task = make_task(station, robot, p.validity.checker.collides, welds)
     result = p.plan(task)
     rep = replay(CableSimulator(station), result.trajectory, robot=robot, cost_variant=cost_variant)
-    return PlannedRun(task, result, rep)
+    return PlannedRun(task, result, rep, station)

@@ -239,6 +239,29 @@ def cmd_twist_sweep(args) -> int:
     return 0
 
 
+def cmd_export(args) -> int:
+    from .loading import load_station
+    from .programs import TimedPath, write
+    from .trajectory import load_trajectory_file
+
+    traj, meta = load_trajectory_file(args.plan)
+    cfg = load_station(args.station or meta.get("station") or "default")
+    robot = args.robot if args.robot is not None else next(
+        (i for i, r in enumerate(cfg.robots) if r.name == meta.get("robot")), 0)
+    if not 0 <= robot < len(cfg.robots):
+        raise ConfigError("--robot", f"robot index {robot} does not exist: the station has {len(cfg.robots)}")
+    fraction = args.speed_fraction or meta.get("speed_fraction") or cfg.simulation.speed_fraction
+    placement = cfg.robots[robot]
+    path = TimedPath.of(traj, placement.robot.joint_speed, fraction, cfg.name, placement.name)
+    text = write(path, args.format)
+    if args.out:
+        ensure_parent(args.out).write_text(text)
+        print(f"wrote {args.out} ({args.format}, {len(path.joints)} waypoints, {path.times[-1]:.2f} s)")
+    else:
+        print(text, end="")
+    return 0
+
+
 def cmd_bench(args) -> int:
     from .bench import env_benchmark, physics_benchmark, restrictions_benchmark, robustness_benchmark
 
@@ -286,6 +309,7 @@ MAX_WORKERS = 256  # worker processes (one per core; Ray clusters may have more)
 
 def build_parser(extensions=None) -> argparse.ArgumentParser:
     """The ``dresspack`` parser with the core subcommands and ``extensions`` (default: the registered ones)."""
+    from .programs import FORMATS as PROGRAM_FORMATS
     from .rendering import OFFSCREEN_HEIGHT, OFFSCREEN_WIDTH
     from .robustness.algorithm import START_MODES
 
@@ -361,6 +385,15 @@ def build_parser(extensions=None) -> argparse.ArgumentParser:
     tw.add_argument("--out", type=output_file, help="output JSON path")
     tw.add_argument("--json", action="store_true")
     tw.set_defaults(func=cmd_twist_sweep)
+    ex = sub.add_parser("export", help="write a planned trajectory as a robot program (CSV, JSON, ABB RAPID, KUKA KRL)")
+    ex.add_argument("plan", help="trajectory .npz from `dresspack plan --out` or an evaluation's trajectories/")
+    ex.add_argument("--format", choices=list(PROGRAM_FORMATS), required=True)
+    ex.add_argument("--out", type=output_file, default=None, help="output file (default: print)")
+    ex.add_argument("--station", default=None, help="station (default: the one the plan was made for)")
+    ex.add_argument("--robot", type=number(0, 63, integer=True), default=None, help="robot index (default: the plan's)")
+    ex.add_argument("--speed-fraction", type=number(0, 1, lo_open=True), default=None,
+                    help="of the rated joint speeds (default: the plan's, else the station's)")
+    ex.set_defaults(func=cmd_export)
     b = sub.add_parser("bench", help="benchmarks")
     b.add_argument("what", choices=["physics", "restrictions", "env", "robustness"], help="which benchmark")
     b.add_argument("--station", default="default")

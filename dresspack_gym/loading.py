@@ -116,12 +116,80 @@ def station_from_dict(data: Mapping[str, Any], base_dir: Path = CONFIG_DIR / "st
     check_unique([o.name for o in obstacles], "obstacles", "obstacle")
     obstacles = tuple(_absolute_mesh(o, base_dir) for o in obstacles)
     welds = tuple(weld_point_from_section(w, names) for w in s.sections("weld_points", []))
+    welds += _weld_points_csv(s, base_dir, names)
     check_unique([w.name for w in welds], "weld_points", "weld point")
     wear = WearCostConfig.from_dict(s.raw("wear_cost", {}), "wear_cost")
     sim = SimulationConfig.from_dict(s.raw("simulation", {}), "simulation")
     floor = s.boolean("floor", True)
     s.done()
     return StationConfig(name, description, tuple(robots), obstacles, welds, wear, sim, floor)
+
+
+CSV_REQUIRED = ("name", "x", "y", "z", "approach_x", "approach_y", "approach_z")
+CSV_OPTIONAL = ("robot", "spin_min_deg", "spin_max_deg", "spin_step_deg")
+LENGTH_UNITS = {"m": 1.0, "mm": 0.001}
+
+
+def _weld_points_csv(s: Section, base_dir: Path, robot_names: list[str]) -> tuple:
+    """``weld_points_csv: FILE`` or ``{path: FILE, units: m|mm}``: weld points exported from a CAD/OLP tool, one per
+    row (columns CSV_REQUIRED, optionally CSV_OPTIONAL); each error names the row and column."""
+    import csv
+
+    ref = s.raw("weld_points_csv", None)
+    if ref is None:
+        return ()
+    field = "weld_points_csv"
+    units = "m"
+    if isinstance(ref, dict):
+        c = Section(ref, field)
+        path_ref = c.string("path")
+        units = c.string("units", "m", choices=list(LENGTH_UNITS))
+        c.done()
+    elif isinstance(ref, str):
+        path_ref = ref
+    else:
+        raise ConfigError(field, "expected a CSV file path or a mapping {path, units: m|mm}")
+    path = Path(path_ref).expanduser()
+    path = path if path.is_absolute() else base_dir / path
+    if not path.is_file():
+        raise ConfigError(field, f"file not found: {path}")
+    with path.open(newline="") as f:
+        reader = csv.DictReader(f)
+        columns = [c.strip() for c in (reader.fieldnames or [])]
+        missing = [c for c in CSV_REQUIRED if c not in columns]
+        unknown = [c for c in columns if c not in CSV_REQUIRED + CSV_OPTIONAL]
+        if missing or unknown:
+            raise ConfigError(field, f"{path.name}: {'missing columns ' + str(missing) if missing else ''}"
+                                     f"{'; ' if missing and unknown else ''}"
+                                     f"{'unknown columns ' + str(unknown) if unknown else ''}; "
+                                     f"columns are {list(CSV_REQUIRED)} plus optional {list(CSV_OPTIONAL)}")
+        welds = []
+        for n, row in enumerate(reader, start=2):  # row 1 is the header
+            row = {k.strip(): (v or "").strip() for k, v in row.items() if k is not None}
+            where = f"{field}[{path.name}:row {n}]"
+
+            def num(col, default=None):
+                text = row.get(col, "")
+                if text == "" and default is not None:
+                    return default
+                try:
+                    return float(text)
+                except ValueError:
+                    raise ConfigError(f"{where}.{col}", f"{text!r} is not a number") from None
+
+            scale = LENGTH_UNITS[units]
+            data = {"name": row["name"], "pos": [num(c) * scale for c in ("x", "y", "z")],
+                    "approach": [num(f"approach_{a}") for a in "xyz"]}
+            if row.get("robot"):
+                data["robot"] = row["robot"]
+            if row.get("spin_min_deg") or row.get("spin_max_deg"):
+                lo, hi, step = num("spin_min_deg", 0.0), num("spin_max_deg", 0.0), num("spin_step_deg", 30.0)
+                if not (step > 0 and hi >= lo):
+                    raise ConfigError(f"{where}.spin_max_deg", f"spin range [{lo}, {hi}] step {step}: needs "
+                                                               "spin_max_deg >= spin_min_deg and a step > 0")
+                data["spin_deg"] = np.arange(lo, hi + 1e-9, step).tolist()
+            welds.append(weld_point_from_section(Section(data, where), robot_names))
+    return tuple(welds)
 
 
 def _robustness_map(r: Section, base_dir: Path):

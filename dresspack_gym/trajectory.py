@@ -57,6 +57,30 @@ class Trajectory:
         return Trajectory(np.array(pts), tuple(stops))
 
 
+def save_trajectory(path, traj: Trajectory, **meta) -> None:
+    """``traj`` as ``.npz`` (waypoints [rad], stops) with ``meta`` (station, robot, speed_fraction) as JSON."""
+    import json
+
+    np.savez(path, waypoints=traj.waypoints, stops=np.array(traj.stops, dtype=int), meta=json.dumps(meta))
+
+
+def load_trajectory_file(path) -> tuple[Trajectory, dict]:
+    """A trajectory saved by :func:`save_trajectory` (or an evaluation's ``trajectories/*.npz``) and its meta."""
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError("plan", f"file not found: {path}")
+    try:
+        data = np.load(path)
+        traj = Trajectory(data["waypoints"], tuple(int(i) for i in data["stops"]))
+        meta = json.loads(str(data["meta"])) if "meta" in data else {}
+    except (OSError, ValueError, KeyError) as exc:
+        raise ConfigError("plan", f"{path} is not a saved trajectory (.npz with waypoints and stops): {exc}") from None
+    return traj, meta
+
+
 @dataclass
 class Replay:
     """Measures sampled along a replayed trajectory (time is the robot's motion time [s])."""
