@@ -262,6 +262,22 @@ def cmd_export(args) -> int:
     return 0
 
 
+def cmd_animate(args) -> int:
+    from .animation import animate
+    from .loading import load_station
+    from .simulation import CableSimulator
+    from .station import Station
+    from .trajectory import load_trajectory_file
+
+    traj, meta = load_trajectory_file(args.plan)
+    station = Station(load_station(args.station or meta.get("station") or "default"))
+    robot = next((i for i, r in enumerate(station.config.robots) if r.name == meta.get("robot")), 0)
+    result = animate(CableSimulator(station), traj, ensure_parent(args.out), robot=robot, fps=args.fps,
+                     width=args.width, height=args.height)
+    print(f"wrote {result['path']} ({result['frames']} frames, {result['duration_s']:.1f} s)")
+    return 0
+
+
 def cmd_bench(args) -> int:
     from .bench import env_benchmark, physics_benchmark, restrictions_benchmark, robustness_benchmark
 
@@ -394,6 +410,14 @@ def build_parser(extensions=None) -> argparse.ArgumentParser:
     ex.add_argument("--speed-fraction", type=number(0, 1, lo_open=True), default=None,
                     help="of the rated joint speeds (default: the plan's, else the station's)")
     ex.set_defaults(func=cmd_export)
+    an = sub.add_parser("animate", help="video of a planned trajectory with the wear measures under it (.mp4/.gif)")
+    an.add_argument("plan", help="trajectory .npz from `dresspack plan --out` or an evaluation's trajectories/")
+    an.add_argument("--out", type=output_file, required=True, help="video path: .mp4 or .gif")
+    an.add_argument("--station", default=None, help="station (default: the one the plan was made for)")
+    an.add_argument("--fps", type=number(1, 60), default=20.0, help="frames per second of motion time")
+    an.add_argument("--width", type=number(16, OFFSCREEN_WIDTH, integer=True, unit="px"), default=640)
+    an.add_argument("--height", type=number(16, OFFSCREEN_HEIGHT, integer=True, unit="px"), default=360)
+    an.set_defaults(func=cmd_animate)
     b = sub.add_parser("bench", help="benchmarks")
     b.add_argument("what", choices=["physics", "restrictions", "env", "robustness"], help="which benchmark")
     b.add_argument("--station", default="default")

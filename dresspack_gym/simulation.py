@@ -177,7 +177,7 @@ class CableSimulator:
     # ------------------------------------------------------------------------------ motion
     def move_to(self, q_target, *, speed_fraction: float | None = None, settle: bool = True,
                 record_every: float | None = None, until: float | None = None,
-                record_states: bool = False) -> MotionTrace:
+                record_states: bool = False, on_sample=None) -> MotionTrace:
         """Move all robots along a straight joint-space segment to ``q_target`` and (optionally) settle.
 
         Duration: the slowest joint at ``speed_fraction`` of its rated speed under the cubic time law
@@ -212,6 +212,8 @@ class CableSimulator:
                 v_before = v_now.copy()
             if stride and (k % stride == 0 or k == steps):
                 self._record(trace, self.motion_time + k * dt, path[k - 1].reshape(start.shape), record_states)
+                if on_sample is not None:
+                    on_sample(self.motion_time + k * dt)
             if until is not None and self.motion_time + k * dt >= until:  # frozen mid-motion (e.g. to render)
                 self.q = path[k - 1].reshape(start.shape).copy()
                 self.motion_time += k * dt

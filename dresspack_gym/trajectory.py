@@ -124,7 +124,7 @@ class Replay:
 
 def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_every: float = 0.05,
            speed_fraction: float | None = None, cost_variant: str = "thesis", start_state=None,
-           until: float | None = None, record_states: bool = True) -> Replay:
+           until: float | None = None, record_states: bool = True, on_sample=None) -> Replay:
     """Run ``traj`` in the simulator from a settled start (``start_state`` or a fresh reset at its first
     waypoint) and record the measures every ``record_every`` s and after settling at every stop.
     With ``until`` the replay stops at that motion time and leaves ``sim`` in that state (to render it).
@@ -147,12 +147,14 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     sim.motion_time = 0.0
     samples_t, samples_q, samples_m = [0.0], [traj.waypoints[0].copy()], [sim.measures()]
     samples_s = [sim.segment_states()[robot]] if record_states else []
+    if on_sample is not None:
+        on_sample(0.0)
     stops = set(traj.stops)
     stop_times = []
     unconverged = 0
     for i, q in enumerate(traj.waypoints[1:], start=1):
         trace = sim.move_to(full(q), speed_fraction=speed_fraction, settle=i in stops, record_every=record_every,
-                            until=until, record_states=record_states)
+                            until=until, record_states=record_states, on_sample=on_sample)
         samples_t += trace.time
         samples_q += [x[robot] for x in trace.q]
         samples_m += trace.measures

@@ -104,3 +104,39 @@ def test_export_command_writes_every_format(tmp_path, capsys):
     (tmp_path / "bad.npz").write_bytes(b"not a zip")
     assert main(["export", str(tmp_path / "bad.npz"), "--format", "krl"], extensions=[]) == 2
     assert "not a saved trajectory" in capsys.readouterr().err
+
+
+def test_animation_has_one_frame_per_sample_and_a_moving_time_cursor(tmp_path):
+    """A short plan as an MP4: one frame at t = 0 and one per 1/fps s of motion, rendered above the measures
+    strip whose red cursor moves right with time."""
+    imageio = pytest.importorskip("imageio.v2")
+    from dresspack_gym.animation import animate
+    from dresspack_gym.loading import load_station
+    from dresspack_gym.simulation import CableSimulator
+
+    station = Station(load_station("default"))
+    home = station.home[0]
+    traj = Trajectory(np.stack([home, home + np.radians([20, 0, 0, 0, 0, 0])]), (1,))
+    fps = 5.0
+    try:
+        result = animate(CableSimulator(station), traj, tmp_path / "a.mp4", fps=fps, width=160, height=96,
+                         strip_height=60)
+    except Exception as exc:  # no offscreen GL on this machine
+        if "rendering is unavailable" in str(exc):
+            pytest.skip(str(exc))
+        raise
+    frames = [f for f in imageio.get_reader(tmp_path / "a.mp4")]
+    duration = TimedPath.of(traj, station.config.robots[0].robot.joint_speed,
+                            station.config.simulation.speed_fraction).times[-1]
+    assert len(frames) == result["frames"] == 1 + int(np.ceil(duration * fps - 1e-9))
+    assert frames[0].shape == (96 + 60, 160, 3)
+
+    def cursor(frame):  # column of the strongest red in the strip
+        strip = frame[96:].astype(int)
+        redness = (strip[..., 0] - strip[..., 1]).clip(0).sum(axis=0)
+        return int(np.argmax(redness))
+
+    cols = [cursor(f) for f in frames]
+    assert cols[-1] > cols[0] + 60 and all(b >= a - 2 for a, b in zip(cols, cols[1:]))
+    with pytest.raises(ConfigError, match="suffix"):
+        animate(CableSimulator(station), traj, tmp_path / "a.avi")
