@@ -69,6 +69,8 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
                            "line, F, d with the c line; dotted lines mark the welds and the return Home."
                            + (f" Not shown (failed every seed): {', '.join(failed)}." if failed else "")))
             blocks += _damage_figures(task, task_replays, fig_dir, figures)
+            if render:
+                blocks += _animations(task, rows, methods, station, out, fig_dir, figures, spec.robot)
     blocks += [("h2", "Damage and fatigue life"), *_life_blocks(rows, methods, replays)]
     blocks.append(("h2", "Joint restrictions"))
     restr = fig_dir / "restrictions.png"
@@ -211,6 +213,26 @@ def _robustness_blocks(folder, fig_dir: Path, figures: dict) -> list[tuple]:
     return blocks
 
 
+ANIMATION = {"fps": 10.0, "width": 320, "height": 180, "strip_height": 70}  # small: every clip is embedded
+
+
+def _animations(task: str, rows, methods, station, out: Path, fig_dir: Path, figures: dict, robot) -> list[tuple]:
+    """A short video per method of its first successful run on ``task``: the cable moving, measures underneath."""
+    from dresspack_gym.animation import animate
+
+    blocks = []
+    for m in methods:
+        row = next((r for r in rows if r["task"] == task and r["method"] == m and r["success"]), None)
+        traj = load_trajectory(out, row) if row is not None else None
+        if traj is None:
+            continue
+        path = fig_dir / f"anim_{_slug(task)}_{_slug(m)}.mp4"
+        animate(CableSimulator(station), traj, path, robot=robot, **ANIMATION)
+        figures[f"animation {task} {m}"] = str(path)
+        blocks.append(("video", str(path), f"{m} (seed {row['seed']}): κ, F/10 and 10·d under the picture"))
+    return blocks
+
+
 def _worst_frames(rows, methods, replays, station, sim, out, fig_dir, figures, robot) -> list[tuple]:
     """Per method: its successful run with the highest instantaneous cost, rendered at that moment."""
     from dresspack_gym.rendering import StationRenderer, save_png
@@ -264,6 +286,8 @@ def _markdown(blocks, out: Path) -> str:
             lines += ["| " + " | ".join(row) + " |" for row in t["rows"]] + [""]
         elif b[0] == "img":
             lines += [f"![{b[2]}]({Path(b[1]).relative_to(out)})", "", f"*{b[2]}*", ""]
+        elif b[0] == "video":
+            lines += [f"[video: {b[2]}]({Path(b[1]).relative_to(out)})", ""]
     return "\n".join(lines)
 
 
@@ -271,7 +295,8 @@ CSS = """body{font-family:system-ui,sans-serif;max-width:1150px;margin:2em auto;
 table{border-collapse:collapse;margin:1em 0;font-size:14px}th,td{border:1px solid #ccc;padding:4px 8px;
 text-align:right}th{background:#f0f0f0}td:first-child,th:first-child{text-align:left;font-weight:600}
 td.failed{color:#b00020;font-weight:600}img{max-width:100%;border:1px solid #ddd}figure{margin:1em 0}
-figcaption{font-size:13px;color:#555}"""
+figcaption{font-size:13px;color:#555}figure.video{display:inline-block;width:32%;margin:0.5em 1% 0.5em 0}
+video{width:100%;border:1px solid #ddd}"""
 
 
 def _html(blocks, title: str) -> str:
@@ -292,5 +317,9 @@ def _html(blocks, title: str) -> str:
             data = base64.b64encode(Path(b[1]).read_bytes()).decode()
             parts.append(f"<figure><img src='data:image/png;base64,{data}' alt='{html.escape(b[2])}'>"
                          f"<figcaption>{html.escape(b[2])}</figcaption></figure>")
+        elif b[0] == "video":
+            data = base64.b64encode(Path(b[1]).read_bytes()).decode()
+            parts.append(f"<figure class=video><video src='data:video/mp4;base64,{data}' autoplay loop muted "
+                         f"playsinline controls></video><figcaption>{html.escape(b[2])}</figcaption></figure>")
     parts.append("</body></html>")
     return "\n".join(parts)

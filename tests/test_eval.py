@@ -67,6 +67,14 @@ def test_report_files_and_embedded_figures(tiny_report):
     assert len(csv_lines) == 1 + 4
 
 
+def test_report_embeds_an_animation_per_successful_method(tiny_report):
+    html_text = (tiny_report / "report.html").read_text()
+    videos = sorted((tiny_report / "figures").glob("anim_*.mp4"))
+    ok = {r["method"] for r in json.loads((tiny_report / "results.json").read_text())["rows"] if r["success"]}
+    assert len(videos) == len(ok) >= 1 and all(v.stat().st_size > 1000 for v in videos)
+    assert html_text.count("data:video/mp4;base64,") == len(videos)
+
+
 def test_json_summary_keys_and_resume(tiny_report, capsys):
     code = main(["--methods", "ompl", "random", "--tasks", "roof_rail_top", "--seeds", "0", "1",
                  "--time-budget", "5", "--out", str(tiny_report), "--json", "--no-render"])
@@ -117,3 +125,4 @@ def test_report_shows_damage_and_life_per_method(tiny_report):
             assert float(row["shortest life [cycles]"]) > 0 and row["weakest segment (shortest)"].endswith(" m")
     assert list((tiny_report / "figures").glob("damage_roof_rail_top*.png"))
     assert list((tiny_report / "figures").glob("damage_strip_roof_rail_top*.png"))
+
