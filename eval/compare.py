@@ -13,6 +13,7 @@ from pathlib import Path
 from dresspack.agents.cli import add_budget_arguments
 from dresspack.agents.planning import PLANNERS
 from dresspack_gym.cli_args import number, output_dir, seed
+from dresspack_gym.cost_variants import COST_VARIANTS
 from dresspack_gym.errors import DresspackError
 
 from .report import write_report
@@ -32,6 +33,8 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
     p.add_argument("--start-noise-deg", type=number(0, 90, unit="deg"), default=defaults.start_noise_deg,
                    help="> 0: each seed starts at a valid configuration within this many degrees of Home")
     p.add_argument("--policy", default=None, help="ppo/random: run folder, model .zip or shipped policy name")
+    p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default=defaults.cost_variant,
+                   help="wear cost the wear-aware planners minimise and the tables report (default: thesis)")
     p.add_argument("--robustness-map", default=None, help="robustness map folder to include in the report")
     p.add_argument("--no-render", action="store_true", help="skip the rendered worst-wear frames")
     p.add_argument("--out", type=output_dir, default="out/eval",
@@ -44,7 +47,7 @@ def spec_from_args(args) -> EvalSpec:
                     tasks=tuple(tuple(w for w in t.split(",") if w) for t in args.tasks), seeds=tuple(args.seeds),
                     iterations=args.iterations, evaluations=args.evaluations, routes=args.routes,
                     time_budget=args.time_budget,
-                    start_noise_deg=args.start_noise_deg, policy=args.policy)
+                    start_noise_deg=args.start_noise_deg, policy=args.policy, cost_variant=args.cost_variant)
 
 
 def evaluate_and_report(args) -> int:

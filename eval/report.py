@@ -56,7 +56,7 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
         for m in methods:
             r = next((r for r in rows if r["task"] == task and r["method"] == m and r["success"]), None)
             if r is not None:
-                rep = replays.get(r["key"]) or _replay_saved(sim, out, r, spec.robot)
+                rep = replays.get(r["key"]) or _replay_saved(sim, out, r, spec.robot, spec.cost_variant)
                 if rep is not None:
                     replays[r["key"]] = rep
                     task_replays[f"{m} (seed {r['seed']})"] = rep
@@ -81,7 +81,8 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
         blocks += [("h2", "Robustness map")] + _robustness_blocks(robustness_map, fig_dir, figures)
     if render:
         blocks += [("h2", "Worst-wear moment per method")] + _worst_frames(rows, methods, replays, station, sim, out,
-                                                                          fig_dir, figures, spec.robot)
+                                                                          fig_dir, figures, spec.robot,
+                                                                          spec.cost_variant)
     blocks += [("h2", "Files"), ("p", "results.json (spec, per-method summary, every row), results.csv (one row "
                                        "per method × task × seed), results.jsonl (the resumable log), "
                                        "trajectories/ (each trajectory, replayable), figures/.")]
@@ -96,8 +97,10 @@ def _intro(spec: EvalSpec, station: Station) -> str:
               if spec.start_noise_deg > 0 else "every run starts at Home")
     return (f"Methods {', '.join(spec.methods)} on {len(spec.tasks)} task(s) × seeds {list(spec.seeds)} "
             f"({starts}; every task ends at Home). Every trajectory is replayed in the same cable simulator "
-            f"(timestep {station.config.simulation.timestep * 1000:g} ms); wear cost C is eq. (4.10) with the "
-            f"station's weights and ∫C dt its time integral. Planners get {spec.iterations} OMPL iterations per "
+            f"(timestep {station.config.simulation.timestep * 1000:g} ms); wear cost C is "
+            + {"thesis": "eq. (4.10) with the station's weights", "normalized": "the normalized eq. (4.10)",
+               "damage": "the worst segment's damage rate (dresspack damage weights)"}[spec.cost_variant]
+            + f" and ∫C dt its time integral. Planners get {spec.iterations} OMPL iterations per "
             f"connection, {spec.routes} sampled routes per leg (ompl-wear) and {spec.evaluations} cable-leg "
             "evaluations of refinement per plan"
             + (f", capped at {spec.time_budget:g} s. " if spec.time_budget is not None else ". ")
@@ -193,9 +196,9 @@ def _ranks(values) -> np.ndarray:
     return np.argsort(np.argsort(values)).astype(float)
 
 
-def _replay_saved(sim: CableSimulator, out: Path, row: dict, robot: int) -> Replay | None:
+def _replay_saved(sim: CableSimulator, out: Path, row: dict, robot: int, cost_variant: str = "thesis") -> Replay | None:
     traj = load_trajectory(out, row)
-    return None if traj is None else replay(sim, traj, robot=robot)
+    return None if traj is None else replay(sim, traj, robot=robot, cost_variant=cost_variant)
 
 
 def _robustness_blocks(folder, fig_dir: Path, figures: dict) -> list[tuple]:
@@ -233,7 +236,8 @@ def _animations(task: str, rows, methods, station, out: Path, fig_dir: Path, fig
     return blocks
 
 
-def _worst_frames(rows, methods, replays, station, sim, out, fig_dir, figures, robot) -> list[tuple]:
+def _worst_frames(rows, methods, replays, station, sim, out, fig_dir, figures, robot,
+                  cost_variant: str = "thesis") -> list[tuple]:
     """Per method: its successful run with the highest instantaneous cost, rendered at that moment."""
     from dresspack_gym.rendering import StationRenderer, save_png
 
@@ -246,7 +250,7 @@ def _worst_frames(rows, methods, replays, station, sim, out, fig_dir, figures, r
                 blocks.append(("p", f"{m}: no successful run to render."))
                 continue
             worst = max(ok, key=lambda r: r.get("max_cost") or 0.0)
-            rep = replays.get(worst["key"]) or _replay_saved(sim, out, worst, robot)
+            rep = replays.get(worst["key"]) or _replay_saved(sim, out, worst, robot, cost_variant)
             traj = load_trajectory(out, worst)
             if rep is None or traj is None:
                 continue

@@ -16,7 +16,8 @@ from tqdm.auto import tqdm
 
 from dresspack.agents.base import PlanningError
 from dresspack.agents.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Budget
-from dresspack.agents.planning import PLANNERS, POLICY_METHODS, make_planner
+from dresspack.agents.planning import PLANNERS, POLICY_METHODS, WEAR_AWARE, make_planner
+from dresspack_gym.cost_variants import cost_function
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.loading import load_station
 from dresspack_gym.simulation import CableSimulator
@@ -42,6 +43,7 @@ class EvalSpec:
     routes: int = DEFAULT_ROUTES  # candidate routes per leg that ompl-wear samples and scores
     time_budget: float | None = None  # optional wall-time cap per plan [s] (a capped plan depends on load)
     start_noise_deg: float = 0.0  # > 0: each seed starts at its own valid configuration near Home
+    cost_variant: str = "thesis"  # the wear cost the wear-aware planners minimise and every replay reports
     policy: str | None = None  # run folder / model / shipped name for ppo (and the random floor's env)
     robot: int = 0
 
@@ -54,6 +56,7 @@ class EvalSpec:
         if not self.seeds:
             raise ConfigError("seeds", "give at least one seed")
         Budget(self.iterations, self.evaluations, self.routes, self.time_budget)  # checks them, naming the field
+        cost_function(self.cost_variant)  # names the field if unknown
         if not 0 <= self.start_noise_deg <= 90:
             raise ConfigError("start_noise_deg", f"must be in [0, 90] deg, got {self.start_noise_deg}")
 
@@ -137,6 +140,8 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) ->
             continue
         bar.set_postfix_str(f"{method} on {'+'.join(welds)}, seed {seed}")
         kwargs = {"policy": spec.policy} if method in POLICY_METHODS else {}
+        if method in WEAR_AWARE:
+            kwargs["cost_variant"] = spec.cost_variant
         if (method, seed) not in planners:  # loading a policy or building a validity checker once per seed
             planners[(method, seed)] = make_planner(method, station, spec.robot, seed=seed,
                                                     iterations=spec.iterations, evaluations=spec.evaluations,
@@ -151,7 +156,7 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) ->
         except PlanningError as exc:
             row.update(success=False, error=str(exc), **dict.fromkeys(METRICS))
         else:
-            rep = replay(sim, result.trajectory, robot=spec.robot)
+            rep = replay(sim, result.trajectory, robot=spec.robot, cost_variant=spec.cost_variant)
             replays[key] = rep
             s = rep.summary()
             row.update(success=True, error=None, planning_time=round(result.planning_time, 4),

@@ -208,3 +208,14 @@ def test_plan_json_errors_are_json(capsys):
     assert dresspack_main(["plan", "default", "--welds", "nope", "--json"]) == 2
     out = json.loads(capsys.readouterr().out)
     assert out["field"] == "welds" and "nope" in out["error"]
+
+
+def test_eval_cost_variant_damage_reports_the_integrated_damage_rate(tmp_path, capsys):
+    out = tmp_path / "e"
+    assert eval_main(["--methods", "ompl", "--tasks", "roof_rail_top", "--seeds", "0", "--iterations", "300",
+                      "--cost-variant", "damage", "--no-render", "--json", "--out", str(out)]) == 0
+    row = json.loads((out / "results.jsonl").read_text().splitlines()[0])
+    assert row["cost_terms"]["damage"] == pytest.approx(row["cost"]) and row["cost_terms"]["curvature"] == 0.0
+    assert "damage rate" in (out / "report.md").read_text()
+    with pytest.raises(SystemExit):
+        eval_main(["--cost-variant", "cheap", "--out", str(tmp_path / "x")])
