@@ -34,7 +34,7 @@ import numpy as np
 from .cable_shape import node_vertices
 from .config import CableNode, DresspackConfig
 from .errors import ConfigError
-from .robot_model import OBSTACLE_BITS, ROBOT_ARMATURE, ROBOT_BITS, body_name, mat_to_quat
+from .robot_model import ROBOT_ARMATURE, body_name, cable_affinity, cable_bits, mat_to_quat
 
 CABLE_RGBA = (0.1, 0.1, 0.12, 1.0)
 # Constant impedance of the edge constraints: with solimp flat at d the static stiffness of an edge row
@@ -209,7 +209,7 @@ def apply_edge_invweight(model: mujoco.MjModel, flex_ids, invweight: float) -> N
 
 def add_cable(spec: mujoco.MjSpec, robot: str, dresspack: DresspackConfig, *, zero_frames: list[np.ndarray],
               home_frames: list[np.ndarray], home_shape: np.ndarray,
-              bending_damping: float) -> CableLayout:
+              bending_damping: float, index: int = 0, n_robots: int = 1) -> CableLayout:
     """Add the dresspack of ``robot`` to ``spec``.
 
     ``zero_frames`` / ``home_frames``: world pose of each node's holder with the robot at qpos0 (all
@@ -285,7 +285,7 @@ def add_cable(spec: mujoco.MjSpec, robot: str, dresspack: DresspackConfig, *, ze
         free.append(v)
     pieces = rod_pieces(robot, dresspack)
     solref, solimp, _ = edge_constraint(dresspack)
-    affinity = OBSTACLE_BITS | (ROBOT_BITS if dresspack.collide_with_robot else 0)
+    affinity = cable_affinity(index, n_robots, dresspack.collide_with_robot)
     polar = 0.5 * rho_h * dresspack.radius ** 2  # per-edge polar moment of inertia (solid circle)
     for piece in pieces:
         for e in range(piece.n_edges):  # twist hinges in edge order (MuJoCo binds them by name)
@@ -304,7 +304,7 @@ def add_cable(spec: mujoco.MjSpec, robot: str, dresspack: DresspackConfig, *, ze
         f.elem = [i for e in range(piece.n_edges) for i in (e, e + 1)]
         f.young, f.shear, f.damping = dresspack.young_modulus, dresspack.shear_modulus, bending_damping
         f.rgba = list(CABLE_RGBA)
-        f.contype, f.conaffinity, f.condim = 0, affinity, 3
+        f.contype, f.conaffinity, f.condim = cable_bits(index), affinity, 3
         f.friction = [0.5, 0.005, 0.0001]
         f.selfcollide = mujoco.mjtFlexSelf.mjFLEXSELF_NONE
         f.solref = list(CONTACT_SOLREF)

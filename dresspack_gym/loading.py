@@ -15,6 +15,7 @@ from .config import (DresspackConfig, RobotConfig, RobotPlacement, SimulationCon
 from .errors import ConfigError
 from .joint_limits import check_within_limits
 from .restrictions import RestrictionSet
+from .robot_model import MAX_ROBOTS
 from .shipped import find_shipped, shipped_names, shipped_root
 from .validation import Section, check_unique
 
@@ -110,6 +111,8 @@ def station_from_dict(data: Mapping[str, Any], base_dir: Path = CONFIG_DIR / "st
                                      robustness_map))
     if not robots:
         raise ConfigError("robots", "a station needs at least one robot")
+    if len(robots) > MAX_ROBOTS:
+        raise ConfigError("robots", f"{len(robots)} robots: a station holds at most {MAX_ROBOTS}")
     names = [r.name for r in robots]
     check_unique(names, "robots", "robot")
     obstacles = tuple(obstacle_from_section(o) for o in s.sections("obstacles", []))

@@ -10,8 +10,30 @@ from .kinematics import rpy_matrix
 
 # Contact bits shared by all builders: obstacles and robot links are hit by cables only;
 # robot-obstacle collisions are queried explicitly (the robot is kinematic, contacts cannot stop it).
+# Each robot's links and each robot's cable have a bit of their own, so a cable can touch the other robots and
+# their cables while its own pieces never touch each other (and its own robot only if asked).
 OBSTACLE_BITS = 1
-ROBOT_BITS = 2
+MAX_ROBOTS = 8  # 1 + 2 x 8 contact bits
+
+
+def robot_bits(index: int) -> int:
+    """Contact bit of robot ``index``'s links."""
+    return 1 << (1 + index)
+
+
+def cable_bits(index: int) -> int:
+    """Contact bit of robot ``index``'s cable."""
+    return 1 << (1 + MAX_ROBOTS + index)
+
+
+def cable_affinity(index: int, n_robots: int, own_robot: bool) -> int:
+    """What robot ``index``'s cable touches: obstacles, the other robots and their cables, and (``own_robot``)
+    the links of its own robot."""
+    bits = OBSTACLE_BITS | (robot_bits(index) if own_robot else 0)
+    for j in range(n_robots):
+        if j != index:
+            bits |= robot_bits(j) | cable_bits(j)
+    return bits
 # A kinematic robot: huge joint inertia so cable reactions cannot move it within a step, and its
 # joint positions/velocities are overwritten every substep anyway.
 ROBOT_ARMATURE = 1e6
@@ -33,8 +55,8 @@ def joint_name(robot: str, j: int) -> str:
     return f"{robot}/j{j + 1}"
 
 
-def add_robot(spec: mujoco.MjSpec, placement: RobotPlacement) -> None:
-    """Add base, link1..link6, flange and TCP sites of one robot to ``spec``."""
+def add_robot(spec: mujoco.MjSpec, placement: RobotPlacement, index: int = 0) -> None:
+    """Add base, link1..link6, flange and TCP sites of robot number ``index`` to ``spec``."""
     name = placement.name
     k = placement.robot.kinematics
     lim = placement.robot.joint_limits
@@ -67,7 +89,7 @@ def add_robot(spec: mujoco.MjSpec, placement: RobotPlacement) -> None:
                              size=[0.015, 0, 0], rgba=[1, 0, 0, 1])
     for i, prim in enumerate(placement.robot.collision):
         g = bodies[prim.link].add_geom(name=f"{name}/{prim.link}_geom{i}", rgba=list(ROBOT_RGBA))
-        g.contype = ROBOT_BITS
+        g.contype = robot_bits(index)
         g.conaffinity = 0
         _set_primitive(g, prim.type, prim.size, prim.pos, prim.rpy, prim.fromto)
 

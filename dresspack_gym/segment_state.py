@@ -118,21 +118,40 @@ class SegmentStateReader:
         for i in range(data.ncon):
             c = data.contact[i]
             for side in (0, 1):
-                verts = self.flex_vertex.get(int(c.flex[side]))
-                if verts is None or c.vert[side] < 0:
+                touched = self._touched(data, c, side)
+                if not touched:
                     continue
-                v = int(verts[c.vert[side]])
                 mujoco.mj_contactForce(m, data, i, self._force)
                 frame = c.frame.reshape(3, 3)  # rows: normal, two tangents
                 speed = 0.0
                 if live is not None:
-                    rel = self._velocity_at(live, self.vertex_body[v], c.pos) - self._other_velocity(live, c, side)
+                    mine = sum(w * self._velocity_at(live, self.vertex_body[v], c.pos) for v, w in touched)
+                    rel = mine - self._other_velocity(live, c, side)
                     speed = float(np.linalg.norm(rel - np.dot(rel, frame[0]) * frame[0]))
                 fn = abs(float(self._force[0]))
-                normal[v] += fn
-                friction[v] += c.friction[0] * fn if speed > SLIP_SPEED else float(np.linalg.norm(self._force[1:3]))
-                slip[v] = max(slip[v], speed)
+                ft = c.friction[0] * fn if speed > SLIP_SPEED else float(np.linalg.norm(self._force[1:3]))
+                for v, w in touched:  # an edge contact is shared by its two vertices by where it lies
+                    normal[v] += w * fn
+                    friction[v] += w * ft
+                    slip[v] = max(slip[v], speed)
         return normal, friction, slip
+
+    def _touched(self, data: mujoco.MjData, c, side: int) -> list[tuple[int, float]]:
+        """(vertex, share) of this cable that contact ``c`` touches on ``side``: a vertex (contacts with geoms)
+        or an edge (flex-flex contacts), split between its two vertices by the contact point's position."""
+        verts = self.flex_vertex.get(int(c.flex[side]))
+        if verts is None:
+            return []
+        if c.vert[side] >= 0:
+            return [(int(verts[c.vert[side]]), 1.0)]
+        e = int(c.elem[side])
+        if e < 0 or e + 1 >= len(verts):
+            return []
+        a, b = int(verts[e]), int(verts[e + 1])
+        pa, pb = data.flexvert_xpos[self.cable.point_rows[a]], data.flexvert_xpos[self.cable.point_rows[b]]
+        axis = pb - pa
+        s = float(np.clip(np.dot(c.pos - pa, axis) / max(float(axis @ axis), 1e-15), 0.0, 1.0))
+        return [(a, 1.0 - s), (b, s)]
 
     def _velocity_at(self, data: mujoco.MjData, body: int, point: np.ndarray) -> np.ndarray:
         """Linear velocity of ``body``'s material point at ``point`` (world frame)."""
@@ -140,10 +159,17 @@ class SegmentStateReader:
         return self._vel[3:] + np.cross(self._vel[:3], point - data.xipos[body])
 
     def _other_velocity(self, data: mujoco.MjData, c, side: int) -> np.ndarray:
+        """Velocity of what the cable touches at the contact: a geom's body, or a flex vertex / edge (another
+        robot's cable; the body ids of its vertices are the model's, so any flex works)."""
         other = 1 - side
         if c.geom[other] >= 0:
             return self._velocity_at(data, int(self.model.geom_bodyid[c.geom[other]]), c.pos)
-        verts = self.flex_vertex.get(int(c.flex[other]))
-        if verts is not None and c.vert[other] >= 0:  # the cable touching itself
-            return self._velocity_at(data, self.vertex_body[int(verts[c.vert[other]])], c.pos)
-        return np.zeros(3)
+        flex = int(c.flex[other])
+        if flex < 0:
+            return np.zeros(3)
+        adr = int(self.model.flex_vertadr[flex])
+        if c.vert[other] >= 0:
+            return self._velocity_at(data, int(self.model.flex_vertbodyid[adr + c.vert[other]]), c.pos)
+        e = int(c.elem[other])  # a 1D flex's element e joins its local vertices e and e + 1
+        bodies = self.model.flex_vertbodyid[adr + e:adr + e + 2]
+        return 0.5 * sum(self._velocity_at(data, int(b), c.pos) for b in bodies)

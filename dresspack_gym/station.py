@@ -161,8 +161,8 @@ class Station:
                                     size=[0.01, 0.01, 0], rgba=[0, 0, 0, 0], group=5)
         probe.contype, probe.conaffinity = 0, 0
         self._attachments = []
-        for r in config.robots:
-            add_robot(spec, r)
+        for i, r in enumerate(config.robots):
+            add_robot(spec, r, i)
         self._home_shapes = []
         for i, r in enumerate(config.robots):
             kin = RobotKinematics(r.robot, r.base_pos, r.base_yaw)
@@ -175,7 +175,8 @@ class Station:
             self._home_shapes.append(home_shape)
             self._attachments.append(add_cable(spec, r.name, r.dresspack, zero_frames=zero_frames,
                                                home_frames=home_frames, home_shape=home_shape,
-                                               bending_damping=sim.bending_damping))
+                                               bending_damping=sim.bending_damping, index=i,
+                                               n_robots=len(config.robots)))
         return spec
 
     def _add_obstacle(self, spec: mujoco.MjSpec, o) -> None:

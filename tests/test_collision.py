@@ -83,3 +83,61 @@ def test_dresspack_nodes_on_links_are_robot_geometry():
     assert checker.min_distance(station.home[0]) == pytest.approx(gap, abs=2e-3)
     assert RobotCollisionChecker(station, margin=gap + 0.01).collides(station.home[0])
     assert not RobotCollisionChecker(station, margin=gap - 0.01).collides(station.home[0])
+
+
+def _two_cable_station(offset: float):
+    """Two robots parked far away, each with a nearly taut cable strung between world nodes; the cables cross
+    at their middles, the second ``offset`` above the first (both 3 cm thick)."""
+    import copy
+
+    from dresspack_gym.loading import station_from_dict
+    from dresspack_gym.station import Station
+    from helpers import THESIS_CABLE
+
+    def cable(a, b):
+        dp = copy.deepcopy(THESIS_CABLE)
+        dp.update(length=1.21, segments=22)
+        d = (np.asarray(b) - np.asarray(a)).tolist()
+        dp["nodes"] = [{"name": "a", "body": "world", "pos": a, "direction": d},
+                       {"name": "b", "body": "world", "pos": b, "direction": d}]
+        return dp
+
+    z = 1.5
+    robots = [{"name": "r1", "robot": "abb_irb6700_200_260", "dresspack": cable([0, -0.6, z], [0, 0.6, z]),
+               "base_pos": [-20, -20, 0], "home_deg": [0, 0, 0, 0, 0, 0]},
+              {"name": "r2", "robot": "abb_irb6700_200_260",
+               "dresspack": cable([-0.6, 0, z + offset], [0.6, 0, z + offset]),
+               "base_pos": [20, 20, 0], "home_deg": [0, 0, 0, 0, 0, 0]}]
+    return Station(station_from_dict({"name": "crossing", "robots": robots, "floor": False}))
+
+
+def test_cables_of_different_robots_rest_on_each_other():
+    """Crossing cables of two robots touch: at rest the upper one lies on the lower, their centre lines one
+    diameter apart at the crossing (none passes through), the contact force equal on both and the nodes of each
+    carrying its weight plus or minus that force."""
+    from dresspack_gym.simulation import CableSimulator
+
+    station = _two_cable_station(0.05)
+    sim = CableSimulator(station)
+    sim.settle(6.0)
+    assert sim.last_settle.converged
+    lower, upper = sim.cable_points(0), sim.cable_points(1)
+    i = int(np.argmin(np.abs(lower[:, 1])))  # the lower cable's vertex at the crossing (y = 0)
+    j = int(np.argmin(np.abs(upper[:, 0])))
+    gap = upper[j, 2] - lower[i, 2]
+    assert gap == pytest.approx(2 * 0.03, abs=0.012)  # one diameter (a vertex may sit up to h/2 from the crossing)
+    state = sim.segment_states()
+    assert state[0].normal_force.sum() > 0.5 and state[1].normal_force.sum() > 0.5
+    free = _two_cable_station(0.5)  # far apart: no contact, both sag freely and alike
+    sim2 = CableSimulator(free)
+    sim2.settle(6.0)
+    assert sim2.segment_states()[0].normal_force.sum() == 0.0
+    assert lower[i, 2] < sim2.cable_points(0)[i, 2] - 0.002  # the upper cable's weight pushes the lower one down
+    # vertical balance of each cable: its nodes carry its weight plus (lower) or minus (upper) the contact force
+    weight = 1.25 * 1.21 * 9.81
+    contact = state[0].normal_force.sum()
+    assert state[1].normal_force.sum() == pytest.approx(contact, rel=1e-9)  # action = reaction
+    for r, expected in ((0, weight + contact), (1, weight - contact)):
+        forces, _ = sim.node_loads(r)
+        rot = [sim.data.xmat[b].reshape(3, 3) for b in station.cables[r].node_bodies]
+        assert -sum((R @ f)[2] for R, f in zip(rot, forces)) == pytest.approx(expected, rel=0.02)
