@@ -22,3 +22,26 @@ def test_station_settles_with_finite_measures(name):
     assert sim.max_vertex_speed() < 0.05
     for w in station.config.weld_points:
         assert len(allowed_weld_configurations(station, station.config.robot_index(w.robot), w.name)) > 0
+
+
+def test_four_robot_station_every_weld_reachable_by_its_robot_and_cables_apart():
+    """side_framing_4r: 4 robots, 40 weld points, each with a restriction-passing, collision-free IK branch for
+    its assigned robot; every cable settles at Home without touching another robot or cable."""
+    from dresspack_gym.loading import load_station
+    from dresspack_gym.simulation import CableSimulator
+    from dresspack_gym.station import Station
+    from dresspack_gym.tasks import select_weld_goals
+    from dresspack_gym.validity import PLANNER_MARGIN, MotionValidity
+
+    station = Station(load_station("side_framing_4r"))
+    assert station.n_robots == 4 and len(station.config.weld_points) == 40 and not station.unreachable_welds
+    for i, r in enumerate(station.config.robots):
+        validity = MotionValidity(station, i, margin=PLANNER_MARGIN)
+        assert validity.valid(r.home)
+        names = [w.name for w in station.config.weld_points if w.robot == r.name]
+        assert len(names) == 10
+        goals = select_weld_goals(station, i, validity.checker.collides, names)
+        assert all(validity.valid(q) for q in goals.values())
+    sim = CableSimulator(station)
+    assert sim.last_settle.converged
+    assert all(s.normal_force.sum() == 0.0 for s in sim.segment_states())
