@@ -34,6 +34,8 @@ def add_plan_command(sub) -> None:
     p.add_argument("station", help="station or thesis scenario (YAML or shipped name, e.g. thesis_tension)")
     p.add_argument("--planner", choices=list(PLANNERS), default="ompl")
     p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--robot", type=number(0, 7, integer=True), default=0,
+                   help="index of the robot to plan for (default 0; its weld points by default)")
     add_budget_arguments(p)
     p.add_argument("--welds", nargs="+", default=None, help="weld point names in visiting order (default: all)")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis",
@@ -59,7 +61,7 @@ def cmd_plan(args) -> int:
         extra = {"policy": args.policy} if args.planner in POLICY_METHODS else {}
         run = plan_station(args.station, args.planner, seed=args.seed, iterations=args.iterations,
                            evaluations=args.evaluations, routes=args.routes, time_budget=args.time_budget,
-                           welds=args.welds, cost_variant=args.cost_variant, **extra)
+                           welds=args.welds, cost_variant=args.cost_variant, robot=args.robot, **extra)
     except PlanningError as exc:  # a failed plan is a result, not a crash
         if args.json:
             print(json.dumps({"method": args.planner, "success": False, "error": str(exc)}, indent=2))

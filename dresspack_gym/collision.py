@@ -20,6 +20,7 @@ class RobotCollisionChecker:
     """
 
     def __init__(self, station: Station, robot: int = 0, margin: float = 0.0):
+        robot = station.check_robot(robot)
         self.station = station
         self.model = station.model
         self.data = mujoco.MjData(self.model)

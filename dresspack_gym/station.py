@@ -135,6 +135,14 @@ class Station:
     def n_robots(self) -> int:
         return len(self.robots)
 
+    def check_robot(self, index, field: str = "robot") -> int:
+        """``index`` if it names one of the station's robots, else a ConfigError listing them."""
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not 0 <= index < self.n_robots:
+            names = [r.name for r in self.robots]
+            raise ConfigError(field, f"robot index {index!r} does not exist: this station's robots are "
+                                     f"{dict(enumerate(names))}")
+        return int(index)
+
     # ------------------------------------------------------------------------------------ build
     def _build_spec(self, config: StationConfig) -> mujoco.MjSpec:
         sim = config.simulation

@@ -24,6 +24,7 @@ class MotionValidity:
     """
 
     def __init__(self, station: Station, robot: int = 0, margin: float = 0.0, resolution_deg: float = 2.0):
+        robot = station.check_robot(robot)
         placement = station.config.robots[robot]
         self.limits = placement.robot.joint_limits
         self.restrictions = placement.restrictions

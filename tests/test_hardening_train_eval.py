@@ -208,6 +208,16 @@ def test_plan_json_errors_are_json(capsys):
     assert dresspack_main(["plan", "default", "--welds", "nope", "--json"]) == 2
     out = json.loads(capsys.readouterr().out)
     assert out["field"] == "welds" and "nope" in out["error"]
+    assert dresspack_main(["plan", "default", "--robot", "3", "--json"]) == 2  # the station has one robot
+    out = json.loads(capsys.readouterr().out)
+    assert out["field"] == "robot" and "r1" in out["error"]
+
+
+def test_plan_for_one_robot_of_the_four_robot_station(capsys):
+    assert dresspack_main(["plan", "side_framing_4r", "--robot", "2", "--welds", "r3_sill_1", "--iterations", "300",
+                           "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["success"] and out["welds"] == ["r3_sill_1"] and out["life_cycles"] > 0
 
 
 def test_eval_cost_variant_damage_reports_the_integrated_damage_rate(tmp_path, capsys):
