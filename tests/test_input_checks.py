@@ -161,7 +161,8 @@ def _numeric_flags():
 REQUIRED = {"render": ["default", "--out", "x.png"], "robustness-map": ["--grid", "small", "--station", "default",
                                                                         "--out", "m"],
             "robustness-paths": ["--grid", "small", "--station", "default", "--out", "m"],
-            "restrictions": ["default"], "twist-sweep": ["default"], "bench": ["physics"], "inspect": ["default"]}
+            "restrictions": ["default"], "twist-sweep": ["default"], "bench": ["physics"], "inspect": ["default"],
+            "export": ["p.npz", "--format", "csv"], "animate": ["p.npz", "--out", "x.mp4"]}
 
 
 def _out_of_range(bounds):
