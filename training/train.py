@@ -11,6 +11,7 @@ Run folder: ``config.yaml`` (resolved), ``command.txt`` (every launch), ``versio
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import warnings
 import platform
@@ -82,9 +83,19 @@ def make_vec_env(cfg: TrainConfig, seed: int, n_envs: int | None = None):
 
     n = cfg.n_envs if n_envs is None else n_envs
     subproc = cfg.vec_env == "subproc" and n > 1
-    return sb3_make_vec_env(cfg.env_id, n_envs=n, seed=seed, env_kwargs=cfg.env_kwargs,
+    return sb3_make_vec_env(functools.partial(_make_env, cfg.env_id), n_envs=n, seed=seed, env_kwargs=cfg.env_kwargs,
                             vec_env_cls=SubprocVecEnv if subproc else DummyVecEnv,
                             vec_env_kwargs={"start_method": "forkserver"} if subproc else None)
+
+
+def _make_env(env_id: str, **kwargs):
+    """One env in a worker process: a forkserver worker has imported only what ``__main__`` imports, so the
+    dresspack ids are registered here (training started from pytest or a notebook finds them too)."""
+    import gymnasium as gym
+
+    import dresspack_gym  # noqa: F401  (registers the env ids)
+
+    return gym.make(env_id, **kwargs)
 
 
 def _new_model(cfg: TrainConfig, env, tb_dir: Path):
