@@ -48,11 +48,13 @@ def _strip(rep: Replay, width: int, height: int) -> tuple[np.ndarray, callable]:
 
 
 def animate(sim: CableSimulator, traj: Trajectory, out: str | Path, *, robot: int = 0, fps: float = 20.0,
-            width: int = 640, height: int = 360, strip_height: int = 120, camera=None) -> dict:
+            width: int = 640, height: int = 360, strip_height: int = 120, camera=None,
+            measured: Replay | None = None) -> dict:
     """Write the video of ``traj`` replayed from its start; returns {"path", "frames", "duration_s"}.
 
     Frames are the replay's samples every 1/fps s of motion time (the settles at the welds take no motion time,
-    so they show as one frame), rendered during a second, identical replay (the simulation is deterministic)."""
+    so they show as one frame), rendered during a second, identical replay (the simulation is deterministic);
+    ``measured``, a replay of the same trajectory already made, saves the first."""
     out = Path(out)
     if out.suffix not in VIDEO_FORMATS:
         raise ConfigError("out", f"{out.name}: the video format is chosen by the suffix, one of {list(VIDEO_FORMATS)}")
@@ -60,7 +62,8 @@ def animate(sim: CableSimulator, traj: Trajectory, out: str | Path, *, robot: in
         raise ConfigError("fps", f"must be in [1, 60], got {fps}")
     import imageio.v2 as imageio
 
-    rep = replay(sim, traj, robot=robot, record_every=1.0 / fps, record_states=False)
+    rep = measured if measured is not None else replay(sim, traj, robot=robot, record_every=1.0 / fps,
+                                                       record_states=False)
     strip, column = _strip(rep, width, strip_height)
     renderer = StationRenderer(sim.station.model, width=width, height=height)
     cam = camera if camera is not None else default_camera(sim.station.model)

@@ -70,7 +70,7 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
                            + (f" Not shown (failed every seed): {', '.join(failed)}." if failed else "")))
             blocks += _damage_figures(task, task_replays, fig_dir, figures)
             if render:
-                blocks += _animations(task, rows, methods, station, out, fig_dir, figures, spec.robot)
+                blocks += _animations(task, rows, methods, station, out, fig_dir, figures, spec.robot, replays)
     blocks += [("h2", "Damage and fatigue life"), *_life_blocks(rows, methods, replays)]
     blocks.append(("h2", "Joint restrictions"))
     restr = fig_dir / "restrictions.png"
@@ -219,7 +219,8 @@ def _robustness_blocks(folder, fig_dir: Path, figures: dict) -> list[tuple]:
 ANIMATION = {"fps": 10.0, "width": 320, "height": 180, "strip_height": 70}  # small: every clip is embedded
 
 
-def _animations(task: str, rows, methods, station, out: Path, fig_dir: Path, figures: dict, robot) -> list[tuple]:
+def _animations(task: str, rows, methods, station, out: Path, fig_dir: Path, figures: dict, robot,
+                replays: dict[str, Replay]) -> list[tuple]:
     """A short video per method of its first successful run on ``task``: the cable moving, measures underneath."""
     from dresspack_gym.animation import animate
 
@@ -230,7 +231,7 @@ def _animations(task: str, rows, methods, station, out: Path, fig_dir: Path, fig
         if traj is None:
             continue
         path = fig_dir / f"anim_{_slug(task)}_{_slug(m)}.mp4"
-        animate(CableSimulator(station), traj, path, robot=robot, **ANIMATION)
+        animate(CableSimulator(station), traj, path, robot=robot, measured=replays.get(row["key"]), **ANIMATION)
         figures[f"animation {task} {m}"] = str(path)
         blocks.append(("video", str(path), f"{m} (seed {row['seed']}): κ, F/10 and 10·d under the picture"))
     return blocks

@@ -327,3 +327,14 @@ def test_json_calls_get_json_errors(argv, field, capsys):
     assert main(argv, extensions=[]) == 2
     out = json.loads(capsys.readouterr().out)
     assert out["field"] == field and field.lstrip("-") in out["error"]
+
+
+def test_damaged_robustness_map_folder_is_a_clear_error(tmp_path):
+    from dresspack_gym.robustness.query import RobustnessMap
+
+    (tmp_path / "meta.json").write_text("{not json")
+    with pytest.raises(ConfigError, match="damaged"):
+        RobustnessMap(tmp_path)
+    (tmp_path / "meta.json").write_text("{}")
+    with pytest.raises(ConfigError, match="lacks"):
+        RobustnessMap(tmp_path)

@@ -116,3 +116,15 @@ def test_masked_policy_never_enters_a_forbidden_configuration(tmp_path):
             assert np.all(q >= limits[:, 0] - 1e-9) and np.all(q <= limits[:, 1] + 1e-9)
             assert env.restrictions.allowed(q)[0]
             assert env.checker.min_distance(q) >= env.checker.margin
+
+
+def test_resuming_a_finished_run_continues_from_its_final_model(tmp_path):
+    """A finished run whose last rollout fell between checkpoints continues from the final model's steps."""
+    from dresspack.training.train import resume_point
+
+    run = tmp_path / "run"
+    train(train_config_from_dict({**SMOKE, "checkpoint_every": 10**6, "eval_every": 0}), run, progress=False)
+    assert latest_checkpoint(run) is None and resume_point(run) == run / "final_model.zip"
+    summary = train(train_config_from_dict({**SMOKE, "checkpoint_every": 10**6, "eval_every": 0,
+                                            "total_timesteps": 384}), run, resume=True, progress=False)
+    assert summary["timesteps"] == 384 and summary["last_session"]["steps"] == 128

@@ -61,6 +61,23 @@ def latest_checkpoint(run_dir: Path) -> Path | None:
     return max(found)[1] if found else None
 
 
+def resume_point(run_dir: Path) -> Path | None:
+    """The model to continue from: the newest checkpoint, or the final model of a finished session when it holds
+    more steps (a run's last rollout need not fall on a checkpoint)."""
+    ckpt = latest_checkpoint(run_dir)
+    try:
+        summary = json.loads((run_dir / "summary.json").read_text())
+    except (OSError, ValueError):
+        return ckpt
+    finished = (run_dir / "final_model.zip").is_file() and isinstance(summary, dict) and \
+        not summary.get("interrupted") and isinstance(summary.get("timesteps"), int)
+    if finished:
+        m = re.fullmatch(rf"{CHECKPOINT_PREFIX}_(\d+)_steps\.zip", ckpt.name) if ckpt else None
+        if m is None or int(m.group(1)) < summary["timesteps"]:
+            return run_dir / "final_model.zip"
+    return ckpt
+
+
 def _versions() -> dict:
     import sb3_contrib
     import stable_baselines3
@@ -124,7 +141,7 @@ def train(cfg: TrainConfig, run_dir: Path, *, resume: bool = False, progress: bo
     torch.set_num_threads(1)  # the env subprocesses need the cores; a small MLP gains nothing from threads
     run_dir.mkdir(parents=True, exist_ok=True)
     ckpt_dir = run_dir / "checkpoints"
-    ckpt = latest_checkpoint(run_dir) if resume else None
+    ckpt = resume_point(run_dir) if resume else None
     if not resume and ckpt_dir.exists() and any(ckpt_dir.iterdir()):
         raise ConfigError("run_dir", f"{run_dir} already holds checkpoints: continue it with --resume {run_dir} "
                                      "or choose another --run-dir")

@@ -35,7 +35,14 @@ def read_meta(out: str | Path, field: str = "robustness_map") -> dict:
     if not path.is_file():
         raise ConfigError(field, f"{Path(out)} is not a robustness map folder (no {META}); "
                                  f"create one with `dresspack robustness-map --out {out} ...`")
-    return json.loads(path.read_text())
+    try:
+        meta = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise ConfigError(field, f"{path} is damaged (not JSON: {exc}); recreate the map folder") from None
+    missing = [k for k in ("grid_axes", "settings") if not isinstance(meta, dict) or k not in meta]
+    if missing:
+        raise ConfigError(field, f"{path} lacks {missing}: not a map written by `dresspack robustness-map`")
+    return meta
 
 
 def done_indices(out: Path) -> set[int]:
@@ -55,6 +62,8 @@ def load_unconverged(out: str | Path) -> set[int]:
 
 def _rows(out: str | Path) -> dict[int, tuple[np.ndarray, float, bool, bool]]:
     rows = {}
+    if not (Path(out) / RESULTS).is_file():  # a map begun but with no finished row yet
+        return rows
     with (Path(out) / RESULTS).open() as f:
         for r in csv.DictReader(f):
             if r.get("robust") not in ("0", "1"):  # a torn last line never has its final column
