@@ -229,3 +229,33 @@ def test_eval_cost_variant_damage_reports_the_integrated_damage_rate(tmp_path, c
     assert "damage rate" in (out / "report.md").read_text()
     with pytest.raises(SystemExit):
         eval_main(["--cost-variant", "cheap", "--out", str(tmp_path / "x")])
+
+
+def test_close_vec_env_frees_a_close_stuck_on_an_answer_already_read():
+    """The Ctrl-C hang, made deterministic (found by the issue-19 helper): step_wait() had read worker 0's answer
+    when the interrupt came, so SubprocVecEnv.close() waits for that answer again, forever; close_vec_env returns
+    within its deadline and ends the workers."""
+    import threading
+
+    from dresspack.training.config import train_config_from_dict
+    from dresspack.training.train import close_vec_env, make_vec_env
+
+    venv = make_vec_env(train_config_from_dict({**SMOKE, "vec_env": "subproc"}), seed=0)
+    venv.reset()
+    venv.step_async([12, 12])
+    venv.remotes[0].recv()  # what step_wait() had done when the interrupt arrived
+
+    def plain_close():
+        try:
+            venv.close()
+        except (EOFError, OSError):  # once close_vec_env has ended the workers
+            pass
+
+    blocked = threading.Thread(target=plain_close, daemon=True)
+    blocked.start()
+    blocked.join(3.0)
+    assert blocked.is_alive()  # the bug: close() is stuck on worker 0
+    t0 = time.time()
+    close_vec_env(venv, timeout=1.0)
+    assert time.time() - t0 < 15.0
+    assert not any(p.is_alive() for p in venv.processes)
