@@ -152,8 +152,7 @@ def _weld_points_csv(s: Section, base_dir: Path, robot_names: list[str]) -> tupl
         path_ref = ref
     else:
         raise ConfigError(field, "expected a CSV file path or a mapping {path, units: m|mm}")
-    path = Path(path_ref).expanduser()
-    path = path if path.is_absolute() else base_dir / path
+    path = _resolve(path_ref, base_dir)
     if not path.is_file():
         raise ConfigError(field, f"file not found: {path}")
     with path.open(newline="") as f:
@@ -214,8 +213,13 @@ def _robustness_map(r: Section, base_dir: Path):
         path = ref
     else:
         raise ConfigError(field, "expected a map folder (string) or a mapping {path, threshold}")
-    p = Path(path).expanduser()
-    return RobustnessMap(p if p.is_absolute() else base_dir / p, threshold=threshold, field=field)
+    return RobustnessMap(_resolve(path, base_dir), threshold=threshold, field=field)
+
+
+def _resolve(ref: str, base_dir: Path) -> Path:
+    """A path from a station YAML: absolute, or relative to the YAML's folder."""
+    p = Path(ref).expanduser()
+    return p if p.is_absolute() else base_dir / p
 
 
 def _absolute_mesh(o, base_dir: Path):
