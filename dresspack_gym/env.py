@@ -58,6 +58,7 @@ from .cost_variants import COST_VARIANTS
 from .damage import damage_rate
 from .errors import ConfigError, DresspackError, EnvUsageError
 from .fatigue import fatigue_life
+from .segment_state import SegmentState
 from .loading import load_station
 from .rendering import check_frame_size
 from .simulation import CableSimulator
@@ -193,7 +194,7 @@ class DresspackEnv(gym.Env):
         self._mask_cache: tuple[bytes, np.ndarray] | None = None
         self._setup_episode(list(self.task.weld_goals))
         self._needs_reset = True  # Gymnasium's order: reset() before the first step()
-        self._begin_damage()
+        self._begin_damage(self.sim.segment_states()[self.robot_index])
 
     # ----------------------------------------------------------------------------- task
     def _setup_episode(self, order: list[str], goal_index: int = 0) -> None:
@@ -245,8 +246,8 @@ class DresspackEnv(gym.Env):
             self.sim.reset(q_all)
         self._setup_episode(order)
         self._needs_reset = False
-        self._begin_damage()
-        measures = self.sim.measures()
+        measures, states = self.sim.measures_and_states()
+        self._begin_damage(states[self.robot_index])
         info = self._info(measures, self.task.cost(measures), dict.fromkeys(REWARD_TERMS, 0.0), 0.0, False)
         return self._observation(measures), info
 
@@ -285,7 +286,7 @@ class DresspackEnv(gym.Env):
             self.sim.settle(self.settle_time)
         step_time = self.sim.motion_time - t0
         self.cycle_time += step_time
-        measures = self.sim.measures()
+        measures, states = self.sim.measures_and_states()
         cost = self.task.cost(measures)
         reward, terms = self._get_rew(q_before, step_time, cost, reached, invalid)
         if reached:
@@ -295,7 +296,7 @@ class DresspackEnv(gym.Env):
         terminated = self.task.terminated()
         truncated = not terminated and self.steps >= self.max_steps
         self._needs_reset = terminated or truncated
-        self._add_damage(step_time)
+        self._add_damage(step_time, states[self.robot_index])
         info = self._info(measures, cost, terms, step_time, invalid)
         if terminated or truncated:  # the episode as one station cycle: its fatigue life (states at step ends)
             dp = self.placement.dresspack
@@ -349,15 +350,13 @@ class DresspackEnv(gym.Env):
             self._renderer.close()
             self._renderer = None
 
-    def _begin_damage(self) -> None:
-        state = self.sim.segment_states()[self.robot_index]
+    def _begin_damage(self, state: SegmentState) -> None:
         self._episode_states = [state]
         self._damage_rate = damage_rate(state, self.placement.dresspack)
         self._damage = np.zeros_like(self._damage_rate)
 
-    def _add_damage(self, step_time: float) -> None:
+    def _add_damage(self, step_time: float, state: SegmentState) -> None:
         """Per segment, the damage of the step (value terms, trapezoid over its end states; see damage.py)."""
-        state = self.sim.segment_states()[self.robot_index]
         self._episode_states.append(state)
         rate = damage_rate(state, self.placement.dresspack)
         self._damage += 0.5 * (self._damage_rate + rate) * step_time

@@ -301,7 +301,13 @@ class CableSimulator:
 
     def measures(self) -> WearMeasures:
         """Station-level wear measures of the current configuration (worst over all cables)."""
-        return WearMeasures.worst(self.cable_measures())
+        return self.measures_and_states()[0]
+
+    def measures_and_states(self) -> tuple[WearMeasures, list[SegmentState]]:
+        """The station-level measures and every cable's segment states, from one static-force pass."""
+        static = self.static_forces()
+        states = self._segment_states(static)
+        return WearMeasures.worst(self._cable_measures(static, states)), states
 
     def cable_measures(self) -> list[WearMeasures]:
         """Wear measures of every cable in its current shape; forces are the shape's static forces."""
@@ -360,9 +366,8 @@ class CableSimulator:
     def _record(self, trace: MotionTrace, t: float, q: np.ndarray, states: bool = False) -> None:
         trace.time.append(t)
         trace.q.append(np.array(q, dtype=float))
-        static = self.static_forces()
-        segments = self._segment_states(static)
-        trace.measures.append(WearMeasures.worst(self._cable_measures(static, segments)))
+        measures, segments = self.measures_and_states()
+        trace.measures.append(measures)
         if states:
             trace.states.append(segments)
 

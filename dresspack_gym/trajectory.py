@@ -145,8 +145,9 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     else:
         sim.reset(full(traj.waypoints[0]))
     sim.motion_time = 0.0
-    samples_t, samples_q, samples_m = [0.0], [traj.waypoints[0].copy()], [sim.measures()]
-    samples_s = [sim.segment_states()[robot]] if record_states else []
+    measures0, states0 = sim.measures_and_states()
+    samples_t, samples_q, samples_m = [0.0], [traj.waypoints[0].copy()], [measures0]
+    samples_s = [states0[robot]] if record_states else []
     if on_sample is not None:
         on_sample(0.0)
     stops = set(traj.stops)
@@ -166,9 +167,10 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
             stop_times.append(sim.motion_time)
             samples_t.append(sim.motion_time)
             samples_q.append(q.copy())
-            samples_m.append(sim.measures())
+            stop_measures, stop_states = sim.measures_and_states()
+            samples_m.append(stop_measures)
             if record_states:
-                samples_s.append(sim.segment_states()[robot])
+                samples_s.append(stop_states[robot])
     cfg = station.config.wear_cost
     costs = [cost_fn(m, cfg) for m in samples_m]
     measures = {
