@@ -228,6 +228,33 @@ class CableSimulator:
             self._record(trace, self.motion_time, self.q, record_states)
         return trace
 
+    def follow(self, schedule_at, duration: float, *, record_every: float, on_sample=None) -> tuple[list, list]:
+        """Drive every robot along a timed program for ``duration`` seconds from the current motion time:
+        ``schedule_at(times) -> (q, qdot)`` with shapes (N, n_robots, 6) (a station schedule's ``at``). The cables
+        are never settled in between: robots that stand still (welding, waiting) let them relax on the clock.
+        Returns the sample times and per sample the wear measures of each cable (every ``record_every`` s)."""
+        dt = self.model.opt.timestep
+        steps = int(np.ceil(duration / dt))
+        stride = max(1, int(round(record_every / dt)))
+        t_start = self.motion_time
+        times, samples = [], []
+        chunk = 2000  # steps computed per call of the program (bounded memory over long cycles)
+        for c0 in range(0, steps, chunk):
+            ks = np.arange(c0 + 1, min(steps, c0 + chunk) + 1)
+            q, qd = schedule_at(t_start + ks * dt)
+            for k, qk, qdk in zip(ks, q, qd):
+                self._step(qk.ravel(), qdk.ravel())
+                if k % stride == 0 or k == steps:
+                    self.q = qk.copy()
+                    self.motion_time = t_start + k * dt
+                    times.append(self.motion_time)
+                    samples.append(self.cable_measures())
+                    if on_sample is not None:
+                        on_sample(self.motion_time)
+            self._check_finite()
+        self.motion_time = t_start + steps * dt
+        return times, samples
+
     def settle(self, max_time: float | None = None, *, timestep: float | None = None) -> SettleResult:
         """Hold the robots still until the cables are in static equilibrium (or ``max_time`` runs out).
 

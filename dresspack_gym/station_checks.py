@@ -1,5 +1,6 @@
-"""Checks a compiled station at Home: obstacles clear of the robots and their Home cables, weld points on (not
-inside) the parts, and cables that fit above the floor. Each failure names the YAML entry to change."""
+"""Checks a compiled station at Home: robots clear of each other, obstacles clear of the robots and their Home
+cables, weld points on (not inside) the parts, and cables that fit above the floor. Each failure names the YAML
+entry to change."""
 
 from __future__ import annotations
 
@@ -72,6 +73,16 @@ def check_station(station) -> None:
                     raise ConfigError(f"obstacles[{i}]", f"obstacle {o.name!r} overlaps robot {name!r} ({link}) at "
                                                          f"Home by {-1000 * depth:.0f} mm: move the obstacle, the "
                                                          f"robot's base_pos or its home_deg")
+    for j, b in enumerate(station.robots):
+        for a in station.robots[:j]:
+            for ga in a.geom_ids:
+                for gb in b.geom_ids:
+                    depth = probe.geoms(int(ga), int(gb))
+                    if depth < -OVERLAP_TOL:
+                        raise ConfigError(f"robots[{j}].base_pos",
+                                          f"robot {b.name!r} overlaps robot {a.name!r} at Home ({link_of[int(gb)][1]} "
+                                          f"in {link_of[int(ga)][1]}, {-1000 * depth:.0f} mm): move its base_pos "
+                                          f"or change a home_deg")
     for k, (placement, shape) in enumerate(zip(cfg.robots, station.home_cable_shapes)):
         radius = placement.dresspack.radius
         seg = np.linalg.norm(np.diff(shape, axis=0), axis=1)

@@ -37,11 +37,13 @@ def random_start(home: np.ndarray, noise: float, rng: np.random.Generator, valid
     return home.copy()
 
 
-def allowed_weld_configurations(station: Station, robot: int, name: str, collides=None) -> np.ndarray:
+def allowed_weld_configurations(station: Station, robot: int, name: str, collides=None,
+                                q: np.ndarray | None = None) -> np.ndarray:
     """The IK solutions of weld ``name`` a task may use (in IK order): they pass the robot's joint restrictions,
-    are robust where the robot has a robustness map (thesis 4.2) and, given ``collides(q)``, do not collide."""
+    are robust where the robot has a robustness map (thesis 4.2) and, given ``collides(q)``, do not collide.
+    ``q``: the robot's IK solutions when it is not the weld's own robot (default: the station's cached ones)."""
     placement = station.config.robots[robot]
-    q = station.weld_configurations[name]
+    q = station.weld_configurations[name] if q is None else q
     if len(q):
         ok = placement.restrictions.allowed(q)
         if placement.robustness_map is not None:

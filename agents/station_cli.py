@@ -1,0 +1,92 @@
+"""``dresspack station-plan``: plan every weld of a multi-robot station and write trajectories, pictures and a
+summary (a ``dresspack`` subcommand, registered by entry point)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from dresspack_gym.cli_args import number, output_dir, seed
+from dresspack_gym.cost_variants import COST_VARIANTS
+
+from .budget import DEFAULT_ITERATIONS, MAX_WORK
+from .station_solver import DEFAULT_WORK, OBJECTIVES
+
+WORK = number(1, MAX_WORK, integer=True)
+
+
+def add_station_plan_command(sub) -> None:
+    p = sub.add_parser("station-plan", help="assign, order and plan the welds of a multi-robot station, "
+                                            "coordinate the robots, and measure every cable")
+    p.add_argument("station", help="station YAML or shipped name (e.g. side_framing_4r)")
+    p.add_argument("--objective", nargs="+", choices=OBJECTIVES, default=["time", "wear"],
+                   help="time: shortest makespan; wear: least estimated wear within --makespan-slack of the "
+                        "shortest; balanced: time + wear in equal measure. Several: one plan each, compared "
+                        "(default: time wear)")
+    p.add_argument("--weld-time", type=number(0, 600, unit="s"), default=1.0,
+                   help="seconds a robot stands still at each weld (default 1)")
+    p.add_argument("--welds", nargs="+", default=None, help="weld point names to plan (default: all)")
+    p.add_argument("--fixed-assignment", action="store_true",
+                   help="each weld by the robot its YAML names (default: by any robot that reaches it)")
+    p.add_argument("--makespan-slack", type=number(0, 10), default=0.10,
+                   help="wear objective: makespan allowed above the fastest plan's, as a fraction (default 0.1)")
+    p.add_argument("--work", type=number(0, 1e6, lo_open=True), default=DEFAULT_WORK,
+                   help="solver work budget per solve, in CP-SAT deterministic seconds (machine-independent; "
+                        f"default {DEFAULT_WORK:g})")
+    p.add_argument("--time-budget", type=number(0, 86400, lo_open=True, unit="s"), default=None, metavar="SECONDS",
+                   help="optional wall-time cap per solve [s]; a solve stopped by it depends on machine load")
+    p.add_argument("--iterations", type=WORK, default=DEFAULT_ITERATIONS,
+                   help=f"OMPL iterations per leg that is not a straight move (default {DEFAULT_ITERATIONS})")
+    p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis")
+    p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--no-replay", action="store_true", help="skip running the plans in the cable simulator")
+    p.add_argument("--out", type=output_dir, default=Path("station_plans"),
+                   help="output folder (default: station_plans/): per objective a folder with plan.json, one "
+                        "trajectory per robot, gantt.png, wear.png, assignment.png; summary.md compares them")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_station_plan)
+
+
+def cmd_station_plan(args) -> int:
+    from tqdm import tqdm
+
+    from dresspack_gym.loading import load_station
+    from dresspack_gym.station import Station
+
+    from .station_planning import StationPlanConfig, StationPlanner, save_plan
+    from .station_report import plot_plan, write_summary
+
+    station = Station(load_station(args.station))
+    configs = [StationPlanConfig(objective=o, weld_time=args.weld_time, work=args.work, time_budget=args.time_budget,
+                                 iterations=args.iterations, makespan_slack=args.makespan_slack, seed=args.seed,
+                                 cost_variant=args.cost_variant, fixed_assignment=args.fixed_assignment,
+                                 welds=tuple(args.welds) if args.welds else None)
+               for o in dict.fromkeys(args.objective)]
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    bar = (lambda label, total: tqdm(total=total, desc=label, leave=False)) if not args.json else None
+    plans = {}
+    planner = None
+    for cfg in configs:
+        # one planner object: settled-cable costs and planned legs are shared between the objectives
+        planner = StationPlanner(station, cfg, progress=bar) if planner is None else planner.reconfigured(cfg)
+        plan = planner.plan(cache=out / "option_costs.json")
+        if not args.no_replay:
+            planner.replay(plan)
+        folder = out / cfg.objective
+        save_plan(plan, folder)
+        plot_plan(station, plan, folder)
+        plans[cfg.objective] = plan
+        if not args.json:
+            s = plan.summary()
+            line = (f"{cfg.objective}: makespan {s['makespan']:.1f} s (lower bound {s['makespan_lower_bound']:.1f} s), "
+                    f"waits {s['total_wait']:.1f} s, robot-robot collisions {s['verification']['collisions']}")
+            if plan.replay is not None:
+                line += f", integrated wear {s['replay']['cost']:.4g}"
+            print(line)
+    summary = write_summary(station, plans, out)
+    if args.json:
+        print(json.dumps(summary, indent=2, default=float))
+    else:
+        print(f"wrote {out}/summary.md and one folder per objective")
+    return 0 if all(p.verification["collisions"] == 0 for p in plans.values()) else 1

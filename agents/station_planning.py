@@ -1,0 +1,326 @@
+"""Planning a whole station: assign and order the welds over the robots, plan each chosen leg, coordinate the
+robots by waits, verify, and run the result in the cable simulator.
+
+Cheap estimates first, exact work on what is chosen: weld options are costed by their settled cable (one settle
+per option, cached), travel by the time law of the straight move; the solver's chosen legs are then planned by
+OMPL (collision-free), their real durations replace the estimates, and the solver runs again until every chosen
+leg is exact."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from dresspack_gym import time_law
+from dresspack_gym.coordination import RobotPairDistance, coordinate, verify
+from dresspack_gym.cost_variants import cost_function
+from dresspack_gym.errors import ConfigError
+from dresspack_gym.simulation import CableSimulator
+from dresspack_gym.station import Station
+from dresspack_gym.station_replay import StationReplay, replay_station
+from dresspack_gym.station_schedule import RobotSchedule, StationSchedule
+from dresspack_gym.station_tasks import DEFAULT_WELD_TIME, StationTask, WeldOption, make_station_task
+from dresspack_gym.tasks import Task
+from dresspack_gym.validation import check_choice, check_integer, check_number
+
+from .budget import DEFAULT_ITERATIONS
+from .ompl_planner import OmplPlanner
+from .station_solver import DEFAULT_WORK, MAKESPAN_SLACK, OBJECTIVES, Assignment, RoutingProblem, lower_bound, solve
+
+EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estimate by more is re-solved with it
+
+
+@dataclass(frozen=True)
+class StationPlanConfig:
+    """Settings of a station plan (defaults: what ``dresspack station-plan`` uses)."""
+
+    objective: str = "time"
+    weld_time: float = DEFAULT_WELD_TIME
+    work: float = DEFAULT_WORK  # solver work budget per solve (CP-SAT deterministic seconds)
+    time_budget: float | None = None  # optional wall-clock cap per solve [s]
+    costed_options: int = 8  # per weld and robot: IK options (nearest Home first) whose settled cable is costed
+    kept_options: int = 4  # per weld and robot: options the solver chooses from (half nearest Home, half cheapest)
+    iterations: int = DEFAULT_ITERATIONS  # OMPL iterations per leg
+    exact_rounds: int = 4  # solve -> plan chosen legs -> re-solve rounds
+    makespan_slack: float = MAKESPAN_SLACK
+    seed: int = 0
+    cost_variant: str = "thesis"
+    fixed_assignment: bool = False
+    welds: tuple[str, ...] | None = None
+
+    def __post_init__(self):
+        check_choice("objective", self.objective, OBJECTIVES)
+        check_number(self.weld_time, "weld_time", lo=0.0, hi=600.0, unit="s")
+        check_number(self.work, "work", lo=0.0, lo_open=True, hi=1e6)
+        if self.time_budget is not None:
+            check_number(self.time_budget, "time_budget", lo=0.0, lo_open=True, hi=86400.0, unit="s")
+        check_integer(self.costed_options, "costed_options", lo=1, hi=1000)
+        check_integer(self.kept_options, "kept_options", lo=1, hi=100)
+        check_integer(self.exact_rounds, "exact_rounds", lo=1, hi=100)
+        check_number(self.makespan_slack, "makespan_slack", lo=0.0, hi=10.0)
+        check_integer(self.seed, "seed", lo=0, hi=2 ** 32 - 1)
+        cost_function(self.cost_variant)
+
+
+@dataclass
+class StationPlan:
+    """A planned station: the task, the chosen options per robot, the coordinated schedule, its checks."""
+
+    task: StationTask
+    names: list[str]  # robot names, by index
+    options: list[WeldOption]  # node k -> option (nodes 0..R-1 are the Homes: None)
+    assignment: Assignment
+    schedule: StationSchedule
+    coordination: dict
+    verification: dict
+    bound: dict
+    config: StationPlanConfig
+    replay: StationReplay | None = None
+    info: dict | None = None
+
+    def robot_welds(self) -> dict[str, list[str]]:
+        names = self.names
+        return {names[s.robot]: list(s.welds) for s in self.schedule.robots}
+
+    def summary(self) -> dict:
+        s = {
+            "objective": self.config.objective,
+            "makespan": round(self.schedule.makespan, 3),
+            "makespan_lower_bound": round(self.bound["bound"], 3),
+            "gap_to_bound": round(self.schedule.makespan / self.bound["bound"] - 1.0, 4),
+            "total_wait": round(self.schedule.total_wait(), 3),
+            "estimate": self.assignment.estimate,
+            "coordination": self.coordination,
+            "verification": self.verification,
+            "welds": self.robot_welds(),
+            "robot_end_times": {self.names[s.robot]: round(s.end_time, 3) for s in self.schedule.robots},
+            "info": self.info or {},
+        }
+        if self.replay is not None:
+            s["replay"] = self.replay.summary(self.names)
+        return s
+
+
+class StationPlanner:
+    """Plans a station's welds over its robots (see the module docstring); ``progress(label, total)`` may give
+    a tqdm-like bar factory."""
+
+    def __init__(self, station: Station, config: StationPlanConfig = StationPlanConfig(), progress=None):
+        self.station = station
+        self.config = config
+        self.progress = progress
+        self.leg_planners = [OmplPlanner(station, r, iterations=config.iterations, seed=config.seed)
+                             for r in range(station.n_robots)]
+        cfg = station.config
+        self.speeds = [r.robot.joint_speed * cfg.simulation.speed_fraction for r in cfg.robots]
+        self._rates: dict[tuple, float] = {}
+        self._legs: dict[tuple, np.ndarray] = {}
+        self._sub_sims: dict[int, CableSimulator] = {}
+
+    def reconfigured(self, config: StationPlanConfig) -> StationPlanner:
+        """A planner with ``config`` that keeps this one's settled-cable costs and planned legs (same station,
+        seed, OMPL iterations and cost variant: the cached answers do not depend on anything else)."""
+        same = (config.seed, config.iterations, config.cost_variant) == \
+            (self.config.seed, self.config.iterations, self.config.cost_variant)
+        other = StationPlanner(self.station, config, self.progress) if not same else replace_config(self, config)
+        return other
+
+    # -------------------------------------------------------------------------- costs
+    def cost_rate(self, robot: int, q: np.ndarray) -> float:
+        """The wear cost rate C of robot ``robot``'s cable settled at ``q`` (the robot alone in the station)."""
+        key = (robot, *np.round(q, 9))
+        if key not in self._rates:
+            sim = self._sub_sims.get(robot)
+            if sim is None:
+                cfg = self.station.config
+                alone = replace(cfg, robots=(cfg.robots[robot],), weld_points=())
+                sim = self._sub_sims[robot] = CableSimulator(Station(alone))
+            sim.reset(np.asarray(q)[None])
+            self._rates[key] = cost_function(self.config.cost_variant)(sim.measures(),
+                                                                       self.station.config.wear_cost).total
+        return self._rates[key]
+
+    def load_rates(self, path: Path) -> None:
+        if path.is_file():
+            for row in json.loads(path.read_text()):
+                self._rates[tuple(row["key"])] = row["rate"]
+
+    def save_rates(self, path: Path) -> None:
+        path.write_text(json.dumps([{"key": list(k), "rate": v} for k, v in self._rates.items()]))
+
+    def _choose_options(self, task: StationTask) -> list[WeldOption]:
+        """Per weld and robot, the options the solver sees: the nearest Home and the cheapest of those costed."""
+        cfg = self.config
+        jobs = [(w, r, [o for o in task.options[w] if o.robot == r][:cfg.costed_options])
+                for w in task.weld_names for r in task.candidates(w)]
+        bar = self._bar("costing weld options (settled cable)", sum(len(j[2]) for j in jobs))
+        kept = []
+        for w, r, opts in jobs:
+            rates = []
+            for o in opts:
+                rates.append(self.cost_rate(r, o.q))
+                bar.update(1)
+            near = list(range(min(len(opts), (cfg.kept_options + 1) // 2)))
+            cheap = [int(i) for i in np.argsort(rates, kind="stable") if int(i) not in near]
+            for i in sorted(near + cheap[:cfg.kept_options - len(near)]):
+                kept.append(opts[i])
+        bar.close()
+        return kept
+
+    def problem(self, task: StationTask, options: list[WeldOption]) -> RoutingProblem:
+        R = task.n_robots
+        qs = np.vstack([task.homes, np.array([o.q for o in options]).reshape(-1, 6)])
+        node_robot = np.concatenate([np.arange(R), [o.robot for o in options]]).astype(int)
+        index = {w: k for k, w in enumerate(task.weld_names)}
+        node_weld = np.concatenate([np.full(R, -1), [index[o.weld] for o in options]]).astype(int)
+        travel = np.stack([time_law.segment_durations(qs[None, :, :] - qs[:, None, :], self.speeds[r])
+                           for r in range(R)])
+        for (r, i, j), leg in self._legs.items():  # planned legs are exact
+            travel[r, i, j] = float(time_law.segment_durations(np.diff(leg, axis=0), self.speeds[r]).sum())
+        rates = np.array([self.cost_rate(r, q) for r, q in zip(node_robot, qs)])
+        return RoutingProblem(travel, rates, node_robot, node_weld, task.weld_time, len(task.weld_names))
+
+    # -------------------------------------------------------------------------- legs
+    def leg(self, robot: int, i: int, j: int, qs: np.ndarray) -> np.ndarray:
+        """Robot ``robot``'s collision-free path from node i to node j (straight if valid, else OMPL; cached)."""
+        key = (robot, i, j)
+        if key not in self._legs:
+            planner = self.leg_planners[robot]
+            task = Task(robot, qs[i], (), np.zeros((0, 6)), qs[j])
+            self._legs[key] = planner.plan(task).trajectory.waypoints
+        return self._legs[key]
+
+    def _plan_chosen_legs(self, problem: RoutingProblem, assignment: Assignment, qs: np.ndarray) -> int:
+        """Plan every leg of the assignment; the number that took longer than estimated."""
+        changed = 0
+        for r, route in enumerate(assignment.routes):
+            path = [r, *route, r]
+            for a, b in zip(path[:-1], path[1:]):
+                estimate = problem.travel[r, a, b]
+                leg = self.leg(r, a, b, qs)
+                real = float(time_law.segment_durations(np.diff(leg, axis=0), self.speeds[r]).sum())
+                changed += real > estimate * (1 + EXACT_TOLERANCE) + 1e-6
+        return changed
+
+    # -------------------------------------------------------------------------- plan
+    def plan(self, task: StationTask | None = None, cache: Path | None = None) -> StationPlan:
+        cfg = self.config
+        if task is None:
+            task = make_station_task(self.station, lambda r: self.leg_planners[r].validity.checker.collides,
+                                     list(cfg.welds) if cfg.welds is not None else None, weld_time=cfg.weld_time,
+                                     fixed_assignment=cfg.fixed_assignment)
+        if cache is not None:
+            self.load_rates(cache)
+        options = self._choose_options(task)
+        if cache is not None:
+            self.save_rates(cache)
+        R = task.n_robots
+        qs = np.vstack([task.homes, np.array([o.q for o in options]).reshape(-1, 6)])
+        rounds, solves = 0, 0
+        while True:
+            problem = self.problem(task, options)
+            fastest = solve(problem, "time", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget)
+            solves += 1
+            chosen = fastest
+            if cfg.objective == "wear":
+                chosen = solve(problem, "wear", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
+                               makespan_cap=fastest.estimate["makespan"] * (1 + cfg.makespan_slack))
+                solves += 1
+            elif cfg.objective == "balanced":
+                weight = fastest.estimate["time"] / max(fastest.estimate["wear"], 1e-9)
+                chosen = solve(problem, "balanced", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget, wear_weight=weight)
+                solves += 1
+            rounds += 1
+            changed = self._plan_chosen_legs(problem, chosen, qs)
+            if cfg.objective != "time":
+                changed += self._plan_chosen_legs(problem, fastest, qs)
+            if changed == 0 or rounds >= cfg.exact_rounds:
+                break
+        problem = self.problem(task, options)
+        assignment = Assignment(chosen.routes, problem.evaluate(chosen.routes), chosen.objective)
+        schedules = []
+        for r, route in enumerate(assignment.routes):
+            if not route:  # a robot without welds stays Home (and is still an obstacle to the others)
+                schedules.append(RobotSchedule.as_soon_as_possible(r, [], [np.array([task.homes[r]] * 2)],
+                                                                   self.speeds[r], task.weld_time))
+                continue
+            path = [r, *route, r]
+            legs = [self.leg(r, a, b, qs) for a, b in zip(path[:-1], path[1:])]
+            schedules.append(RobotSchedule.as_soon_as_possible(r, [options[n - R].weld for n in route], legs,
+                                                               self.speeds[r], task.weld_time))
+        schedule = StationSchedule(tuple(schedules), task.homes)
+        pairs = RobotPairDistance(self.station)
+        schedule, coordination = coordinate(self.station, schedule, pairs)
+        verification = verify(self.station, schedule, pairs=pairs)
+        plan = StationPlan(task, [r.name for r in self.station.config.robots], options, assignment, schedule, coordination, verification,
+                           lower_bound(problem), cfg,
+                           info={"rounds": rounds, "solves": solves, "nodes": len(qs),
+                                 "planned_legs": len(self._legs), "cost_settles": len(self._rates)})
+        return plan
+
+    def replay(self, plan: StationPlan, record_every: float = 0.05) -> StationReplay:
+        bar = self._bar("station replay (simulated s)", round(plan.schedule.makespan, 1))
+        last = [0.0]
+
+        def tick(t):
+            bar.update(round(t - last[0], 3))
+            last[0] = t
+
+        sim = CableSimulator(self.station)
+        plan.replay = replay_station(sim, plan.schedule, record_every=record_every,
+                                     cost_variant=self.config.cost_variant, on_sample=tick)
+        bar.close()
+        return plan.replay
+
+    def _bar(self, label: str, total):
+        if self.progress is None:
+            return _NoBar()
+        return self.progress(label, total)
+
+
+def replace_config(planner: StationPlanner, config: StationPlanConfig) -> StationPlanner:
+    other = object.__new__(StationPlanner)
+    other.__dict__.update(planner.__dict__)
+    other.config = config
+    return other
+
+
+class _NoBar:
+    def update(self, n=1):
+        pass
+
+    def close(self):
+        pass
+
+
+def save_plan(plan: StationPlan, out: Path) -> None:
+    """plan.json (summary, per-robot timing) and one trajectory .npz per robot under ``out``."""
+    from dresspack_gym.trajectory import save_trajectory
+
+    out.mkdir(parents=True, exist_ok=True)
+    robots = {}
+    for s in plan.schedule.robots:
+        name = plan.names[s.robot]
+        save_trajectory(out / f"{name}.npz", s.trajectory(), robot=s.robot, robot_name=name,
+                        leg_start=s.leg_start.tolist(), weld_time=s.weld_time)
+        robots[name] = {"welds": list(s.welds), "leg_start": s.leg_start.round(4).tolist(),
+                        "waits": s.waits().round(4).tolist(), "end_time": round(s.end_time, 4),
+                        "trajectory": f"{name}.npz"}
+    data = {"summary": plan.summary(), "robots": robots, "config": asdict(plan.config)}
+    (out / "plan.json").write_text(json.dumps(data, indent=1, default=_json_default))
+
+
+def _json_default(x):
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    raise TypeError(f"not JSON serialisable: {type(x)}")
+
+
+def check_station_for_planning(station: Station) -> None:
+    if not station.config.weld_points:
+        raise ConfigError("weld_points", f"station {station.config.name!r} has no weld points to plan")

@@ -1,0 +1,38 @@
+"""What ``dresspack station-plan`` writes beside the plans: the pictures of each plan and a summary comparing them."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from dresspack_gym.station_plot import plot_assignment, plot_gantt, plot_wear
+
+
+def plot_plan(station, plan, folder: Path) -> None:
+    title = f"{station.config.name}: {plan.config.objective} objective"
+    plot_gantt(plan.schedule, plan.names, folder / "gantt.png", f"{title}, makespan {plan.schedule.makespan:.1f} s")
+    plot_assignment(station, plan.robot_welds(), folder / "assignment.png", title)
+    if plan.replay is not None:
+        plot_wear(plan.replay, plan.names, folder / "wear.png", f"{title}: wear measures per robot")
+
+
+def write_summary(station, plans: dict, out: Path) -> dict:
+    """summary.md (a table, one row per objective) and summary.json."""
+    rows = {name: p.summary() for name, p in plans.items()}
+    lines = [f"# Station plans: {station.config.name}", "",
+             "| objective | makespan [s] | lower bound [s] | gap | waits [s] | robot-robot collisions "
+             "(dense check) | min robot distance [mm] | integrated wear ∫C dt | wear estimate |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for name, s in rows.items():
+        v = s["verification"]
+        wear = f"{s['replay']['cost']:.4g}" if "replay" in s else "not run"
+        lines.append(f"| {name} | {s['makespan']:.2f} | {s['makespan_lower_bound']:.2f} | "
+                     f"{100 * s['gap_to_bound']:.1f} % | {s['total_wait']:.2f} | {v['collisions']} of {v['samples']} "
+                     f"samples | {1000 * v['min_distance']:.0f} | {wear} | {s['estimate']['wear']:.4g} |")
+    lines += ["", "Per robot (welds in order):", ""]
+    for name, s in rows.items():
+        lines.append(f"- **{name}**: " + "; ".join(f"{r}: {', '.join(w) if w else '(stays Home)'}"
+                                               for r, w in s["welds"].items()))
+    (out / "summary.md").write_text("\n".join(lines) + "\n")
+    (out / "summary.json").write_text(json.dumps(rows, indent=1, default=float))
+    return rows

@@ -1,0 +1,261 @@
+"""Weld assignment and sequencing for several robots: a min-max multiple generalised TSP solved by OR-Tools routing.
+
+Each robot is a vehicle that starts and ends at its Home; each weld is a disjunction over its options (robot,
+IK branch), exactly one visited, by that option's robot only. Travel and welding times make a time dimension
+whose largest route end is the station's makespan; wear enters as arc costs. OR-Tools routing finds a first
+assignment, CP-SAT improves and bounds it within a deterministic work budget, so the same problem gives the same
+answer on any machine."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dresspack_gym.errors import ConfigError
+from dresspack_gym.validation import check_choice
+
+OBJECTIVES = ("time", "wear", "balanced")
+TIME_SCALE = 1000  # integer costs: milliseconds
+WEAR_SCALE = 1000  # integer costs: 1/1000 of the wear cost's unit x s
+SPAN_WEIGHT = 100  # makespan against the sum of route times in the time objective (min-max first)
+DEFAULT_WORK = 20.0  # CP-SAT deterministic seconds per solve (the solver's work budget, machine-independent)
+HINT_SOLUTIONS = 100  # routing local-search solutions behind CP-SAT's first assignment
+MAKESPAN_SLACK = 0.10  # wear objective: makespan allowed above the time-optimal plan's (as a fraction)
+
+
+@dataclass(frozen=True)
+class RoutingProblem:
+    """Node 0..R-1: robot r's Home; node R+k: option k. ``travel[r]`` (N, N) [s] robot r's motion time between
+    nodes (only its own Home and options matter); ``cost_rate`` (N,) the wear cost rate C at each node's
+    configuration; ``node_robot`` / ``node_weld`` the robot and weld index of each node (-1: a Home)."""
+
+    travel: np.ndarray  # (R, N, N)
+    cost_rate: np.ndarray  # (N,)
+    node_robot: np.ndarray  # (N,)
+    node_weld: np.ndarray  # (N,)
+    weld_time: float
+    n_welds: int
+
+    @property
+    def n_robots(self) -> int:
+        return self.travel.shape[0]
+
+    def leg_wear(self, r: int) -> np.ndarray:
+        """Wear estimate of robot r's move i -> j and the weld at j: the motion at the mean of the two
+        configurations' settled cost rates, then the weld at j's (the path-independent part of 4.10)."""
+        c = self.cost_rate
+        wear = self.travel[r] * 0.5 * (c[:, None] + c[None, :])
+        weld = np.where(self.node_weld >= 0, self.weld_time * c, 0.0)
+        return wear + weld[None, :]
+
+    def leg_time(self, r: int) -> np.ndarray:
+        """Robot r's motion i -> j plus the weld at j [s]."""
+        return self.travel[r] + np.where(self.node_weld >= 0, self.weld_time, 0.0)[None, :]
+
+    def evaluate(self, routes: list[list[int]]) -> dict:
+        """Makespan [s], summed time [s] and wear estimate of routes (node lists without the Homes)."""
+        ends, wear = [], 0.0
+        for r, route in enumerate(routes):
+            path = [r, *route, r]
+            t, w = self.leg_time(r), self.leg_wear(r)
+            ends.append(sum(t[a, b] for a, b in zip(path[:-1], path[1:])))
+            wear += sum(w[a, b] for a, b in zip(path[:-1], path[1:]))
+        return {"makespan": float(max(ends)), "time": float(sum(ends)), "wear": float(wear),
+                "robot_times": [float(e) for e in ends]}
+
+
+@dataclass(frozen=True)
+class Assignment:
+    """Per robot, the option nodes it visits in order; the estimates of the solved problem."""
+
+    routes: list[list[int]]
+    estimate: dict
+    objective: str
+
+
+def solve(problem: RoutingProblem, objective: str = "time", *, work: float = DEFAULT_WORK,
+          makespan_cap: float | None = None, wear_weight: float | None = None, seed: int = 0,
+          time_limit: float | None = None) -> Assignment:
+    """Assign and order the welds. ``time``: minimise the makespan, then the summed time; ``wear``: minimise
+    the wear estimate with every route within ``makespan_cap`` [s]; ``balanced``: time plus ``wear_weight`` x
+    wear (both in seconds), makespan first.
+
+    OR-Tools routing (guided local search over the disjunctions, ``HINT_SOLUTIONS`` solutions) gives a first
+    assignment; CP-SAT, started from it, improves it and bounds it, for ``work`` deterministic seconds (CP-SAT's
+    machine-independent work measure, so the answer does not depend on machine load; ``time_limit`` [s] is an
+    optional wall-clock cap on top). The result says whether it is proven optimal."""
+    check_choice("objective", objective, OBJECTIVES)
+    if objective == "balanced" and wear_weight is None:
+        raise ConfigError("wear_weight", "the balanced objective needs a wear weight (seconds per unit of wear)")
+    R = problem.n_robots
+    horizon = int(np.rint(max(problem.leg_time(r).max() for r in range(R)) * (problem.n_welds + 2) * TIME_SCALE)) + 1
+    cap = horizon if makespan_cap is None else min(horizon, int(np.rint(makespan_cap * TIME_SCALE)))
+    arc_cost = []
+    for r in range(R):
+        t = problem.leg_time(r) * TIME_SCALE
+        if objective == "time":
+            arc_cost.append(np.rint(t).astype(np.int64))
+        elif objective == "wear":
+            arc_cost.append(np.rint(problem.leg_wear(r) * WEAR_SCALE).astype(np.int64))
+        else:
+            arc_cost.append(np.rint(t + wear_weight * problem.leg_wear(r) * TIME_SCALE).astype(np.int64))
+    span = SPAN_WEIGHT if objective != "wear" else 0
+    hint = _routing_first(problem, arc_cost, span, cap, horizon)
+    routes, status = _cp_sat(problem, arc_cost, span, cap, hint, work, seed, time_limit)
+    if routes is None:
+        what = f"within a makespan of {makespan_cap:.1f} s" if makespan_cap is not None else ""
+        raise ConfigError("objective", f"the solver found no assignment of the welds {what}".strip())
+    estimate = problem.evaluate(routes)
+    estimate.update(status)
+    return Assignment(routes, estimate, objective)
+
+
+def _routing_first(problem: RoutingProblem, arc_cost, span: int, cap: int, horizon: int) -> list[list[int]] | None:
+    """A good first assignment from OR-Tools routing (None if it finds none within the cap)."""
+    from ortools.constraint_solver import pywrapcp, routing_enums_pb2
+    from ortools.util import optional_boolean_pb2
+
+    R, N = problem.n_robots, len(problem.node_robot)
+    manager = pywrapcp.RoutingIndexManager(N, R, list(range(R)), list(range(R)))
+    routing = pywrapcp.RoutingModel(manager)
+    time_cb = []
+    for r in range(R):
+        # a robot only visits its own options: entering another robot's node takes longer than any route may
+        other = problem.node_robot != r
+        t = np.rint(problem.leg_time(r) * TIME_SCALE).astype(np.int64)
+        t[:, other] = horizon + 1
+        time_cb.append(routing.RegisterTransitMatrix(t.tolist()))
+        c = arc_cost[r].copy()
+        c[:, other] = 0
+        routing.SetArcCostEvaluatorOfVehicle(routing.RegisterTransitMatrix(c.tolist()), r)
+    routing.AddDimensionWithVehicleTransits(time_cb, 0, cap, True, "time")
+    routing.GetDimensionOrDie("time").SetGlobalSpanCostCoefficient(span)
+    for w in range(problem.n_welds):
+        nodes = np.flatnonzero(problem.node_weld == w)
+        routing.AddDisjunction([manager.NodeToIndex(int(n)) for n in nodes])  # no penalty: exactly one visited
+    params = pywrapcp.DefaultRoutingSearchParameters()
+    params.first_solution_strategy = routing_enums_pb2.FirstSolutionStrategy.PARALLEL_CHEAPEST_INSERTION
+    params.local_search_metaheuristic = routing_enums_pb2.LocalSearchMetaheuristic.GUIDED_LOCAL_SEARCH
+    ops = params.local_search_operators
+    # moving a weld to another robot means one option goes inactive and another active on another route: the
+    # combined moves that do this are off by default
+    for name in ("use_relocate_and_make_active", "use_exchange_and_make_active", "use_extended_swap_active",
+                 "use_exchange_path_start_ends_and_make_active"):
+        setattr(ops, name, optional_boolean_pb2.BOOL_TRUE)
+    params.solution_limit = HINT_SOLUTIONS
+    params.lns_time_limit.seconds = 3600  # sub-searches end on their own, never on the clock (determinism)
+    solution = routing.SolveWithParameters(params)
+    if solution is None:
+        return None
+    routes = []
+    for r in range(R):
+        idx = solution.Value(routing.NextVar(routing.Start(r)))
+        route = []
+        while not routing.IsEnd(idx):
+            route.append(manager.IndexToNode(idx))
+            idx = solution.Value(routing.NextVar(idx))
+        routes.append(route)
+    return routes
+
+
+def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: float, seed: int,
+            time_limit: float | None) -> tuple[list[list[int]] | None, dict]:
+    """The exact model: per robot a circuit through its Home and the options it takes (the others skipped by
+    self-loops); each weld's options taken exactly once; route times within the cap; the objective with the
+    makespan weighted by ``span`` (min-max first)."""
+    from ortools.sat.python import cp_model
+
+    R = problem.n_robots
+    m = cp_model.CpModel()
+    taken = {}
+    arcs_of, route_time, cost_terms = [], [], []
+    for r in range(R):
+        nodes = [r] + [int(n) for n in np.flatnonzero((problem.node_robot == r) & (problem.node_weld >= 0))]
+        local = {n: k for k, n in enumerate(nodes)}
+        t = np.rint(problem.leg_time(r) * TIME_SCALE).astype(np.int64)
+        arcs, lits, times, costs = [], {}, [], []
+        idle = m.new_bool_var(f"idle{r}")
+        arcs.append((0, 0, idle))
+        for n in nodes[1:]:
+            skip = m.new_bool_var(f"skip{r}_{n}")
+            taken[(r, n)] = skip.Not()
+            arcs.append((local[n], local[n], skip))
+            m.add_implication(idle, skip)  # the circuit of a robot that works runs through its Home
+        for a in nodes:
+            for b in nodes:
+                if a == b or (problem.node_weld[a] >= 0 and problem.node_weld[a] == problem.node_weld[b]):
+                    continue  # two options of one weld are never both taken
+                x = m.new_bool_var(f"x{r}_{a}_{b}")
+                lits[(a, b)] = x
+                arcs.append((local[a], local[b], x))
+                times.append(int(t[a, b]) * x)
+                costs.append(int(arc_cost[r][a, b]) * x)
+        m.add_circuit(arcs)
+        rt = m.new_int_var(0, cap, f"time{r}")
+        m.add(rt == sum(times))
+        route_time.append(rt)
+        cost_terms += costs
+        arcs_of.append(lits)
+    for w in range(problem.n_welds):
+        m.add_exactly_one([taken[(int(problem.node_robot[n]), int(n))] for n in np.flatnonzero(problem.node_weld == w)])
+    makespan = m.new_int_var(0, cap, "makespan")
+    m.add_max_equality(makespan, route_time)
+    m.minimize(span * makespan + sum(cost_terms))
+    if hint is not None:
+        used = {(r, a, b) for r, route in enumerate(hint) for a, b in zip([r, *route], [*route, r])}
+        for r, lits in enumerate(arcs_of):
+            for (a, b), x in lits.items():
+                m.add_hint(x, (r, a, b) in used)
+    solver = cp_model.CpSolver()
+    solver.parameters.num_workers = 1  # one worker: the search is deterministic
+    solver.parameters.random_seed = int(seed)
+    solver.parameters.max_deterministic_time = float(work)
+    if time_limit is not None:
+        solver.parameters.max_time_in_seconds = float(time_limit)
+    status = solver.solve(m)
+    if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
+        return None, {}
+    routes = []
+    for r, lits in enumerate(arcs_of):
+        succ = {a: b for (a, b), x in lits.items() if solver.value(x)}
+        route, node = [], succ.get(r, r)
+        while node != r:
+            route.append(int(node))
+            node = succ[node]
+        routes.append(route)
+    info = {"optimal": status == cp_model.OPTIMAL, "solver_work": round(solver.deterministic_time, 3),
+            "objective_bound": float(solver.best_objective_bound)}
+    return routes, info
+
+
+def lower_bound(problem: RoutingProblem) -> dict:
+    """Lower bounds on the makespan [s] of any assignment (estimates' units):
+
+    - ``single``: some robot welds each weld; the weld no robot can do in less than a round trip from Home
+      (Home -> weld -> Home plus the weld) bounds the makespan from below;
+    - ``load``: every weld costs at least its weld time plus its cheapest arrival from anywhere its robot can be
+      (an assignment relaxation of the routes); the summed minimum split evenly over the robots is a bound,
+      and so is the minimum each robot must do when a weld only it can reach is counted for it;
+    - ``bound``: the largest of them."""
+    R = problem.n_robots
+    single, arrive = 0.0, np.full(problem.n_welds, np.inf)
+    per_robot_forced = np.zeros(R)
+    for w in range(problem.n_welds):
+        nodes = np.flatnonzero(problem.node_weld == w)
+        trip, best = np.inf, np.inf
+        robots = set()
+        for n in nodes:
+            r = int(problem.node_robot[n])
+            robots.add(r)
+            t = problem.travel[r]
+            own = np.flatnonzero((problem.node_robot == r) & (problem.node_weld != w))
+            trip = min(trip, t[r, n] + problem.weld_time + t[n, r])
+            best = min(best, problem.weld_time + t[own, n].min())
+        single = max(single, trip)
+        arrive[w] = best
+        if len(robots) == 1:
+            per_robot_forced[robots.pop()] += best
+    load = float(arrive.sum() / R)
+    return {"single": float(single), "load": load, "forced": float(per_robot_forced.max()),
+            "bound": float(max(single, load, per_robot_forced.max()))}

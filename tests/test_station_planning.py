@@ -1,0 +1,224 @@
+"""Multi-robot station planning: the solver against brute force, the timing of schedules, robot-robot
+coordination and its dense verification, the timed station replay, and bad station input."""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from dresspack.agents.station_planning import StationPlanConfig, StationPlanner
+from dresspack.agents.station_solver import RoutingProblem, lower_bound, solve
+from dresspack_gym.config import StationConfig
+from dresspack_gym.coordination import RobotPairDistance, coordinate, verify
+from dresspack_gym.errors import ConfigError
+from dresspack_gym.loading import load_station
+from dresspack_gym.simulation import CableSimulator
+from dresspack_gym.station import Station
+from dresspack_gym.station_schedule import RobotSchedule, StationSchedule
+from dresspack_gym.station_tasks import make_station_task
+from dresspack_gym.time_law import segment_durations
+
+
+def brute_force_makespan(p: RoutingProblem) -> float:
+    """The optimal makespan by enumeration: every weld to every robot, every order, every option."""
+    R = p.n_robots
+    best = np.inf
+    for owner in itertools.product(range(R), repeat=p.n_welds):
+        ends = []
+        for r in range(R):
+            welds = [w for w in range(p.n_welds) if owner[w] == r]
+            opts = [np.flatnonzero((p.node_weld == w) & (p.node_robot == r)) for w in welds]
+            if any(len(o) == 0 for o in opts):
+                ends = [np.inf]
+                break
+            t = p.leg_time(r)
+            robot_best = 0.0 if not welds else np.inf
+            for perm in itertools.permutations(range(len(welds))):
+                for choice in itertools.product(*[opts[k] for k in perm]):
+                    path = [r, *choice, r]
+                    robot_best = min(robot_best, sum(t[a, b] for a, b in zip(path[:-1], path[1:])))
+            ends.append(robot_best)
+        best = min(best, max(ends))
+    return float(best)
+
+
+def random_problem(seed: int, robots: int = 3, welds: int = 5, branches: int = 2) -> RoutingProblem:
+    """Robots at the corners of a 10 m square; weld branches scattered around each weld; some robots cannot
+    reach some welds."""
+    rng = np.random.default_rng(seed)
+    homes = np.array([[0, 0], [10, 0], [5, 10], [0, 10]])[:robots]
+    points, node_robot, node_weld = [*homes], list(range(robots)), [-1] * robots
+    for w in range(welds):
+        centre = rng.uniform(0, 10, 2)
+        reach = rng.permutation(robots)[:rng.integers(1, robots + 1)]
+        for r in sorted(reach):
+            for _ in range(branches):
+                points.append(centre + rng.normal(0, 0.5, 2))
+                node_robot.append(r)
+                node_weld.append(w)
+    pts = np.array(points)
+    dist = np.linalg.norm(pts[:, None] - pts[None], axis=2)
+    travel = np.stack([dist * (1 + 0.2 * r) for r in range(robots)])  # robots of different speeds
+    return RoutingProblem(travel, np.ones(len(pts)), np.array(node_robot), np.array(node_weld), 1.0, welds)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_solver_assignment_is_optimal_against_brute_force(seed):
+    p = random_problem(seed)
+    a = solve(p, "time", work=10)
+    assert sorted(p.node_weld[n] for route in a.routes for n in route) == list(range(p.n_welds))  # each once
+    for r, route in enumerate(a.routes):
+        assert all(p.node_robot[n] == r for n in route)  # a robot visits its own options only
+    assert a.estimate["makespan"] == pytest.approx(brute_force_makespan(p), abs=2e-3)
+    assert lower_bound(p)["bound"] <= a.estimate["makespan"] + 1e-9
+
+
+def test_solver_is_deterministic_and_wear_objective_respects_the_makespan_cap():
+    p = random_problem(11, robots=3, welds=6)
+    p = replace(p, cost_rate=np.random.default_rng(3).uniform(1, 10, len(p.node_robot)))
+    a, b = solve(p, "time", work=10), solve(p, "time", work=10)
+    assert a.routes == b.routes
+    cap = 1.1 * a.estimate["makespan"]
+    w = solve(p, "wear", work=10, makespan_cap=cap)
+    assert w.estimate["makespan"] <= cap + 1e-3
+    assert w.estimate["wear"] <= a.estimate["wear"] + 1e-6
+    with pytest.raises(ConfigError, match="objective"):
+        solve(p, "cheapest")
+
+
+@pytest.fixture(scope="module")
+def two_robot_station() -> Station:
+    """The near side of the shipped side-framing station: robots r1 and r2, four of their welds."""
+    cfg = load_station("side_framing_4r")
+    names = ("r1_sill_1", "r1_b_pillar_1", "r2_b_pillar_1", "r2_sill_1")
+    welds = tuple(w for w in cfg.weld_points if w.name in names)
+    return Station(replace(cfg, robots=cfg.robots[:2], weld_points=welds))
+
+
+def test_station_solver_is_optimal_on_a_two_robot_station(two_robot_station):
+    planner = StationPlanner(two_robot_station, StationPlanConfig(kept_options=2, costed_options=2))
+    task = make_station_task(two_robot_station, lambda r: planner.leg_planners[r].validity.checker.collides)
+    assert all(set(task.candidates(w)) == {0, 1} for w in task.weld_names)  # both robots reach every weld
+    options = planner._choose_options(task)
+    p = planner.problem(task, options)
+    a = solve(p, "time", work=10)
+    assert a.estimate["makespan"] == pytest.approx(brute_force_makespan(p), abs=2e-3)
+    assert all(len(route) for route in a.routes)  # the min-max splits the welds over both robots
+
+
+def test_schedule_timing_follows_the_time_law_with_welds_and_waits():
+    speeds = np.full(6, 1.0)
+    home, a, b = np.zeros(6), np.full(6, 0.3), np.array([0.5, 0, 0, 0, 0, 0])
+    s = RobotSchedule.as_soon_as_possible(0, ["w1", "w2"], [np.array([home, a]), np.array([a, b]), np.array([b, home])],
+                                          speeds, weld_time=2.0)
+    d = [float(segment_durations(x - y, speeds)) for x, y in [(a, home), (b, a), (home, b)]]
+    assert s.end_time == pytest.approx(sum(d) + 4.0)
+    q, qd = s.at([d[0], d[0] + 1.0, d[0] + 2.0, s.end_time + 5.0, -1.0])
+    np.testing.assert_allclose(q[0], a)
+    np.testing.assert_allclose(q[1], a)  # welding: standing still at the weld
+    np.testing.assert_allclose(qd[1], 0.0)
+    np.testing.assert_allclose(q[3], home)
+    np.testing.assert_allclose(q[4], home)
+    mid = s.at([d[0] / 2])[0][0]
+    np.testing.assert_allclose(mid, a / 2)  # the cubic is symmetric: half way at half time
+    late = s.delayed(1, 3.0)
+    assert late.waits().tolist() == pytest.approx([0.0, 3.0, 0.0])
+    assert late.end_time == pytest.approx(s.end_time + 3.0)
+    assert late.intervals()["wait"] == [pytest.approx((d[0] + 2.0, d[0] + 5.0))]
+
+
+def _both_to_one_weld(station: Station) -> StationSchedule:
+    """Both robots sent to the same weld option at the same time (a collision by construction)."""
+    task = make_station_task(station, lambda r: None, ["r2_b_pillar_1"])
+    q = {r: next(o.q for o in task.options["r2_b_pillar_1"] if o.robot == r) for r in (0, 1)}
+    speeds = station.config.robots[0].robot.joint_speed * station.config.simulation.speed_fraction
+    robots = tuple(RobotSchedule.as_soon_as_possible(r, ["r2_b_pillar_1"], [np.array([task.homes[r], q[r]]),
+                                                                             np.array([q[r], task.homes[r]])],
+                                                     speeds, 1.0) for r in (0, 1))
+    return StationSchedule(robots, task.homes)
+
+
+def test_coordination_resolves_a_conflict_by_waiting_and_the_dense_check_confirms_it(two_robot_station):
+    schedule = _both_to_one_weld(two_robot_station)
+    pairs = RobotPairDistance(two_robot_station)
+    before = verify(two_robot_station, schedule, pairs=pairs)
+    assert before["collisions"] > 0 and before["min_distance"] < 0
+    fixed, info = coordinate(two_robot_station, schedule, pairs)
+    assert info["resolved"] and info["waits"] > 0
+    after = verify(two_robot_station, fixed, pairs=pairs)
+    assert after["collisions"] == 0 and after["min_distance"] > 0
+    # the robot that waited did so while the other was at the weld: its wait covers the other's weld
+    first = fixed.robot(info["order"][0])
+    second = fixed.robot(info["order"][1])
+    assert second.leg_start[0] >= first.leg_end()[0] + first.weld_time - second.leg_durations()[0]
+
+
+def test_pair_distance_matches_base_separation(two_robot_station):
+    """At Home both robots stand 1.8 m apart along y: the nearest surfaces are closer than the bases' centres and
+    farther than zero; moving r2's base 0.5 m closer (same poses) brings them exactly 0.5 m closer, as long as the
+    nearest points stay the nearest (a rigid translation along the line joining them)."""
+    pairs = RobotPairDistance(two_robot_station)
+    pairs.pose(two_robot_station.home)
+    d = pairs.distance(0, 1)
+    assert 0 < d < 1.8
+    cfg = two_robot_station.config
+    moved = replace(cfg.robots[1], base_pos=(cfg.robots[1].base_pos[0], cfg.robots[1].base_pos[1] - 0.5, 0.0))
+    closer = Station(replace(cfg, robots=(cfg.robots[0], moved), weld_points=()))
+    p2 = RobotPairDistance(closer)
+    p2.pose(closer.home)
+    assert p2.distance(0, 1) == pytest.approx(d - 0.5, abs=1e-6)
+
+
+def test_follow_drives_the_cables_like_move_to(two_robot_station):
+    """A timed program that is one straight segment gives the same cables as move_to (same steps, same law):
+    r1 turns its base for exactly 0.5 s (a whole number of steps), r2 stands still."""
+    st = two_robot_station
+    speeds = st.config.robots[0].robot.joint_speed * st.config.simulation.speed_fraction
+    target = st.home.copy()
+    target[0, 0] += 0.5 * speeds[0] / 1.5  # the cubic law: duration = 1.5 dq / speed = 0.5 s
+    a, b = CableSimulator(st), CableSimulator(st)
+    a.reset(st.home)
+    b.reset(st.home)
+    a.move_to(target, settle=False)
+    program = StationSchedule((
+        RobotSchedule.as_soon_as_possible(0, [], [np.array([st.home[0], target[0]])], speeds, 0.0),
+        RobotSchedule.as_soon_as_possible(1, [], [np.array([st.home[1], st.home[1]])], speeds, 0.0)), st.home)
+    assert program.makespan == pytest.approx(0.5)
+    b.follow(program.at, 0.5, record_every=0.1)
+    assert b.motion_time == pytest.approx(a.motion_time)
+    np.testing.assert_allclose(b.cable_points(0), a.cable_points(0), atol=1e-6)
+    np.testing.assert_allclose(b.cable_points(1), a.cable_points(1), atol=1e-6)
+
+
+def test_a_weld_no_robot_can_reach_is_named(two_robot_station):
+    cfg = two_robot_station.config
+    far = replace(cfg.weld_points[0], name="far_away", pos=(20.0, 0.0, 1.0))
+    st = Station(replace(cfg, weld_points=(*cfg.weld_points, far)))
+    with pytest.raises(ConfigError, match=r"weld_points\.far_away: no robot can weld it \(r1: out of reach; "
+                                          r"r2: out of reach\)"):
+        make_station_task(st, lambda r: None)
+
+
+def test_overlapping_robot_bases_are_named(two_robot_station):
+    cfg = two_robot_station.config
+    on_top = replace(cfg.robots[1], base_pos=(cfg.robots[0].base_pos[0] + 0.3, cfg.robots[0].base_pos[1], 0.0))
+    with pytest.raises(ConfigError, match=r"robots\[1\].*'r2' overlaps robot 'r1'"):
+        Station(replace(cfg, robots=(cfg.robots[0], on_top), weld_points=()))
+
+
+def test_an_empty_robot_list_is_refused(tmp_path):
+    path = tmp_path / "empty.yaml"
+    path.write_text("name: empty\nrobots: []\nweld_points: []\n")
+    with pytest.raises(ConfigError, match="robots: a station needs at least one robot"):
+        load_station(path)
+
+
+def test_plan_config_errors_name_the_field():
+    with pytest.raises(ConfigError, match="objective"):
+        StationPlanConfig(objective="fast")
+    with pytest.raises(ConfigError, match="weld_time"):
+        StationPlanConfig(weld_time=-1)
+    assert isinstance(StationConfig, type)
