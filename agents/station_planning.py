@@ -28,7 +28,8 @@ from dresspack_gym.validation import check_choice, check_integer, check_number
 
 from .budget import DEFAULT_ITERATIONS
 from .ompl_planner import OmplPlanner
-from .station_solver import DEFAULT_WORK, MAKESPAN_SLACK, OBJECTIVES, Assignment, RoutingProblem, lower_bound, solve
+from .station_solver import (DEFAULT_WORK, MAKESPAN_SLACK, OBJECTIVES, SPAN_WEIGHT, Assignment, RoutingProblem,
+                             lower_bound, solve)
 
 EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estimate by more is re-solved with it
 
@@ -44,7 +45,7 @@ class StationPlanConfig:
     costed_options: int = 8  # per weld and robot: IK options (nearest Home first) whose settled cable is costed
     kept_options: int = 4  # per weld and robot: options the solver chooses from (half nearest Home, half cheapest)
     iterations: int = DEFAULT_ITERATIONS  # OMPL iterations per leg
-    exact_rounds: int = 4  # solve -> plan chosen legs -> re-solve rounds
+    exact_rounds: int = 8  # solve -> plan chosen legs -> re-solve rounds
     makespan_slack: float = MAKESPAN_SLACK
     seed: int = 0
     cost_variant: str = "thesis"
@@ -205,6 +206,21 @@ class StationPlanner:
                 changed += real > estimate * (1 + EXACT_TOLERANCE) + 1e-6
         return changed
 
+    def _best(self, problem: RoutingProblem, candidates: list[Assignment]) -> Assignment:
+        """The best of the solved assignments by their exact (planned-leg) times: the straight-move estimates
+        the solver saw are lower bounds of the planned legs, so a later round's answer can be the worse one."""
+        cfg = self.config
+        exact = [Assignment(a.routes, {**a.estimate, **problem.evaluate(a.routes)}, a.objective) for a in candidates]
+        fastest = min(exact, key=lambda a: (a.estimate["makespan"], a.estimate["time"]))
+        if cfg.objective == "time":
+            return fastest
+        if cfg.objective == "wear":
+            cap = fastest.estimate["makespan"] * (1 + cfg.makespan_slack) + 1e-9
+            return min((a for a in exact if a.estimate["makespan"] <= cap), key=lambda a: a.estimate["wear"])
+        weight = fastest.estimate["time"] / max(fastest.estimate["wear"], 1e-9)
+        return min(exact, key=lambda a: SPAN_WEIGHT * a.estimate["makespan"] + a.estimate["time"]
+                   + weight * a.estimate["wear"])
+
     # -------------------------------------------------------------------------- plan
     def plan(self, task: StationTask | None = None, cache: Path | None = None) -> StationPlan:
         cfg = self.config
@@ -219,7 +235,7 @@ class StationPlanner:
             self.save_rates(cache)
         R = task.n_robots
         qs = np.vstack([task.homes, np.array([o.q for o in options]).reshape(-1, 6)])
-        rounds, solves = 0, 0
+        rounds, solves, candidates = 0, 0, []
         while True:
             problem = self.problem(task, options)
             fastest = solve(problem, "time", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget)
@@ -231,16 +247,17 @@ class StationPlanner:
                 solves += 1
             elif cfg.objective == "balanced":
                 weight = fastest.estimate["time"] / max(fastest.estimate["wear"], 1e-9)
-                chosen = solve(problem, "balanced", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget, wear_weight=weight)
+                chosen = solve(problem, "balanced", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
+                               wear_weight=weight)
                 solves += 1
             rounds += 1
-            changed = self._plan_chosen_legs(problem, chosen, qs)
-            if cfg.objective != "time":
-                changed += self._plan_chosen_legs(problem, fastest, qs)
+            changed = sum(self._plan_chosen_legs(problem, a, qs) for a in {id(fastest): fastest,
+                                                                          id(chosen): chosen}.values())
+            candidates += [fastest, chosen]  # every leg of both is planned now: exactly evaluable
             if changed == 0 or rounds >= cfg.exact_rounds:
                 break
         problem = self.problem(task, options)
-        assignment = Assignment(chosen.routes, problem.evaluate(chosen.routes), chosen.objective)
+        assignment = self._best(problem, candidates)
         schedules = []
         for r, route in enumerate(assignment.routes):
             if not route:  # a robot without welds stays Home (and is still an obstacle to the others)
@@ -255,8 +272,8 @@ class StationPlanner:
         pairs = RobotPairDistance(self.station)
         schedule, coordination = coordinate(self.station, schedule, pairs)
         verification = verify(self.station, schedule, pairs=pairs)
-        plan = StationPlan(task, [r.name for r in self.station.config.robots], options, assignment, schedule, coordination, verification,
-                           lower_bound(problem), cfg,
+        plan = StationPlan(task, [r.name for r in self.station.config.robots], options, assignment, schedule,
+                           coordination, verification, lower_bound(problem), cfg,
                            info={"rounds": rounds, "solves": solves, "nodes": len(qs),
                                  "planned_legs": len(self._legs), "cost_settles": len(self._rates)})
         return plan

@@ -230,17 +230,20 @@ def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: 
 
 
 def lower_bound(problem: RoutingProblem) -> dict:
-    """Lower bounds on the makespan [s] of any assignment (estimates' units):
+    """Lower bounds on the makespan [s] of any assignment (in the problem's times, whose straight-move legs are
+    themselves lower bounds of planned legs):
 
-    - ``single``: some robot welds each weld; the weld no robot can do in less than a round trip from Home
-      (Home -> weld -> Home plus the weld) bounds the makespan from below;
-    - ``load``: every weld costs at least its weld time plus its cheapest arrival from anywhere its robot can be
-      (an assignment relaxation of the routes); the summed minimum split evenly over the robots is a bound,
-      and so is the minimum each robot must do when a weld only it can reach is counted for it;
-    - ``bound``: the largest of them."""
+    - ``single``: the weld whose cheapest round trip (Home -> weld -> Home plus the weld, over the robots that
+      reach it) is the longest;
+    - ``load``: every weld costs at least its weld time plus its cheapest arrival (from its robot's Home or
+      another of its options), and every robot that works returns Home at least as fast as its nearest option
+      allows; with u robots working the busiest carries at least (sum of arrivals + u smallest returns) / u;
+      the bound is the smallest of these over u (an assignment relaxation of the routes);
+    - ``forced``: the welds only one robot reaches, counted for that robot;
+    - ``bound``: the largest."""
     R = problem.n_robots
     single, arrive = 0.0, np.full(problem.n_welds, np.inf)
-    per_robot_forced = np.zeros(R)
+    forced = np.zeros(R)
     for w in range(problem.n_welds):
         nodes = np.flatnonzero(problem.node_weld == w)
         trip, best = np.inf, np.inf
@@ -255,7 +258,11 @@ def lower_bound(problem: RoutingProblem) -> dict:
         single = max(single, trip)
         arrive[w] = best
         if len(robots) == 1:
-            per_robot_forced[robots.pop()] += best
-    load = float(arrive.sum() / R)
-    return {"single": float(single), "load": load, "forced": float(per_robot_forced.max()),
-            "bound": float(max(single, load, per_robot_forced.max()))}
+            forced[robots.pop()] += best
+    returns = sorted(float(problem.travel[r][np.flatnonzero((problem.node_robot == r) & (problem.node_weld >= 0)), r]
+                           .min(initial=np.inf)) for r in range(R))
+    returns = [x for x in returns if np.isfinite(x)]
+    total = float(arrive.sum())
+    load = min((total + sum(returns[:u])) / u for u in range(1, len(returns) + 1)) if returns else total
+    return {"single": float(single), "load": float(load), "forced": float(forced.max()),
+            "bound": float(max(single, load, forced.max()))}

@@ -1,4 +1,5 @@
-"""Robot-to-static-geometry collision queries (the robot is kinematic, so these are checks, not contacts)."""
+"""Robot-to-static-geometry collision queries (the robot is kinematic, so these are checks, not contacts).
+Static geometry is the station's obstacles and the station's other robots parked at Home."""
 
 from __future__ import annotations
 
@@ -9,6 +10,9 @@ from .station import Station
 
 # Links that stand on the floor: their contact with it is not a collision.
 FLOOR_EXEMPT_LINKS = ("base", "link1", "link2")
+# [m] what a robot keeps from the other robots of the station, parked at Home: paths that keep clear of parked
+# robots can always be coordinated by waits (at worst one robot waits until the other is back Home).
+ROBOT_CLEARANCE = 0.02
 
 
 class RobotCollisionChecker:
@@ -33,13 +37,20 @@ class RobotCollisionChecker:
         m = self.model
         floor = m.geom("floor").id if station.config.floor else -1
         exempt = {m.body(f"{self.robot.name}/{link}").id for link in FLOOR_EXEMPT_LINKS}
-        pairs = []
+        pairs, extra = [], []
+        others = [g for r in station.robots if r is not self.robot for g in r.geom_ids]  # parked at Home
         for g in self.robot.geom_ids:
             for o in station.obstacle_geoms:
                 if o == floor and m.geom_bodyid[g] in exempt:
                     continue
                 pairs.append((g, o))
+                extra.append(0.0)
+            for o in others:
+                pairs.append((g, o))
+                extra.append(max(0.0, ROBOT_CLEARANCE - self.margin))
         self.pairs = np.array(pairs, dtype=int).reshape(-1, 2)
+        # distances to other robots count ROBOT_CLEARANCE - margin less, so `margin` keeps ROBOT_CLEARANCE from them
+        self.extra = np.array(extra, dtype=float)
         self.plane = m.geom_type[self.pairs[:, 1]] == mujoco.mjtGeom.mjGEOM_PLANE if len(self.pairs) else np.zeros(0, bool)
         self.rbound = m.geom_rbound
         self._fromto = np.zeros(6)
@@ -54,7 +65,7 @@ class RobotCollisionChecker:
         d.qpos[self.robot.qpos] = q
         mujoco.mj_kinematics(self.model, d)
         g, o = self.pairs[:, 0], self.pairs[:, 1]
-        lb = np.linalg.norm(d.geom_xpos[g] - d.geom_xpos[o], axis=1) - self.rbound[g] - self.rbound[o]
+        lb = np.linalg.norm(d.geom_xpos[g] - d.geom_xpos[o], axis=1) - self.rbound[g] - self.rbound[o] - self.extra
         lb[self.plane] = -np.inf
         return g, o, lb
 
@@ -68,7 +79,8 @@ class RobotCollisionChecker:
         for k in np.argsort(lb):
             if lb[k] >= best:  # pairs are sorted by lower bound: none of the rest can be nearer
                 break
-            dist = mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]), min(best, 10.0), self._fromto)
+            dist = mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]), min(best + self.extra[k], 10.0),
+                                          self._fromto) - self.extra[k]
             best = min(best, dist)
         return float(best)
 
@@ -114,8 +126,8 @@ class RobotCollisionChecker:
         d = self.data
         g, o, lb = self._pose(q)
         for k in np.flatnonzero(lb < self.margin):  # pairs whose bounding spheres are farther can't touch
-            if mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]), self.margin + 1e-3,
-                                      self._fromto) < self.margin:
+            if mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]), self.margin + self.extra[k] + 1e-3,
+                                      self._fromto) - self.extra[k] < self.margin:
                 return True
         return False
 

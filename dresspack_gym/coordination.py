@@ -16,10 +16,14 @@ from .collision import RobotCollisionChecker
 from .station import Station
 from .station_schedule import RobotSchedule, StationSchedule
 
-ROBOT_MARGIN = 0.02  # [m] clearance kept between two robots (controllers' interference zones add more)
+# [m] clearance kept between two robots while both may move: half what each keeps from the others parked at Home
+# (collision.ROBOT_CLEARANCE; segments keep at least that less half the planner margin), so any conflict can be
+# waited out
+ROBOT_MARGIN = 0.01
 WAIT_STEP = 0.25  # [s] a waiting robot re-checks the way this often
 MAX_WAIT = 120.0  # [s] a leg waiting longer than this is a conflict waits cannot resolve
 DENSE_DT = 0.005  # [s] sampling of the independent verification
+MIN_STEP = 1e-3  # [s] smallest step of the continuous check (a clearance this small is a conflict anyway)
 
 
 class RobotPairDistance:
@@ -70,9 +74,10 @@ class Conflict:
 
 def first_conflict(pairs: RobotPairDistance, mover: RobotSchedule, others: list[RobotSchedule],
                    schedule: StationSchedule, t0: float, t1: float, margin: float = ROBOT_MARGIN) -> Conflict | None:
-    """The first time in [t0, t1] that ``mover`` comes closer than ``margin`` to one of ``others`` (continuous:
-    between checks no point moves farther than the joints' reach times their change, so the next check is placed
-    where the clearance could first be used up)."""
+    """The first time in [t0, t1] that ``mover`` comes closer than ``margin`` to one of ``others``. Continuous,
+    not sampled: no robot point moves faster than the joints' reach times their peak speeds (the time law never
+    exceeds them), so after a check with clearance d the next can wait until d - margin / 2 could be used up."""
+    speed = {s.robot: float(pairs.reach[s.robot] @ s.speeds) for s in [mover, *others]}
     t = t0
     while True:
         q, _ = schedule.at([t])
@@ -82,28 +87,22 @@ def first_conflict(pairs: RobotPairDistance, mover: RobotSchedule, others: list[
             d = pairs.distance(mover.robot, o.robot)
             if d < margin:
                 return Conflict(t, mover.robot, o.robot, d)
-            step = min(step, _safe_step(pairs, schedule, (mover.robot, o.robot), t, t1, d - 0.5 * margin))
+            step = min(step, _clear_for(d - 0.5 * margin, t, (mover, speed[mover.robot]), (o, speed[o.robot])))
         if t >= t1:
             return None
-        t = min(t1, t + step)
+        t = min(t1, t + max(step, MIN_STEP))
 
 
-def _safe_step(pairs: RobotPairDistance, schedule: StationSchedule, robots: tuple[int, int], t: float, t1: float,
-               clearance: float) -> float:
-    """A time step after ``t`` over which the two robots together cannot close ``clearance``: the joint change over
-    a trial step bounds the motion of every point (the time law is monotone within a segment; the trial step is
-    halved until it crosses no segment boundary where a joint could turn back)."""
-    h = max(t1 - t, 1e-3)
-    q0, _ = schedule.at([t])
-    while h > 1e-3:
-        q1, _ = schedule.at([t + h])
-        move = sum(float(pairs.reach[r] @ np.abs(q1[0, r] - q0[0, r])) for r in robots)
-        crosses = any(np.any((s.segment_times() > t) & (s.segment_times() < t + h))
-                      for s in schedule.robots if s.robot in robots)
-        if move <= clearance and not crosses:
-            return h
-        h *= 0.5
-    return 1e-3
+def _clear_for(clearance: float, t: float, a: tuple[RobotSchedule, float], b: tuple[RobotSchedule, float]) -> float:
+    """How long after ``t`` two robots (schedule, peak point speed) certainly keep apart by ``clearance``: the
+    best of the bounds valid while both move, while only one moves, and while neither does."""
+    (sa, va), (sb, vb) = a, b
+    ta, tb = sa.next_motion(t) - t, sb.next_motion(t) - t  # how long each still stands still
+    bounds = [clearance / (va + vb)]
+    bounds.append(min(ta, clearance / vb) if vb > 0 else ta)  # only b moves while a stands
+    bounds.append(min(tb, clearance / va) if va > 0 else tb)  # only a moves while b stands
+    bounds.append(min(ta, tb))  # neither moves
+    return max(bounds)
 
 
 def coordinate(station: Station, schedule: StationSchedule, pairs: RobotPairDistance | None = None,
@@ -129,29 +128,33 @@ def coordinate(station: Station, schedule: StationSchedule, pairs: RobotPairDist
 
 def _place_in_order(pairs: RobotPairDistance, schedule: StationSchedule, order: tuple[int, ...],
                     margin: float) -> tuple[StationSchedule, bool]:
-    # each robot is checked against the robots placed before it only (the others are not yet fixed)
+    """Place the robots one by one; each is checked against those placed before it (the others are not fixed
+    yet). A conflict in leg k's motion or weld delays leg k; a conflict while the robot holds at the stop before
+    leg k (another robot passes through it there) delays its arrival at that stop, leg k - 1, instead, and the
+    check goes back to it. A leg is delayed only as far as needed; later legs keep their times when they can."""
     placed: list[int] = []
     current = schedule
-    horizon = lambda: current.makespan + WAIT_STEP
     for r in order:
         mover = current.robot(r)
         others = [current.robot(p) for p in placed]
-        view = StationSchedule(tuple([mover, *others]), schedule.homes)
         k = 0
         while k < len(mover.legs):
+            view = StationSchedule(tuple([mover, *others]), schedule.homes)
             t_from = mover.earliest_start(k) if k else 0.0
-            end = mover.leg_end()[k] + (mover.weld_time if k < len(mover.welds) else 0.0)
             last = k == len(mover.legs) - 1
-            hit = first_conflict(pairs, mover, others, view, t_from, horizon() if last else end, margin) \
-                if others else None
+            t_to = max(view.makespan, current.makespan) + WAIT_STEP if last else \
+                mover.leg_end()[k] + (mover.weld_time if k < len(mover.welds) else 0.0)
+            hit = first_conflict(pairs, mover, others, view, t_from, t_to, margin) if others else None
             if hit is None:
                 k += 1
                 continue
-            if mover.waits()[k] + WAIT_STEP > MAX_WAIT or hit.time < mover.leg_start[k]:
-                # a conflict while holding still before the leg: waiting longer cannot help
+            blocker = current.robot(hit.b)
+            j = k if hit.time >= mover.leg_start[k] else k - 1  # moving/welding: wait before; holding: arrive later
+            if j < 0 or hit.time >= blocker.end_time or mover.waits().sum() + WAIT_STEP > MAX_WAIT:
+                # the other robot comes to this one's Home, or is Home for good in its way: waits cannot help
                 return current.with_robot(mover), False
-            mover = mover.delayed(k, WAIT_STEP)
-            view = StationSchedule(tuple([mover, *others]), schedule.homes)
+            mover = mover.delayed(j, WAIT_STEP)
+            k = j
         current = current.with_robot(mover)
         placed.append(r)
     return current, True

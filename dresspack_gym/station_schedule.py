@@ -112,6 +112,13 @@ class RobotSchedule:
         q[resting] = b[k[resting]]
         return q, qd
 
+    def next_motion(self, t: float) -> float:
+        """The earliest time >= ``t`` at which the robot moves (``t`` if it is moving; inf once it is Home for
+        good)."""
+        t0, dur, a, b = self._table
+        live = (t0 + dur > t) & (dur > 0) & np.any(a != b, axis=1)
+        return float(max(t, t0[live].min())) if live.any() else np.inf
+
     def segment_times(self) -> np.ndarray:
         """Start and end time of every straight segment (where the motion changes direction)."""
         t0, dur, _, _ = self._table
