@@ -26,12 +26,14 @@ from dresspack_gym.station_tasks import DEFAULT_WELD_TIME, StationTask, WeldOpti
 from dresspack_gym.tasks import Task
 from dresspack_gym.validation import check_choice, check_integer, check_number
 
+from .base import PlanningError
 from .budget import DEFAULT_ITERATIONS
 from .ompl_planner import OmplPlanner
 from .station_solver import (DEFAULT_WORK, MAKESPAN_SLACK, OBJECTIVES, SPAN_WEIGHT, Assignment, RoutingProblem,
                              lower_bound, solve)
 
 EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estimate by more is re-solved with it
+BLOCKED = 1e4  # [s] the travel time of a move OMPL found no path for: the solver avoids it
 
 
 @dataclass(frozen=True)
@@ -43,9 +45,9 @@ class StationPlanConfig:
     work: float = DEFAULT_WORK  # solver work budget per solve (CP-SAT deterministic seconds)
     time_budget: float | None = None  # optional wall-clock cap per solve [s]
     costed_options: int = 8  # per weld and robot: IK options (nearest Home first) whose settled cable is costed
-    kept_options: int = 4  # per weld and robot: options the solver chooses from (half nearest Home, half cheapest)
+    kept_options: int = 2  # per weld and robot: options the solver chooses from (half nearest Home, half cheapest)
     iterations: int = DEFAULT_ITERATIONS  # OMPL iterations per leg
-    exact_rounds: int = 8  # solve -> plan chosen legs -> re-solve rounds
+    exact_rounds: int = 4  # solve -> plan chosen legs -> re-solve rounds
     makespan_slack: float = MAKESPAN_SLACK
     seed: int = 0
     cost_variant: str = "thesis"
@@ -132,7 +134,7 @@ class StationPlanner:
     # -------------------------------------------------------------------------- costs
     def cost_rate(self, robot: int, q: np.ndarray) -> float:
         """The wear cost rate C of robot ``robot``'s cable settled at ``q`` (the robot alone in the station)."""
-        key = (robot, *np.round(q, 9))
+        key = (int(robot), *(float(x) for x in np.round(q, 9)))
         if key not in self._rates:
             sim = self._sub_sims.get(robot)
             if sim is None:
@@ -180,18 +182,40 @@ class StationPlanner:
         travel = np.stack([time_law.segment_durations(qs[None, :, :] - qs[:, None, :], self.speeds[r])
                            for r in range(R)])
         for (r, i, j), leg in self._legs.items():  # planned legs are exact
-            travel[r, i, j] = float(time_law.segment_durations(np.diff(leg, axis=0), self.speeds[r]).sum())
+            travel[r, i, j] = BLOCKED if leg is None else \
+                float(time_law.segment_durations(np.diff(leg, axis=0), self.speeds[r]).sum())
         rates = np.array([self.cost_rate(r, q) for r, q in zip(node_robot, qs)])
         return RoutingProblem(travel, rates, node_robot, node_weld, task.weld_time, len(task.weld_names))
 
     # -------------------------------------------------------------------------- legs
-    def leg(self, robot: int, i: int, j: int, qs: np.ndarray) -> np.ndarray:
-        """Robot ``robot``'s collision-free path from node i to node j (straight if valid, else OMPL; cached)."""
+    def check_straight_moves(self, task: StationTask, options: list[WeldOption]) -> None:
+        """Every robot's straight moves between its Home and options, checked once: a valid one is its exact
+        leg (what the OMPL connector would return), so only blocked moves stay estimates for the rounds."""
+        R = task.n_robots
+        qs = np.vstack([task.homes, np.array([o.q for o in options]).reshape(-1, 6)])
+        robot_of = np.concatenate([np.arange(R), [o.robot for o in options]]).astype(int)
+        weld_of = [None] * R + [o.weld for o in options]
+        own = [np.flatnonzero(robot_of == r) for r in range(R)]
+        pairs = [(r, i, j) for r in range(R) for i in own[r] for j in own[r]
+                 if i != j and (weld_of[i] is None or weld_of[i] != weld_of[j]) and (r, i, j) not in self._legs]
+        bar = self._bar("checking straight moves", len(pairs))
+        for r, i, j in pairs:
+            if self.leg_planners[r].validity.segment_valid(qs[i], qs[j]):
+                self._legs[(int(r), int(i), int(j))] = np.array([qs[i], qs[j]])
+            bar.update(1)
+        bar.close()
+
+    def leg(self, robot: int, i: int, j: int, qs: np.ndarray) -> np.ndarray | None:
+        """Robot ``robot``'s collision-free path from node i to node j (straight if valid, else OMPL; cached);
+        None if OMPL finds none within its iterations (the solver then treats the move as blocked)."""
         key = (robot, i, j)
         if key not in self._legs:
             planner = self.leg_planners[robot]
             task = Task(robot, qs[i], (), np.zeros((0, 6)), qs[j])
-            self._legs[key] = planner.plan(task).trajectory.waypoints
+            try:
+                self._legs[key] = planner.plan(task).trajectory.waypoints
+            except PlanningError:
+                self._legs[key] = None
         return self._legs[key]
 
     def _plan_chosen_legs(self, problem: RoutingProblem, assignment: Assignment, qs: np.ndarray) -> int:
@@ -202,15 +226,29 @@ class StationPlanner:
             for a, b in zip(path[:-1], path[1:]):
                 estimate = problem.travel[r, a, b]
                 leg = self.leg(r, a, b, qs)
-                real = float(time_law.segment_durations(np.diff(leg, axis=0), self.speeds[r]).sum())
+                real = BLOCKED if leg is None else \
+                    float(time_law.segment_durations(np.diff(leg, axis=0), self.speeds[r]).sum())
                 changed += real > estimate * (1 + EXACT_TOLERANCE) + 1e-6
         return changed
+
+    @staticmethod
+    def _bound(problem: RoutingProblem, solver_bound: float) -> dict:
+        """Makespan lower bounds: the analytic ones (station_solver.lower_bound) and the solver's (``solver``:
+        from the first round's CP-SAT bound, where every leg time was a straight-move lower bound)."""
+        b = lower_bound(problem)
+        b["solver"] = solver_bound
+        b["bound"] = max(b["bound"], solver_bound)
+        return b
 
     def _best(self, problem: RoutingProblem, candidates: list[Assignment]) -> Assignment:
         """The best of the solved assignments by their exact (planned-leg) times: the straight-move estimates
         the solver saw are lower bounds of the planned legs, so a later round's answer can be the worse one."""
         cfg = self.config
         exact = [Assignment(a.routes, {**a.estimate, **problem.evaluate(a.routes)}, a.objective) for a in candidates]
+        exact = [a for a in exact if a.estimate["makespan"] < BLOCKED] or exact
+        if exact[0].estimate["makespan"] >= BLOCKED:
+            raise PlanningError(f"no assignment found whose every leg OMPL could plan within {cfg.iterations} "
+                                f"iterations in {cfg.exact_rounds} rounds (raise --iterations)")
         fastest = min(exact, key=lambda a: (a.estimate["makespan"], a.estimate["time"]))
         if cfg.objective == "time":
             return fastest
@@ -233,29 +271,39 @@ class StationPlanner:
         options = self._choose_options(task)
         if cache is not None:
             self.save_rates(cache)
+        self.check_straight_moves(task, options)
         R = task.n_robots
         qs = np.vstack([task.homes, np.array([o.q for o in options]).reshape(-1, 6)])
-        rounds, solves, candidates = 0, 0, []
+        rounds, solves, candidates, bound = 0, 0, [], 0.0
+        bar = self._bar("solve, plan the chosen legs (rounds, at most)", cfg.exact_rounds)
+        fastest = chosen = None
         while True:
             problem = self.problem(task, options)
-            fastest = solve(problem, "time", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget)
+            # later rounds start from the previous answer (still feasible: only leg times changed)
+            fastest = solve(problem, "time", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
+                            start=fastest.routes if fastest is not None else None)
             solves += 1
+            bound = max(bound, fastest.estimate.get("makespan_bound", 0.0))
+            previous = chosen.routes if chosen is not None and chosen is not fastest else None
             chosen = fastest
             if cfg.objective == "wear":
                 chosen = solve(problem, "wear", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
-                               makespan_cap=fastest.estimate["makespan"] * (1 + cfg.makespan_slack))
+                               makespan_cap=fastest.estimate["makespan"] * (1 + cfg.makespan_slack),
+                               start=previous)
                 solves += 1
             elif cfg.objective == "balanced":
                 weight = fastest.estimate["time"] / max(fastest.estimate["wear"], 1e-9)
                 chosen = solve(problem, "balanced", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
-                               wear_weight=weight)
+                               wear_weight=weight, start=previous)
                 solves += 1
             rounds += 1
             changed = sum(self._plan_chosen_legs(problem, a, qs) for a in {id(fastest): fastest,
                                                                           id(chosen): chosen}.values())
             candidates += [fastest, chosen]  # every leg of both is planned now: exactly evaluable
+            bar.update(1)
             if changed == 0 or rounds >= cfg.exact_rounds:
                 break
+        bar.close()
         problem = self.problem(task, options)
         assignment = self._best(problem, candidates)
         schedules = []
@@ -273,13 +321,13 @@ class StationPlanner:
         schedule, coordination = coordinate(self.station, schedule, pairs)
         verification = verify(self.station, schedule, pairs=pairs)
         plan = StationPlan(task, [r.name for r in self.station.config.robots], options, assignment, schedule,
-                           coordination, verification, lower_bound(problem), cfg,
+                           coordination, verification, self._bound(problem, bound), cfg,
                            info={"rounds": rounds, "solves": solves, "nodes": len(qs),
                                  "planned_legs": len(self._legs), "cost_settles": len(self._rates)})
         return plan
 
     def replay(self, plan: StationPlan, record_every: float = 0.05) -> StationReplay:
-        bar = self._bar("station replay (simulated s)", round(plan.schedule.makespan, 1))
+        bar = self._bar("station replay (simulated s)", round(plan.schedule.makespan + record_every, 2))
         last = [0.0]
 
         def tick(t):

@@ -19,8 +19,8 @@ OBJECTIVES = ("time", "wear", "balanced")
 TIME_SCALE = 1000  # integer costs: milliseconds
 WEAR_SCALE = 1000  # integer costs: 1/1000 of the wear cost's unit x s
 SPAN_WEIGHT = 100  # makespan against the sum of route times in the time objective (min-max first)
-DEFAULT_WORK = 20.0  # CP-SAT deterministic seconds per solve (the solver's work budget, machine-independent)
-HINT_SOLUTIONS = 100  # routing local-search solutions behind CP-SAT's first assignment
+DEFAULT_WORK = 10.0  # CP-SAT deterministic seconds per solve (the solver's work budget, machine-independent)
+HINT_SOLUTIONS = 20  # routing local-search solutions behind CP-SAT's first assignment
 MAKESPAN_SLACK = 0.10  # wear objective: makespan allowed above the time-optimal plan's (as a fraction)
 
 
@@ -76,7 +76,7 @@ class Assignment:
 
 def solve(problem: RoutingProblem, objective: str = "time", *, work: float = DEFAULT_WORK,
           makespan_cap: float | None = None, wear_weight: float | None = None, seed: int = 0,
-          time_limit: float | None = None) -> Assignment:
+          time_limit: float | None = None, start: list[list[int]] | None = None) -> Assignment:
     """Assign and order the welds. ``time``: minimise the makespan, then the summed time; ``wear``: minimise
     the wear estimate with every route within ``makespan_cap`` [s]; ``balanced``: time plus ``wear_weight`` x
     wear (both in seconds), makespan first.
@@ -84,7 +84,8 @@ def solve(problem: RoutingProblem, objective: str = "time", *, work: float = DEF
     OR-Tools routing (guided local search over the disjunctions, ``HINT_SOLUTIONS`` solutions) gives a first
     assignment; CP-SAT, started from it, improves it and bounds it, for ``work`` deterministic seconds (CP-SAT's
     machine-independent work measure, so the answer does not depend on machine load; ``time_limit`` [s] is an
-    optional wall-clock cap on top). The result says whether it is proven optimal."""
+    optional wall-clock cap on top). ``start``: routes to start from instead (e.g. the previous round's answer).
+    The estimate says whether the answer is proven optimal and carries CP-SAT's bound on the makespan."""
     check_choice("objective", objective, OBJECTIVES)
     if objective == "balanced" and wear_weight is None:
         raise ConfigError("wear_weight", "the balanced objective needs a wear weight (seconds per unit of wear)")
@@ -101,8 +102,11 @@ def solve(problem: RoutingProblem, objective: str = "time", *, work: float = DEF
         else:
             arc_cost.append(np.rint(t + wear_weight * problem.leg_wear(r) * TIME_SCALE).astype(np.int64))
     span = SPAN_WEIGHT if objective != "wear" else 0
-    hint = _routing_first(problem, arc_cost, span, cap, horizon)
+    hint = start if start is not None else _routing_first(problem, arc_cost, span, cap, horizon)
     routes, status = _cp_sat(problem, arc_cost, span, cap, hint, work, seed, time_limit)
+    if status and objective == "time":
+        # every route's summed time is at most the makespan, so objective <= (span + R) x makespan
+        status["makespan_bound"] = status["objective_bound"] / (span + R) / TIME_SCALE
     if routes is None:
         what = f"within a makespan of {makespan_cap:.1f} s" if makespan_cap is not None else ""
         raise ConfigError("objective", f"the solver found no assignment of the welds {what}".strip())

@@ -222,3 +222,55 @@ def test_plan_config_errors_name_the_field():
     with pytest.raises(ConfigError, match="weld_time"):
         StationPlanConfig(weld_time=-1)
     assert isinstance(StationConfig, type)
+
+
+def _two_robot_yaml(tmp_path, welds=("r1_sill_1", "r1_b_pillar_1", "r2_b_pillar_1", "r2_sill_1"), extra=()):
+    import yaml
+
+    from dresspack_gym.shipped import find_shipped
+
+    data = yaml.safe_load(find_shipped("side_framing_4r", "stations", "station").read_text())
+    data["name"] = "near_side_2r"
+    data["robots"] = data["robots"][:2]
+    data["weld_points"] = [w for w in data["weld_points"] if w["name"] in welds] + list(extra)
+    path = tmp_path / "near_side_2r.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_station_plan_command_writes_plans_pictures_and_a_comparison(tmp_path, capsys):
+    from dresspack_gym.cli import main
+
+    station = _two_robot_yaml(tmp_path)
+    out = tmp_path / "plans"
+    code = main(["station-plan", str(station), "--objective", "time", "wear", "--work", "0.5", "--out", str(out)])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    import json
+
+    summary = json.loads((out / "summary.json").read_text())
+    assert set(summary) == {"time", "wear"}
+    for objective, s in summary.items():
+        assert s["verification"]["collisions"] == 0
+        assert sorted(w for ws in s["welds"].values() for w in ws) == sorted(
+            ["r1_sill_1", "r1_b_pillar_1", "r2_b_pillar_1", "r2_sill_1"])
+        assert s["makespan"] >= s["makespan_lower_bound"] - 1e-9
+        assert s["replay"]["cost"] > 0
+        for f in ("plan.json", "gantt.png", "wear.png", "assignment.png", "r1.npz", "r2.npz"):
+            assert (out / objective / f).is_file(), f
+    # the wear objective keeps within its makespan slack of the fastest plan (exact leg times)
+    assert summary["wear"]["makespan"] - summary["wear"]["total_wait"] <= \
+        1.1 * (summary["time"]["makespan"] - summary["time"]["total_wait"]) + 1e-6
+    assert "summary.md" in text
+
+
+def test_station_plan_command_names_a_weld_no_robot_can_reach(tmp_path, capsys):
+    from dresspack_gym.cli import main
+
+    far = {"name": "far_away", "robot": "r1", "pos": [20.0, 0.0, 1.0], "approach": [0, 0, -1]}
+    station = _two_robot_yaml(tmp_path, extra=[far])
+    assert main(["station-plan", str(station), "--out", str(tmp_path / "x"), "--json"]) == 2
+    import json
+
+    err = json.loads(capsys.readouterr().out)
+    assert err["field"] == "weld_points.far_away" and "no robot can weld it" in err["error"]
