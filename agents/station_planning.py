@@ -34,6 +34,10 @@ from .station_solver import (DEFAULT_WORK, MAKESPAN_SLACK, OBJECTIVES, SPAN_WEIG
 
 EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estimate by more is re-solved with it
 BLOCKED = 1e4  # [s] the travel time of a move OMPL found no path for: the solver avoids it
+# Two robots' weld options closer than this [m] are a conflict (they cannot weld at once; their legs around
+# them likely meet): the solver charges CONFLICT_WAIT x (weld time + a typical leg) of waiting for the pair
+CONFLICT_DISTANCE = 0.15
+CONFLICT_WAIT = 1.0
 
 
 @dataclass(frozen=True)
@@ -122,6 +126,7 @@ class StationPlanner:
         self._rates: dict[tuple, float] = {}
         self._legs: dict[tuple, np.ndarray] = {}
         self._sub_sims: dict[int, CableSimulator] = {}
+        self._conflicts: np.ndarray | None = None
 
     def reconfigured(self, config: StationPlanConfig) -> StationPlanner:
         """A planner with ``config`` that keeps this one's settled-cable costs and planned legs (same station,
@@ -185,7 +190,32 @@ class StationPlanner:
             travel[r, i, j] = BLOCKED if leg is None else \
                 float(time_law.segment_durations(np.diff(leg, axis=0), self.speeds[r]).sum())
         rates = np.array([self.cost_rate(r, q) for r, q in zip(node_robot, qs)])
-        return RoutingProblem(travel, rates, node_robot, node_weld, task.weld_time, len(task.weld_names))
+        if self._conflicts is None:
+            self._conflicts = self._find_conflicts(qs, node_robot)
+        own = [travel[r][np.ix_(node_robot == r, node_robot == r)] for r in range(R)]
+        typical_leg = float(np.median(np.concatenate([t[t > 0] for t in own if (t > 0).any()] or [[0.0]])))
+        return RoutingProblem(travel, rates, node_robot, node_weld, task.weld_time, len(task.weld_names),
+                              self._conflicts, CONFLICT_WAIT * (task.weld_time + typical_leg))
+
+    def _find_conflicts(self, qs: np.ndarray, node_robot: np.ndarray) -> np.ndarray:
+        """Option pairs of different robots whose robots, both at their options (the rest at Home), come within
+        CONFLICT_DISTANCE: welding them at once is impossible, and the legs around them likely meet too."""
+        pairs = RobotPairDistance(self.station)
+        poses = self.station.home.copy()
+        R = self.station.n_robots
+        out = []
+        nodes = np.arange(R, len(qs))
+        for a in nodes:
+            for b in nodes[nodes > a]:
+                ra, rb = int(node_robot[a]), int(node_robot[b])
+                if ra == rb:
+                    continue
+                poses[:] = self.station.home
+                poses[ra], poses[rb] = qs[a], qs[b]
+                pairs.pose(poses)
+                if pairs.distance(ra, rb, cap=CONFLICT_DISTANCE) < CONFLICT_DISTANCE:
+                    out.append((int(a), int(b)))
+        return np.array(out, dtype=int).reshape(-1, 2)
 
     # -------------------------------------------------------------------------- legs
     def check_straight_moves(self, task: StationTask, options: list[WeldOption]) -> None:
@@ -240,24 +270,57 @@ class StationPlanner:
         b["bound"] = max(b["bound"], solver_bound)
         return b
 
-    def _best(self, problem: RoutingProblem, candidates: list[Assignment]) -> Assignment:
-        """The best of the solved assignments by their exact (planned-leg) times: the straight-move estimates
-        the solver saw are lower bounds of the planned legs, so a later round's answer can be the worse one."""
+    def _schedule(self, task: StationTask, options: list[WeldOption], routes, qs) -> StationSchedule:
+        R = task.n_robots
+        schedules = []
+        for r, route in enumerate(routes):
+            if not route:  # a robot without welds stays Home (and is still an obstacle to the others)
+                schedules.append(RobotSchedule.as_soon_as_possible(r, [], [np.array([task.homes[r]] * 2)],
+                                                                   self.speeds[r], task.weld_time))
+                continue
+            path = [r, *route, r]
+            legs = [self.leg(r, a, b, qs) for a, b in zip(path[:-1], path[1:])]
+            schedules.append(RobotSchedule.as_soon_as_possible(r, [options[n - R].weld for n in route], legs,
+                                                               self.speeds[r], task.weld_time))
+        return StationSchedule(tuple(schedules), task.homes)
+
+    def _best(self, problem: RoutingProblem, candidates: list[Assignment], task: StationTask,
+              options: list[WeldOption], qs: np.ndarray, pairs: RobotPairDistance):
+        """The best of the solved assignments once their legs are planned and their robots coordinated: the
+        solver saw straight-move times (lower bounds of planned legs) and only a guess of the waits, so a later
+        round's answer, or the wear objective's, can turn out the worse one. Wear counts the waits at the
+        waiting robot's stop. Returns (assignment, coordinated schedule, coordination info)."""
         cfg = self.config
-        exact = [Assignment(a.routes, {**a.estimate, **problem.evaluate(a.routes)}, a.objective) for a in candidates]
-        exact = [a for a in exact if a.estimate["makespan"] < BLOCKED] or exact
-        if exact[0].estimate["makespan"] >= BLOCKED:
+        unique = list({tuple(map(tuple, a.routes)): a for a in candidates}.values())
+        exact = [Assignment(a.routes, {**a.estimate, **problem.evaluate(a.routes)}, a.objective) for a in unique]
+        exact = [a for a in exact if a.estimate["makespan"] < BLOCKED]
+        if not exact:
             raise PlanningError(f"no assignment found whose every leg OMPL could plan within {cfg.iterations} "
                                 f"iterations in {cfg.exact_rounds} rounds (raise --iterations)")
-        fastest = min(exact, key=lambda a: (a.estimate["makespan"], a.estimate["time"]))
+        scored = []
+        bar = self._bar("coordinating the candidate plans", len(exact))
+        for a in exact:
+            schedule, info = coordinate(self.station, self._schedule(task, options, a.routes, qs), pairs)
+            stops = {r: [r, *route] for r, route in enumerate(a.routes)}
+            wait_wear = sum(w * problem.cost_rate[stops[s.robot][k]] for s in schedule.robots
+                            for k, w in enumerate(s.waits()))
+            a.estimate.update(coordinated_makespan=schedule.makespan, waits=schedule.total_wait(),
+                              wear_with_waits=a.estimate["wear"] + float(wait_wear), resolved=info["resolved"])
+            scored.append((a, schedule, info))
+            bar.update(1)
+        bar.close()
+        ok = [x for x in scored if x[2]["resolved"]] or scored
+        fastest = min(ok, key=lambda x: (x[1].makespan, x[0].estimate["time"]))
+        for x in scored:
+            x[2]["fastest_candidate_makespan"] = fastest[1].makespan
         if cfg.objective == "time":
             return fastest
         if cfg.objective == "wear":
-            cap = fastest.estimate["makespan"] * (1 + cfg.makespan_slack) + 1e-9
-            return min((a for a in exact if a.estimate["makespan"] <= cap), key=lambda a: a.estimate["wear"])
-        weight = fastest.estimate["time"] / max(fastest.estimate["wear"], 1e-9)
-        return min(exact, key=lambda a: SPAN_WEIGHT * a.estimate["makespan"] + a.estimate["time"]
-                   + weight * a.estimate["wear"])
+            cap = fastest[1].makespan * (1 + cfg.makespan_slack) + 1e-9
+            return min((x for x in ok if x[1].makespan <= cap), key=lambda x: x[0].estimate["wear_with_waits"])
+        weight = fastest[0].estimate["time"] / max(fastest[0].estimate["wear_with_waits"], 1e-9)
+        return min(ok, key=lambda x: SPAN_WEIGHT * x[1].makespan + x[0].estimate["time"]
+                   + weight * x[0].estimate["wear_with_waits"])
 
     # -------------------------------------------------------------------------- plan
     def plan(self, task: StationTask | None = None, cache: Path | None = None) -> StationPlan:
@@ -272,7 +335,6 @@ class StationPlanner:
         if cache is not None:
             self.save_rates(cache)
         self.check_straight_moves(task, options)
-        R = task.n_robots
         qs = np.vstack([task.homes, np.array([o.q for o in options]).reshape(-1, 6)])
         rounds, solves, candidates, bound = 0, 0, [], 0.0
         bar = self._bar("solve, plan the chosen legs (rounds, at most)", cfg.exact_rounds)
@@ -305,24 +367,13 @@ class StationPlanner:
                 break
         bar.close()
         problem = self.problem(task, options)
-        assignment = self._best(problem, candidates)
-        schedules = []
-        for r, route in enumerate(assignment.routes):
-            if not route:  # a robot without welds stays Home (and is still an obstacle to the others)
-                schedules.append(RobotSchedule.as_soon_as_possible(r, [], [np.array([task.homes[r]] * 2)],
-                                                                   self.speeds[r], task.weld_time))
-                continue
-            path = [r, *route, r]
-            legs = [self.leg(r, a, b, qs) for a, b in zip(path[:-1], path[1:])]
-            schedules.append(RobotSchedule.as_soon_as_possible(r, [options[n - R].weld for n in route], legs,
-                                                               self.speeds[r], task.weld_time))
-        schedule = StationSchedule(tuple(schedules), task.homes)
         pairs = RobotPairDistance(self.station)
-        schedule, coordination = coordinate(self.station, schedule, pairs)
+        assignment, schedule, coordination = self._best(problem, candidates, task, options, qs, pairs)
         verification = verify(self.station, schedule, pairs=pairs)
         plan = StationPlan(task, [r.name for r in self.station.config.robots], options, assignment, schedule,
                            coordination, verification, self._bound(problem, bound), cfg,
                            info={"rounds": rounds, "solves": solves, "nodes": len(qs),
+                                 "conflict_pairs": len(problem.conflicts), "candidates": len(candidates),
                                  "planned_legs": len(self._legs), "cost_settles": len(self._rates)})
         return plan
 

@@ -36,6 +36,10 @@ class RoutingProblem:
     node_weld: np.ndarray  # (N,)
     weld_time: float
     n_welds: int
+    # option pairs of different robots that cannot be welded at the same time (the robots would touch), and
+    # the wait [s] such a pair is expected to cost: the solver charges it half to each robot's route
+    conflicts: np.ndarray | None = None  # (K, 2) node pairs
+    conflict_wait: float = 0.0
 
     @property
     def n_robots(self) -> int:
@@ -53,6 +57,13 @@ class RoutingProblem:
         """Robot r's motion i -> j plus the weld at j [s]."""
         return self.travel[r] + np.where(self.node_weld >= 0, self.weld_time, 0.0)[None, :]
 
+    def conflicts_taken(self, routes: list[list[int]]) -> int:
+        """How many conflicting option pairs ``routes`` take."""
+        if self.conflicts is None:
+            return 0
+        taken = {n for route in routes for n in route}
+        return int(sum(a in taken and b in taken for a, b in self.conflicts))
+
     def evaluate(self, routes: list[list[int]]) -> dict:
         """Makespan [s], summed time [s] and wear estimate of routes (node lists without the Homes)."""
         ends, wear = [], 0.0
@@ -62,7 +73,7 @@ class RoutingProblem:
             ends.append(sum(t[a, b] for a, b in zip(path[:-1], path[1:])))
             wear += sum(w[a, b] for a, b in zip(path[:-1], path[1:]))
         return {"makespan": float(max(ends)), "time": float(sum(ends)), "wear": float(wear),
-                "robot_times": [float(e) for e in ends]}
+                "robot_times": [float(e) for e in ends], "conflicts": self.conflicts_taken(routes)}
 
 
 @dataclass(frozen=True)
@@ -196,13 +207,30 @@ def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: 
                 times.append(int(t[a, b]) * x)
                 costs.append(int(arc_cost[r][a, b]) * x)
         m.add_circuit(arcs)
-        rt = m.new_int_var(0, cap, f"time{r}")
-        m.add(rt == sum(times))
-        route_time.append(rt)
+        route_time.append(times)
         cost_terms += costs
         arcs_of.append(lits)
     for w in range(problem.n_welds):
         m.add_exactly_one([taken[(int(problem.node_robot[n]), int(n))] for n in np.flatnonzero(problem.node_weld == w)])
+    if problem.conflicts is not None and problem.conflict_wait > 0:
+        half = int(np.rint(0.5 * problem.conflict_wait * TIME_SCALE))
+        for a, b in problem.conflicts:
+            ra, rb = int(problem.node_robot[a]), int(problem.node_robot[b])
+            both = m.new_bool_var(f"conflict_{a}_{b}")
+            m.add_bool_or([taken[(ra, int(a))].Not(), taken[(rb, int(b))].Not(), both])
+            route_time[ra].append(half * both)
+            route_time[rb].append(half * both)
+            if span == 0:  # the wear objective: the waiting cables' cost
+                rate = 0.5 * (problem.cost_rate[a] + problem.cost_rate[b])
+                cost_terms.append(int(np.rint(problem.conflict_wait * rate * WEAR_SCALE)) * both)
+            else:
+                cost_terms.append(2 * half * both)
+    times_of = route_time
+    route_time = []
+    for r, times in enumerate(times_of):
+        rt = m.new_int_var(0, cap, f"time{r}")
+        m.add(rt == sum(times))
+        route_time.append(rt)
     makespan = m.new_int_var(0, cap, "makespan")
     m.add_max_equality(makespan, route_time)
     m.minimize(span * makespan + sum(cost_terms))

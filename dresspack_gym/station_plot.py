@@ -23,12 +23,13 @@ def plot_gantt(schedule, names: list[str], path, title: str = "") -> None:
                 ax.broken_barh([(a, b - a) for a, b in spans], (s.robot - 0.35, 0.7), color=ACTIVITY_COLORS[kind],
                                label=kind)
     handles = {h.get_label(): h for h in ax.get_children() if h.get_label() in ACTIVITY_COLORS}
-    ax.legend(handles.values(), handles.keys(), loc="upper right", ncol=3, fontsize=8)
+    ax.legend(handles.values(), handles.keys(), loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3, fontsize=8,
+              frameon=False)
     ax.axvline(schedule.makespan, color="k", lw=0.8, ls="--")
     ax.set_yticks(range(len(names)), names)
     ax.invert_yaxis()
     ax.set_xlabel("station time [s]")
-    ax.set_title(title or f"makespan {schedule.makespan:.1f} s")
+    ax.set_title(title or f"makespan {schedule.makespan:.1f} s", loc="left")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -103,7 +103,7 @@ def test_station_solver_is_optimal_on_a_two_robot_station(two_robot_station):
     task = make_station_task(two_robot_station, lambda r: planner.leg_planners[r].validity.checker.collides)
     assert all(set(task.candidates(w)) == {0, 1} for w in task.weld_names)  # both robots reach every weld
     options = planner._choose_options(task)
-    p = planner.problem(task, options)
+    p = replace(planner.problem(task, options), conflicts=None)  # the pure min-max problem brute force solves
     a = solve(p, "time", work=10)
     assert a.estimate["makespan"] == pytest.approx(brute_force_makespan(p), abs=2e-3)
     assert all(len(route) for route in a.routes)  # the min-max splits the welds over both robots
@@ -258,9 +258,9 @@ def test_station_plan_command_writes_plans_pictures_and_a_comparison(tmp_path, c
         assert s["replay"]["cost"] > 0
         for f in ("plan.json", "gantt.png", "wear.png", "assignment.png", "r1.npz", "r2.npz"):
             assert (out / objective / f).is_file(), f
-    # the wear objective keeps within its makespan slack of the fastest plan (exact leg times)
-    assert summary["wear"]["makespan"] - summary["wear"]["total_wait"] <= \
-        1.1 * (summary["time"]["makespan"] - summary["time"]["total_wait"]) + 1e-6
+    # the wear objective keeps within its makespan slack of the fastest coordinated candidate it found
+    wear = summary["wear"]
+    assert wear["makespan"] <= 1.1 * wear["coordination"]["fastest_candidate_makespan"] + 1e-6
     assert "summary.md" in text
 
 
