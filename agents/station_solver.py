@@ -115,8 +115,9 @@ def solve(problem: RoutingProblem, objective: str = "time", *, work: float = DEF
     span = SPAN_WEIGHT if objective != "wear" else 0
     hint = start if start is not None else _routing_first(problem, arc_cost, span, cap, horizon)
     routes, status = _cp_sat(problem, arc_cost, span, cap, hint, work, seed, time_limit)
-    if status and objective == "time":
-        # every route's summed time is at most the makespan, so objective <= (span + R) x makespan
+    if status and objective == "time" and (problem.conflicts is None or problem.conflict_wait == 0):
+        # every route's summed time is at most the makespan, so objective <= (span + R) x makespan (not with
+        # conflict charges: they are guesses of waits, not times a plan must take)
         status["makespan_bound"] = status["objective_bound"] / (span + R) / TIME_SCALE
     if routes is None:
         what = f"within a makespan of {makespan_cap:.1f} s" if makespan_cap is not None else ""
