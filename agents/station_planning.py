@@ -336,7 +336,7 @@ class StationPlanner:
             self.save_rates(cache)
         self.check_straight_moves(task, options)
         qs = np.vstack([task.homes, np.array([o.q for o in options]).reshape(-1, 6)])
-        rounds, solves, candidates, bound = 0, 0, [], 0.0
+        rounds, solves, candidates, bound, wear_failures = 0, 0, [], 0.0, 0
         bar = self._bar("solve, plan the chosen legs (rounds, at most)", cfg.exact_rounds)
         fastest = chosen = None
         while True:
@@ -349,9 +349,13 @@ class StationPlanner:
             previous = chosen.routes if chosen is not None and chosen is not fastest else None
             chosen = fastest
             if cfg.objective == "wear":
-                chosen = solve(problem, "wear", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
-                               makespan_cap=fastest.estimate["makespan"] * (1 + cfg.makespan_slack),
-                               start=previous)
+                # started from the fastest answer, which is within the cap by construction: never infeasible
+                try:
+                    chosen = solve(problem, "wear", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
+                                   makespan_cap=fastest.estimate["charged_makespan"] * (1 + cfg.makespan_slack),
+                                   start=fastest.routes)
+                except ConfigError:  # the budget ran out before CP-SAT took the start: keep the fastest
+                    wear_failures += 1
                 solves += 1
             elif cfg.objective == "balanced":
                 weight = fastest.estimate["time"] / max(fastest.estimate["wear"], 1e-9)
@@ -374,6 +378,7 @@ class StationPlanner:
                            coordination, verification, self._bound(problem, bound), cfg,
                            info={"rounds": rounds, "solves": solves, "nodes": len(qs),
                                  "conflict_pairs": len(problem.conflicts), "candidates": len(candidates),
+                                 "wear_solves_without_answer": wear_failures,
                                  "planned_legs": len(self._legs), "cost_settles": len(self._rates)})
         return plan
 
