@@ -83,10 +83,14 @@ def cmd_station_plan(args) -> int:
                     f"waits {s['total_wait']:.1f} s, robot-robot collisions {s['verification']['collisions']}")
             if plan.replay is not None:
                 line += f", integrated wear {s['replay']['cost']:.4g}"
+                if s["replay"]["jammed"]:
+                    line += f" -- JAMMED cable(s) {', '.join(s['replay']['jammed'])}: pulled beyond 5 % strain " \
+                            "(pinned by a robot); the wear figure is not meaningful"
             print(line)
     summary = write_summary(station, plans, out)
     if args.json:
         print(json.dumps(summary, indent=2, default=float))
     else:
         print(f"wrote {out}/summary.md and one folder per objective")
-    return 0 if all(p.verification["collisions"] == 0 for p in plans.values()) else 1
+    ok = all(p.verification["collisions"] == 0 and (p.replay is None or not p.replay.jammed()) for p in plans.values())
+    return 0 if ok else 1

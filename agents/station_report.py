@@ -26,6 +26,8 @@ def write_summary(station, plans: dict, out: Path) -> dict:
     for name, s in rows.items():
         v = s["verification"]
         wear = f"{s['replay']['cost']:.4g}" if "replay" in s else "not run"
+        if "replay" in s and s["replay"]["jammed"]:
+            wear += f" (jammed: {', '.join(s['replay']['jammed'])})"
         lines.append(f"| {name} | {s['makespan']:.2f} | {s['makespan_lower_bound']:.2f} | "
                      f"{100 * s['gap_to_bound']:.1f} % | {s['total_wait']:.2f} | {v['collisions']} of {v['samples']} "
                      f"samples | {1000 * v['min_distance']:.0f} | {wear} | {s['estimate']['wear']:.4g} |")

@@ -13,6 +13,10 @@ from .cost_variants import cost_function
 from .simulation import CableSimulator
 from .station_schedule import StationSchedule
 
+# A cable whose tension exceeds this strain x EA is flagged jammed: no copper conductor survives 5 % strain, so
+# such a state is a cable pinned by a robot (kinematic, unstoppable), not a wear figure to compare
+JAM_STRAIN = 0.05
+
 MEASURE_FIELDS = {"curvature": "max_curvature", "tension": "max_tension", "clearance": "min_clearance",
                   "twist_rate": "max_twist_rate"}
 
@@ -25,6 +29,13 @@ class StationReplay:
     measures: dict[str, np.ndarray]  # MEASURE_FIELDS -> (N, n_robots)
     cost: np.ndarray  # (N, n_robots)
     makespan: float
+    jam_tension: np.ndarray | None = None  # (n_robots,) [N] tension above which a cable is flagged jammed
+
+    def jammed(self) -> list[int]:
+        """Robots whose cable was ever pulled beyond JAM_STRAIN (pinned by a robot)."""
+        if self.jam_tension is None:
+            return []
+        return [int(i) for i in np.flatnonzero(self.measures["tension"].max(axis=0) > self.jam_tension)]
 
     def integrated_cost(self) -> np.ndarray:
         """Per robot, the integral of C over the cycle [cost x s]."""
@@ -35,6 +46,7 @@ class StationReplay:
         return {
             "makespan": round(self.makespan, 3),
             "cost": float(per.sum()),
+            "jammed": [names[i] for i in self.jammed()],
             "robots": {n: {"cost": float(per[i]),
                            "max_curvature": float(self.measures["curvature"][:, i].max()),
                            "max_tension": float(self.measures["tension"][:, i].max()),
@@ -57,4 +69,5 @@ def replay_station(sim: CableSimulator, schedule: StationSchedule, *, record_eve
     samples += s
     measures = {k: np.array([[getattr(m, f) for m in per] for per in samples]) for k, f in MEASURE_FIELDS.items()}
     cost = np.array([[cost_fn(m, cfg).total for m in per] for per in samples])
-    return StationReplay(np.array(times), measures, cost, schedule.makespan)
+    jam = np.array([JAM_STRAIN * r.dresspack.tensile_stiffness for r in sim.station.config.robots])
+    return StationReplay(np.array(times), measures, cost, schedule.makespan, jam)

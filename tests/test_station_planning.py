@@ -255,7 +255,7 @@ def test_station_plan_command_writes_plans_pictures_and_a_comparison(tmp_path, c
         assert sorted(w for ws in s["welds"].values() for w in ws) == sorted(
             ["r1_sill_1", "r1_b_pillar_1", "r2_b_pillar_1", "r2_sill_1"])
         assert s["makespan"] >= s["makespan_lower_bound"] - 1e-9
-        assert s["replay"]["cost"] > 0
+        assert s["replay"]["cost"] > 0 and s["replay"]["jammed"] == []
         for f in ("plan.json", "gantt.png", "wear.png", "assignment.png", "r1.npz", "r2.npz"):
             assert (out / objective / f).is_file(), f
     # the wear objective keeps within its makespan slack of the fastest coordinated candidate it found
@@ -274,3 +274,16 @@ def test_station_plan_command_names_a_weld_no_robot_can_reach(tmp_path, capsys):
 
     err = json.loads(capsys.readouterr().out)
     assert err["field"] == "weld_points.far_away" and "no robot can weld it" in err["error"]
+
+
+def test_a_cable_pulled_beyond_the_jam_strain_is_flagged():
+    """The flag is EA x 5 % per cable: a 1e7 N tension (a cable pinned by a robot) is flagged, 100 N is not."""
+    from dresspack_gym.station_replay import JAM_STRAIN, StationReplay
+
+    ea = np.array([2.0e5, 2.0e5])
+    tension = np.array([[10.0, 20.0], [100.0, 1e7], [50.0, 30.0]])
+    measures = {k: np.zeros((3, 2)) for k in ("curvature", "clearance", "twist_rate")}
+    measures["tension"] = tension
+    rep = StationReplay(np.array([0.0, 0.1, 0.2]), measures, np.ones((3, 2)), 0.2, JAM_STRAIN * ea)
+    assert rep.jammed() == [1]
+    assert rep.summary(["a", "b"])["jammed"] == ["b"]
