@@ -8,6 +8,7 @@ leg is exact."""
 
 from __future__ import annotations
 
+import copy
 import json
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -124,16 +125,20 @@ class StationPlanner:
         cfg = station.config
         self.speeds = [r.robot.joint_speed * cfg.simulation.speed_fraction for r in cfg.robots]
         self._rates: dict[tuple, float] = {}
-        self._legs: dict[tuple, np.ndarray] = {}
+        # legs and conflicts are keyed by the configurations they join (not by node numbers, which belong to
+        # one option list), so a reconfigured planner with other options never reads a wrong one
+        self._legs: dict[tuple, np.ndarray | None] = {}
+        self._conflicts: dict[bytes, np.ndarray] = {}
         self._sub_sims: dict[int, CableSimulator] = {}
-        self._conflicts: np.ndarray | None = None
 
     def reconfigured(self, config: StationPlanConfig) -> StationPlanner:
         """A planner with ``config`` that keeps this one's settled-cable costs and planned legs (same station,
         seed, OMPL iterations and cost variant: the cached answers do not depend on anything else)."""
-        same = (config.seed, config.iterations, config.cost_variant) == \
-            (self.config.seed, self.config.iterations, self.config.cost_variant)
-        other = StationPlanner(self.station, config, self.progress) if not same else replace_config(self, config)
+        if (config.seed, config.iterations, config.cost_variant) != \
+                (self.config.seed, self.config.iterations, self.config.cost_variant):
+            return StationPlanner(self.station, config, self.progress)
+        other = copy.copy(self)  # shares the caches
+        other.config = config
         return other
 
     # -------------------------------------------------------------------------- costs
@@ -186,16 +191,21 @@ class StationPlanner:
         node_weld = np.concatenate([np.full(R, -1), [index[o.weld] for o in options]]).astype(int)
         travel = np.stack([time_law.segment_durations(qs[None, :, :] - qs[:, None, :], self.speeds[r])
                            for r in range(R)])
-        for (r, i, j), leg in self._legs.items():  # planned legs are exact
-            travel[r, i, j] = BLOCKED if leg is None else \
-                float(time_law.segment_durations(np.diff(leg, axis=0), self.speeds[r]).sum())
+        node_of = {}
+        for n, (r, q) in enumerate(zip(node_robot, qs)):
+            node_of.setdefault((int(r), q.tobytes()), []).append(n)
+        for (r, qa, qb), leg in self._legs.items():  # planned legs are exact
+            for i in node_of.get((r, qa), ()):
+                for j in node_of.get((r, qb), ()):
+                    travel[r, i, j] = BLOCKED if leg is None else time_law.path_duration(leg, self.speeds[r])
         rates = np.array([self.cost_rate(r, q) for r, q in zip(node_robot, qs)])
-        if self._conflicts is None:
-            self._conflicts = self._find_conflicts(qs, node_robot)
+        key = qs.tobytes() + node_robot.tobytes()
+        if key not in self._conflicts:
+            self._conflicts[key] = self._find_conflicts(qs, node_robot)
         own = [travel[r][np.ix_(node_robot == r, node_robot == r)] for r in range(R)]
         typical_leg = float(np.median(np.concatenate([t[t > 0] for t in own if (t > 0).any()] or [[0.0]])))
         return RoutingProblem(travel, rates, node_robot, node_weld, task.weld_time, len(task.weld_names),
-                              self._conflicts, CONFLICT_WAIT * (task.weld_time + typical_leg))
+                              self._conflicts[key], CONFLICT_WAIT * (task.weld_time + typical_leg))
 
     def _find_conflicts(self, qs: np.ndarray, node_robot: np.ndarray) -> np.ndarray:
         """Option pairs of different robots whose robots, both at their options (the rest at Home), come within
@@ -227,18 +237,19 @@ class StationPlanner:
         weld_of = [None] * R + [o.weld for o in options]
         own = [np.flatnonzero(robot_of == r) for r in range(R)]
         pairs = [(r, i, j) for r in range(R) for i in own[r] for j in own[r]
-                 if i != j and (weld_of[i] is None or weld_of[i] != weld_of[j]) and (r, i, j) not in self._legs]
+                 if i != j and (weld_of[i] is None or weld_of[i] != weld_of[j])
+                 and _leg_key(r, qs[i], qs[j]) not in self._legs]
         bar = self._bar("checking straight moves", len(pairs))
         for r, i, j in pairs:
             if self.leg_planners[r].validity.segment_valid(qs[i], qs[j]):
-                self._legs[(int(r), int(i), int(j))] = np.array([qs[i], qs[j]])
+                self._legs[_leg_key(r, qs[i], qs[j])] = np.array([qs[i], qs[j]])
             bar.update(1)
         bar.close()
 
     def leg(self, robot: int, i: int, j: int, qs: np.ndarray) -> np.ndarray | None:
         """Robot ``robot``'s collision-free path from node i to node j (straight if valid, else OMPL; cached);
         None if OMPL finds none within its iterations (the solver then treats the move as blocked)."""
-        key = (robot, i, j)
+        key = _leg_key(robot, qs[i], qs[j])
         if key not in self._legs:
             planner = self.leg_planners[robot]
             task = Task(robot, qs[i], (), np.zeros((0, 6)), qs[j])
@@ -256,8 +267,7 @@ class StationPlanner:
             for a, b in zip(path[:-1], path[1:]):
                 estimate = problem.travel[r, a, b]
                 leg = self.leg(r, a, b, qs)
-                real = BLOCKED if leg is None else \
-                    float(time_law.segment_durations(np.diff(leg, axis=0), self.speeds[r]).sum())
+                real = BLOCKED if leg is None else time_law.path_duration(leg, self.speeds[r])
                 changed += real > estimate * (1 + EXACT_TOLERANCE) + 1e-6
         return changed
 
@@ -402,11 +412,8 @@ class StationPlanner:
         return self.progress(label, total)
 
 
-def replace_config(planner: StationPlanner, config: StationPlanConfig) -> StationPlanner:
-    other = object.__new__(StationPlanner)
-    other.__dict__.update(planner.__dict__)
-    other.config = config
-    return other
+def _leg_key(robot: int, qa: np.ndarray, qb: np.ndarray) -> tuple:
+    return int(robot), np.asarray(qa, dtype=float).tobytes(), np.asarray(qb, dtype=float).tobytes()
 
 
 class _NoBar:
@@ -440,8 +447,3 @@ def _json_default(x):
     if isinstance(x, np.ndarray):
         return x.tolist()
     raise TypeError(f"not JSON serialisable: {type(x)}")
-
-
-def check_station_for_planning(station: Station) -> None:
-    if not station.config.weld_points:
-        raise ConfigError("weld_points", f"station {station.config.name!r} has no weld points to plan")

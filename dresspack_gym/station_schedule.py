@@ -29,6 +29,7 @@ class RobotSchedule:
 
     def __post_init__(self):
         durations = [time_law.segment_durations(np.diff(leg, axis=0), self.speeds) for leg in self.legs]
+        object.__setattr__(self, "_leg_durations", np.array([float(d.sum()) for d in durations]))
         t0, d, a, b = [], [], [], []
         for start, leg, dur in zip(self.leg_start, self.legs, durations):
             offsets = np.concatenate([[0.0], np.cumsum(dur)[:-1]])
@@ -46,7 +47,7 @@ class RobotSchedule:
         starts, t = [], start
         for k, leg in enumerate(legs):
             starts.append(t)
-            t += float(time_law.segment_durations(np.diff(leg, axis=0), speeds).sum())
+            t += time_law.path_duration(leg, speeds)
             if k < len(welds):
                 t += weld_time
         return RobotSchedule(robot, tuple(welds), tuple(np.asarray(x, dtype=float) for x in legs),
@@ -54,8 +55,7 @@ class RobotSchedule:
 
     # ---------------------------------------------------------------------------- timing
     def leg_durations(self) -> np.ndarray:
-        return np.array([float(time_law.segment_durations(np.diff(leg, axis=0), self.speeds).sum())
-                         for leg in self.legs])
+        return self._leg_durations
 
     def leg_end(self) -> np.ndarray:
         return self.leg_start + self.leg_durations()
@@ -118,11 +118,6 @@ class RobotSchedule:
         t0, dur, a, b = self._table
         live = (t0 + dur > t) & (dur > 0) & np.any(a != b, axis=1)
         return float(max(t, t0[live].min())) if live.any() else np.inf
-
-    def segment_times(self) -> np.ndarray:
-        """Start and end time of every straight segment (where the motion changes direction)."""
-        t0, dur, _, _ = self._table
-        return np.unique(np.concatenate([t0, t0 + dur]))
 
     def trajectory(self) -> Trajectory:
         """The robot's path as a single-robot trajectory (stops at the welds and Home; timing without waits)."""

@@ -14,6 +14,11 @@ def segment_durations(dq: np.ndarray, speeds: np.ndarray) -> np.ndarray:
     return CUBIC_PEAK_FACTOR * np.max(np.abs(dq) / np.asarray(speeds), axis=-1)
 
 
+def path_duration(waypoints: np.ndarray, speeds: np.ndarray) -> float:
+    """Seconds to run a path (K, n_joints) of straight segments, stopping at every waypoint."""
+    return float(segment_durations(np.diff(np.asarray(waypoints, dtype=float), axis=0), speeds).sum())
+
+
 def cubic_position(tau: np.ndarray) -> np.ndarray:
     """Fraction of the segment covered at normalised time ``tau`` in [0, 1]."""
     return 3 * tau ** 2 - 2 * tau ** 3
