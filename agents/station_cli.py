@@ -83,9 +83,15 @@ def cmd_station_plan(args) -> int:
                     f"waits {s['total_wait']:.1f} s, robot-robot collisions {s['verification']['collisions']}")
             if plan.replay is not None:
                 line += f", integrated wear {s['replay']['cost']:.4g}"
+                if not s["replay"]["start_settled"]:
+                    line += (f" -- the cables' start at Home is not settled (force residual "
+                             f"{s['replay']['start_force_residual']:.3g} of a vertex weight)")
                 if s["replay"]["jammed"]:
                     line += f" -- JAMMED cable(s) {', '.join(s['replay']['jammed'])}: pulled beyond 5 % strain " \
                             "(pinned by a robot); the wear figure is not meaningful"
+            if s["info"]["unconverged_cost_settles"]:
+                line += (f" -- wear estimates of {', '.join(s['info']['unconverged_cost_settles'])} come from "
+                         "settles that did not reach equilibrium")
             print(line)
     summary = write_summary(station, plans, out)
     if args.json:

@@ -125,6 +125,7 @@ class StationPlanner:
         cfg = station.config
         self.speeds = [r.robot.joint_speed * cfg.simulation.speed_fraction for r in cfg.robots]
         self._rates: dict[tuple, float] = {}
+        self._unconverged: set[tuple] = set()  # cost settles that ended above the equilibrium residual (flagged)
         # legs and conflicts are keyed by the configurations they join (not by node numbers, which belong to
         # one option list), so a reconfigured planner with other options never reads a wrong one
         self._legs: dict[tuple, np.ndarray | None] = {}
@@ -152,17 +153,30 @@ class StationPlanner:
                 alone = replace(cfg, robots=(cfg.robots[robot],), weld_points=())
                 sim = self._sub_sims[robot] = CableSimulator(Station(alone))
             sim.reset(np.asarray(q)[None])
+            if not sim.last_settle.converged:
+                self._unconverged.add(key)
             self._rates[key] = cost_function(self.config.cost_variant)(sim.measures(),
                                                                        self.station.config.wear_cost).total
         return self._rates[key]
 
     def load_rates(self, path: Path) -> None:
+        """Costs saved by :meth:`save_rates` (rows without their settle's verdict are recomputed)."""
         if path.is_file():
             for row in json.loads(path.read_text()):
-                self._rates[tuple(row["key"])] = row["rate"]
+                if "converged" in row:
+                    key = tuple(row["key"])
+                    self._rates[key] = row["rate"]
+                    if not row["converged"]:
+                        self._unconverged.add(key)
 
     def save_rates(self, path: Path) -> None:
-        path.write_text(json.dumps([{"key": list(k), "rate": v} for k, v in self._rates.items()]))
+        path.write_text(json.dumps([{"key": list(k), "rate": v, "converged": k not in self._unconverged}
+                                    for k, v in self._rates.items()]))
+
+    def unconverged_options(self, options: list[WeldOption]) -> list[str]:
+        """The welds among ``options`` whose option's cost comes from a settle that did not reach equilibrium."""
+        return sorted({o.weld for o in options
+                       if (int(o.robot), *(float(x) for x in np.round(o.q, 9))) in self._unconverged})
 
     def _choose_options(self, task: StationTask) -> list[WeldOption]:
         """Per weld and robot, the options the solver sees: the nearest Home and the cheapest of those costed."""
@@ -389,6 +403,7 @@ class StationPlanner:
                            info={"rounds": rounds, "solves": solves, "nodes": len(qs),
                                  "conflict_pairs": len(problem.conflicts), "candidates": len(candidates),
                                  "wear_solves_without_answer": wear_failures,
+                                 "unconverged_cost_settles": self.unconverged_options(options),
                                  "planned_legs": len(self._legs), "cost_settles": len(self._rates)})
         return plan
 

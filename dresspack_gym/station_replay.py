@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .cost_variants import cost_function
-from .simulation import CableSimulator
+from .simulation import CableSimulator, Equilibrium
 from .station_schedule import StationSchedule
 
 # A cable whose tension exceeds this strain x EA is flagged jammed: no copper conductor survives 5 % strain, so
@@ -30,6 +30,7 @@ class StationReplay:
     cost: np.ndarray  # (N, n_robots)
     makespan: float
     jam_tension: np.ndarray | None = None  # (n_robots,) [N] tension above which a cable is flagged jammed
+    start: Equilibrium | None = None  # the settle at Home the cycle starts from (its residual)
 
     def jammed(self) -> list[int]:
         """Robots whose cable was ever pulled beyond JAM_STRAIN (pinned by a robot)."""
@@ -47,6 +48,8 @@ class StationReplay:
             "makespan": round(self.makespan, 3),
             "cost": float(per.sum()),
             "jammed": [names[i] for i in self.jammed()],
+            **({"start_settled": self.start.converged, "start_force_residual": self.start.force_residual}
+               if self.start is not None else {}),
             "robots": {n: {"cost": float(per[i]),
                            "max_curvature": float(self.measures["curvature"][:, i].max()),
                            "max_tension": float(self.measures["tension"][:, i].max()),
@@ -62,6 +65,7 @@ def replay_station(sim: CableSimulator, schedule: StationSchedule, *, record_eve
     cost_fn = cost_function(cost_variant)
     cfg = sim.station.config.wear_cost
     sim.reset(schedule.homes)
+    start = sim.last_settle.equilibrium
     sim.motion_time = 0.0
     times, samples = [0.0], [sim.cable_measures()]
     t, s = sim.follow(schedule.at, schedule.makespan, record_every=record_every, on_sample=on_sample)
@@ -70,4 +74,4 @@ def replay_station(sim: CableSimulator, schedule: StationSchedule, *, record_eve
     measures = {k: np.array([[getattr(m, f) for m in per] for per in samples]) for k, f in MEASURE_FIELDS.items()}
     cost = np.array([[cost_fn(m, cfg).total for m in per] for per in samples])
     jam = np.array([JAM_STRAIN * r.dresspack.tensile_stiffness for r in sim.station.config.robots])
-    return StationReplay(np.array(times), measures, cost, schedule.makespan, jam)
+    return StationReplay(np.array(times), measures, cost, schedule.makespan, jam, start)

@@ -256,6 +256,8 @@ def test_station_plan_command_writes_plans_pictures_and_a_comparison(tmp_path, c
             ["r1_sill_1", "r1_b_pillar_1", "r2_b_pillar_1", "r2_sill_1"])
         assert s["makespan"] >= s["makespan_lower_bound"] - 1e-9
         assert s["replay"]["cost"] > 0 and s["replay"]["jammed"] == []
+        assert s["replay"]["start_settled"] and s["replay"]["start_force_residual"] < 0.02
+        assert s["info"]["unconverged_cost_settles"] == []
         for f in ("plan.json", "gantt.png", "wear.png", "assignment.png", "r1.npz", "r2.npz"):
             assert (out / objective / f).is_file(), f
     # the wear objective keeps within its makespan slack of the fastest coordinated candidate it found
@@ -287,3 +289,22 @@ def test_a_cable_pulled_beyond_the_jam_strain_is_flagged():
     rep = StationReplay(np.array([0.0, 0.1, 0.2]), measures, np.ones((3, 2)), 0.2, JAM_STRAIN * ea)
     assert rep.jammed() == [1]
     assert rep.summary(["a", "b"])["jammed"] == ["b"]
+
+
+def test_a_cost_settle_that_does_not_reach_equilibrium_is_reported(two_robot_station, tmp_path):
+    """With no time to settle, the option's cost comes from a shape that is not an equilibrium: it is listed,
+    and the verdict survives the cost cache."""
+    cfg = two_robot_station.config
+    hurried = Station(replace(cfg, simulation=replace(cfg.simulation, settle_time=0.0)))
+    planner = StationPlanner(hurried, StationPlanConfig())
+    task = make_station_task(hurried, lambda r: None, ["r1_sill_1"])
+    option = task.options["r1_sill_1"][0]
+    planner.cost_rate(option.robot, option.q)
+    assert planner.unconverged_options([option]) == ["r1_sill_1"]
+    planner.save_rates(tmp_path / "costs.json")
+    again = StationPlanner(two_robot_station, StationPlanConfig())
+    again.load_rates(tmp_path / "costs.json")
+    assert again.unconverged_options([option]) == ["r1_sill_1"]
+    settled = StationPlanner(two_robot_station, StationPlanConfig())
+    settled.cost_rate(option.robot, option.q)
+    assert settled.unconverged_options([option]) == []
