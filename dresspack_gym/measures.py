@@ -159,8 +159,11 @@ class ClearanceProbe:
         self._quat = np.zeros(4)
         self._rot = np.zeros(9)
 
-    def min_distance(self, data: mujoco.MjData, cable: CableIndex, points: np.ndarray) -> tuple[float, int, str]:
-        """(distance, edge index, obstacle name) of the nearest obstacle; (MAX_CLEARANCE, -1, '') if none."""
+    def min_distance(self, data: mujoco.MjData, cable: CableIndex, points: np.ndarray, *,
+                     signed: bool = False) -> tuple[float, int, str]:
+        """(distance, edge index, obstacle name) of the nearest obstacle; (MAX_CLEARANCE, -1, '') if none.
+        The distance is 0 in contact, or with ``signed`` negative by the depth of the deepest penetration (a
+        predicted shape may pass through an obstacle; a simulated one only touches it)."""
         if len(self.obstacles) == 0:
             return MAX_CLEARANCE, -1, ""
         m = self.station.model
@@ -194,10 +197,11 @@ class ClearanceProbe:
                 mujoco.mju_quat2Mat(self._rot, self._quat)
                 data.geom_xmat[self.probe] = self._rot
                 size[0], size[1] = cable.radius, max(half[e], 1e-6)
-                dist = mujoco.mj_geomDistance(m, data, self.probe, int(self.obstacles[o]), best, self._fromto)
+                limit = max(best, 0.0) if signed else best  # a negative limit would cut a penetration short
+                dist = mujoco.mj_geomDistance(m, data, self.probe, int(self.obstacles[o]), limit, self._fromto)
             if dist < best:
                 best, best_edge, best_obs = dist, e, o
-        return max(best, 0.0), best_edge, (self.names[best_obs] if best_obs >= 0 else "")
+        return (best if signed else max(best, 0.0)), best_edge, (self.names[best_obs] if best_obs >= 0 else "")
 
 
 def measure_cable(station: Station, data: mujoco.MjData, cable: CableIndex, probe: ClearanceProbe) -> WearMeasures:

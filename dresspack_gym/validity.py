@@ -1,4 +1,5 @@
-"""Validity of robot configurations and straight joint-space motions: limits, joint restrictions, collisions."""
+"""Validity of robot configurations and straight joint-space motions: limits, joint restrictions, the dresspack's
+reach, collisions."""
 
 from __future__ import annotations
 
@@ -6,9 +7,10 @@ import math
 
 import numpy as np
 
+from .cable_shape import node_vertices, node_world_points, span_slack
 from .collision import RobotCollisionChecker
 from .joint_limits import within_limits
-from .station import Station
+from .station import LINK_INDEX, Station, _node_frames
 
 
 MIN_MARGIN = 0.002  # [m] conservative advancement needs a positive clearance to make progress
@@ -19,8 +21,9 @@ PLANNER_MARGIN = 0.005
 class MotionValidity:
     """``valid(q)`` and ``segment_valid(q0, q1)`` for one robot; segments are checked every ``resolution``.
 
-    Cheap checks first (limits, the thesis joint restrictions), then MuJoCo distance queries. A segment is
-    collision-free in the continuous sense (not only at samples) with clearance >= margin / 2.
+    Cheap checks first (limits, the thesis joint restrictions, the dresspack's reach: no span between its
+    nodes may demand more cable than it has), then MuJoCo distance queries. A segment is collision-free in the
+    continuous sense (not only at samples) with clearance >= margin / 2.
     """
 
     def __init__(self, station: Station, robot: int = 0, margin: float = 0.0, resolution_deg: float = 2.0):
@@ -29,6 +32,9 @@ class MotionValidity:
         self.limits = placement.robot.joint_limits
         self.restrictions = placement.restrictions
         self.checker = RobotCollisionChecker(station, robot, max(margin, MIN_MARGIN))
+        self._placement = placement
+        self._kinematics = station.robots[robot].kinematics
+        self._may_tear = _may_tear(placement, self._kinematics, self.checker)
         self.resolution = math.radians(resolution_deg)
         self.n_checks = 0  # collision queries made (planning cost accounting)
 
@@ -37,7 +43,7 @@ class MotionValidity:
 
     def valid(self, q) -> bool:
         q = np.asarray(q, dtype=float)
-        if not (self.within_limits(q)[0] and self.restrictions.allowed(q)[0]):
+        if not (self.within_limits(q)[0] and self.restrictions.allowed(q)[0]) or self.cable_slack(q) < 0.0:
             return False
         self.n_checks += 1
         return not self.checker.collides(q)  # early exit: cheaper than the full distance
@@ -49,7 +55,16 @@ class MotionValidity:
         broken = self.restrictions.violated_by(q)
         if broken:
             return "joint restriction: " + "; ".join(broken)
+        slack = self.cable_slack(q)
+        if slack < 0.0:
+            return f"the dresspack cannot reach: its nodes demand {-slack:.3f} m more cable than it has"
         return "collides with the station" if self.checker.collides(q) else ""
+
+    def cable_slack(self, q) -> float:
+        """The dresspack's smallest span slack [m] at q (negative: the robot would tear the cable)."""
+        if not self._may_tear:
+            return np.inf
+        return span_slack(self._placement.dresspack, _node_frames(self._placement, self._kinematics.link_frames(q)))
 
     def segment_valid(self, q0, q1) -> bool:
         """Joint limits and restrictions sampled every ``resolution`` (they are cheap, smooth functions of q);
@@ -59,6 +74,8 @@ class MotionValidity:
         n = max(1, int(math.ceil(np.max(np.abs(q1 - q0)) / self.resolution)))
         qs = q0 + np.linspace(0.0, 1.0, n + 1)[1:, None] * (q1 - q0)
         if not (self.within_limits(qs).all() and self.restrictions.allowed(qs).all()):
+            return False
+        if self._may_tear and any(self.cable_slack(q) < 0.0 for q in qs):
             return False
         return self.segment_clear(q0, q1)
 
@@ -79,3 +96,47 @@ class MotionValidity:
     def path_valid(self, path) -> bool:
         path = np.asarray(path, dtype=float)
         return self.valid(path[0]) and all(self.segment_valid(a, b) for a, b in zip(path[:-1], path[1:]))
+
+
+def _may_tear(placement, kinematics, checker: RobotCollisionChecker) -> bool:
+    """Whether any configuration could demand more cable than a span has. A point fixed on link a and one on
+    link b > a are never farther apart than the path through the joint anchors between them (each distance
+    on it is fixed: joint k's anchor sits in links k - 1 and k alike), so a span whose path is no longer than
+    its cable can never tear and the per-configuration check is skipped (for a link 3 - link 6 dresspack)."""
+    dresspack = placement.dresspack
+    home = placement.home
+    frames = _node_frames(placement, kinematics.link_frames(home))
+    checker._pose(home)
+    origin = checker.data.xanchor[checker.joint_ids].copy()  # joint k (1-based) -> row k - 1
+    axis = checker.data.xaxis[checker.joint_ids].copy()
+    held = []  # (vertex, world point at Home, link index; 0 = world or base)
+    for node, frame in zip(dresspack.nodes, frames):
+        link = 0 if node.body in ("world", "base") else LINK_INDEX[node.body]
+        for v, p in zip(node_vertices(dresspack, node), node_world_points(dresspack, node, frame)):
+            held.append((v, p, link))
+    held.sort(key=lambda a: a[0])
+    for (v0, p0, a), (v1, p1, b) in zip(held, held[1:]):
+        if v1 - v0 <= 1 or a == b:  # a rigid clamp edge, or both ends on one link: the distance never changes
+            continue
+        (pa, a), (pb, b) = sorted([(p0, a), (p1, b)], key=lambda x: x[1])
+        # Any point of joint k's axis will do; the point nearest the next axis (the wrist centre for a
+        # spherical wrist), and on the last axis the point nearest pb, keep the bound tight.
+        rows = list(range(a, b))
+        stops = [_nearest_on_axis(origin[k], axis[k], origin[k + 1], axis[k + 1]) if k + 1 in rows
+                 else origin[k] + axis[k] * float(axis[k] @ (pb - origin[k])) for k in rows]
+        chain = np.array([pa, *stops, pb])
+        path = float(np.linalg.norm(np.diff(chain, axis=0), axis=1).sum())
+        if path > (v1 - v0) * dresspack.segment_length:
+            return True
+    return False
+
+
+def _nearest_on_axis(o1: np.ndarray, d1: np.ndarray, o2: np.ndarray, d2: np.ndarray) -> np.ndarray:
+    """The point of line (o1, d1) nearest to line (o2, d2) (unit directions); o1 for parallel lines."""
+    w = o1 - o2
+    b = float(d1 @ d2)
+    denom = 1.0 - b * b
+    if denom < 1e-12:
+        return o1
+    t = (b * float(d2 @ w) - float(d1 @ w)) / denom
+    return o1 + t * d1
