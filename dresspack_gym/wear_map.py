@@ -122,9 +122,10 @@ def map_key(config: StationConfig, robot: int = 0) -> str:
 class WearMap:
     """Settled samples of one robot's dresspack; :meth:`predict` interpolates them at any configuration."""
 
-    def __init__(self, model: ShapeModel, settings: WearMapSettings, features: np.ndarray, deviation: np.ndarray,
-                 measures: np.ndarray, converged: np.ndarray, info: dict):
+    def __init__(self, model: ShapeModel, settings: WearMapSettings, configurations: np.ndarray,
+                 features: np.ndarray, deviation: np.ndarray, measures: np.ndarray, converged: np.ndarray, info: dict):
         self.model, self.settings = model, settings
+        self.configurations = np.asarray(configurations, dtype=float)  # (N, 6) the settled robot configurations
         self.features = np.asarray(features, dtype=float)
         self.deviation = np.asarray(deviation, dtype=float)
         self.measures = np.asarray(measures, dtype=float)  # (N, 3): curvature, tension, twist rate
@@ -163,7 +164,7 @@ class WearMap:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_suffix(".tmp.npz")
-        np.savez_compressed(tmp, features=self.features.astype(np.float32),
+        np.savez_compressed(tmp, configurations=self.configurations, features=self.features.astype(np.float32),
                             deviation=self.deviation.astype(np.float32), measures=self.measures.astype(np.float32),
                             converged=self.converged,
                             info=np.array(json.dumps({**self.info, "settings": asdict(self.settings)})))
@@ -178,7 +179,8 @@ class WearMap:
             if info.get("key") != map_key(config, robot):
                 raise ConfigError("wear_map", f"{path} was built for another robot, dresspack or physics "
                                               f"(key {info.get('key')}, this station needs {map_key(config, robot)})")
-            return WearMap(ShapeModel(config, robot, settings.lever), settings, z["features"], z["deviation"],
+            return WearMap(ShapeModel(config, robot, settings.lever), settings, z["configurations"], z["features"],
+                           z["deviation"],
                            z["measures"], z["converged"], info)
 
 
@@ -195,7 +197,7 @@ def build_wear_map(config: StationConfig, robot: int = 0, settings: WearMapSetti
     sim = CableSimulator(model.station)
     q_all = model.station.home.copy()
     qs = sample_configurations(model.placement.robot.joint_limits, settings)
-    feats, devs, meas, conv = [], [], [], []
+    kept, feats, devs, meas, conv = [], [], [], [], []
     start = time.perf_counter()
     bar = None
     if progress:
@@ -209,6 +211,7 @@ def build_wear_map(config: StationConfig, robot: int = 0, settings: WearMapSetti
             sim.reset(q_all, settle=False)
             settled = sim.settle()
             m = sim.measures()
+            kept.append(q)
             feats.append(model.features(frames))
             devs.append(sim.cable_points(model.robot) - base)
             meas.append((m.max_curvature, m.max_tension, m.max_twist_rate))
@@ -220,6 +223,6 @@ def build_wear_map(config: StationConfig, robot: int = 0, settings: WearMapSetti
     info = {"key": map_key(config, robot), "station": config.name, "robot": config.robots[robot].name,
             "drawn": len(qs), "settled": len(feats), "unconverged": int(len(conv) - sum(conv)),
             "build_seconds": round(time.perf_counter() - start, 1)}
-    return WearMap(model, settings, np.array(feats).reshape(len(feats), -1),
+    return WearMap(model, settings, np.array(kept).reshape(-1, 6), np.array(feats).reshape(len(feats), -1),
                    np.array(devs).reshape(len(devs), -1, 3), np.array(meas).reshape(-1, 3), np.array(conv, bool),
                    info)

@@ -13,6 +13,7 @@ from dresspack_gym.map_cost import OBSTRUCTION_DEPTH, OBSTRUCTION_RATE, UNSPANNA
 from dresspack_gym.simulation import CableSimulator
 from dresspack_gym.station import Station, _node_frames
 from dresspack_gym.validity import MotionValidity
+from dresspack.agents.map_roadmap import MapRoadmap, motion_time
 from dresspack_gym.wear_map import (WearMap, WearMapSettings, _cable_alone, build_wear_map, map_key,
                                     sample_configurations)
 
@@ -170,3 +171,36 @@ def test_map_cost_of_an_unreachable_configuration():
     cost = MapStateCost(Station(config), wm)
     q_far = np.radians([170, 0, 0, 0, 0, 0])
     assert cost.terms(q_far) == {"unspannable": UNSPANNABLE_RATE}
+
+
+# ------------------------------------------------------------------------------ routes over the map
+def _objective(roadmap, route, weight):
+    """∫(1 + weight C_map) dt of a route, every segment costed finely."""
+    total = 0.0
+    for a, b in zip(route[:-1], route[1:]):
+        t = motion_time(a, b, roadmap.inv_speed)
+        total += t + weight * roadmap._fine_wear(a, b, t)
+    return total
+
+
+def test_roadmap_route_is_valid_no_worse_than_direct_and_reproducible(default_config):
+    st = Station(default_config)
+    wm = build_wear_map(default_config, 0, WearMapSettings(samples=150, seed=2))
+    validity = MotionValidity(st, 0, margin=0.005)
+    speeds = default_config.robots[0].robot.joint_speed * default_config.simulation.speed_fraction
+    cost = MapStateCost(st, wm)
+    roadmap = MapRoadmap(wm, validity, cost, speeds)
+    assert 0 < len(roadmap.nodes) <= len(wm)
+    a = st.home[0]
+    b = a + np.radians([-30.0, 15.0, 0.0, -20.0, 10.0, -20.0])
+    assert validity.valid(b) and validity.segment_valid(a, b)
+    for weight in (0.0, 50.0):
+        route = roadmap.route(a, b, weight)
+        assert route is not None
+        np.testing.assert_array_equal(route[0], a)
+        np.testing.assert_array_equal(route[-1], b)
+        assert validity.path_valid(route)
+        # the direct motion is one of the roadmap's edges: the search may only do better
+        assert _objective(roadmap, route, weight) <= _objective(roadmap, np.array([a, b]), weight) + 1e-9
+    again = MapRoadmap(wm, MotionValidity(st, 0, margin=0.005), MapStateCost(st, wm), speeds).route(a, b, 50.0)
+    np.testing.assert_array_equal(again, roadmap.route(a, b, 50.0))

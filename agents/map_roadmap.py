@@ -1,0 +1,150 @@
+"""Global routes over the wear map: a lazy PRM* whose milestones are the map's own settled configurations, searched
+for the least ∫(1 + weight x map cost rate) dt between two configurations. The roadmap is built once per planner
+and reused by every leg; edges are checked for collisions and costed finely only when a search wants them."""
+
+from __future__ import annotations
+
+import heapq
+import math
+
+import numpy as np
+
+from dresspack_gym.map_cost import MapStateCost
+from dresspack_gym.time_law import CUBIC_PEAK_FACTOR
+from dresspack_gym.validity import MotionValidity
+from dresspack_gym.wear_map import WearMap
+
+# [rad] longest joint change between two cost samples of a straight motion when an edge is costed finely.
+COST_STEP = math.radians(10.0)
+# Searches per route before giving up (each one either returns a route or retires edges it found invalid).
+MAX_SEARCHES = 200
+
+
+def motion_time(a: np.ndarray, b: np.ndarray, inv_speed: np.ndarray) -> float:
+    """Seconds of the straight joint motion a -> b under the cubic time law (stop at b)."""
+    return CUBIC_PEAK_FACTOR * float(np.max(np.abs(b - a) * inv_speed))
+
+
+class MapRoadmap:
+    """Milestones: the map's configurations that are valid in this station (limits, restrictions, reach,
+    collisions), joined to their ``neighbours`` nearest in motion time (k of PRM*: e(1 + 1/d) log n). A route
+    query adds its two ends, searches (Dijkstra) on endpoint cost estimates, then checks the chosen edges:
+    an invalid edge is retired, an edge whose fine cost exceeds its estimate is re-priced, and the search repeats
+    until the best route consists of checked, finely costed edges."""
+
+    def __init__(self, wear_map: WearMap, validity: MotionValidity, cost: MapStateCost, speeds: np.ndarray,
+                 neighbours: int | None = None):
+        self.validity, self.cost = validity, cost
+        self.inv_speed = 1.0 / np.asarray(speeds, dtype=float)
+        qs = [q for q in wear_map.configurations if validity.valid(q)]
+        self.nodes = np.array(qs).reshape(-1, 6)
+        n = len(self.nodes)
+        self.k = neighbours or max(4, int(math.ceil(math.e * (1 + 1 / 6) * math.log(max(n, 2)))))
+        self.rates = np.array([cost.cost(q) for q in self.nodes])
+        self.edges: list[dict[int, float]] = [{} for _ in range(n)]  # node -> {neighbour: motion time}
+        for i in range(n):
+            t = self._times(self.nodes[i])
+            t[i] = np.inf
+            near = np.argpartition(t, self.k)[:self.k] if n > self.k + 1 else np.flatnonzero(np.isfinite(t))
+            for j in near:  # motion time is symmetric: one edge serves both directions
+                self.edges[i][int(j)] = self.edges[int(j)][i] = float(t[j])
+        self.checked: dict[tuple[int, int], bool] = {}  # edge -> valid (robot collision, reach, limits)
+        self.fine: dict[tuple[int, int], float] = {}  # edge -> ∫ C_map dt, finely sampled
+
+    def _times(self, q: np.ndarray) -> np.ndarray:
+        return CUBIC_PEAK_FACTOR * np.max(np.abs(self.nodes - q) * self.inv_speed, axis=1)
+
+    def route(self, a: np.ndarray, b: np.ndarray, weight: float) -> np.ndarray | None:
+        """The best route a -> b found on the roadmap (waypoints, ends included), or None."""
+        n = len(self.nodes)
+        pts = {n: a, n + 1: b}
+        ends = {}
+        for e, q in ((n, a), (n + 1, b)):
+            t = self._times(q)
+            near = np.argsort(t)[:self.k]
+            ends[e] = {int(j): float(t[j]) for j in near}
+        rate = {n: self.cost.cost(a), n + 1: self.cost.cost(b)}
+
+        def point(i):
+            return pts[i] if i >= n else self.nodes[i]
+
+        def neighbours(i):
+            if i >= n:
+                out = dict(ends[i])
+                if i == n:
+                    out[n + 1] = motion_time(a, b, self.inv_speed)
+                return out.items()
+            out = dict(self.edges[i])
+            if i in ends[n + 1]:
+                out[n + 1] = ends[n + 1][i]
+            return out.items()
+
+        def edge_cost(i, j, t):
+            key = (min(i, j), max(i, j)) if i < n and j < n else (i, j)
+            if key in self.fine if i < n and j < n else key in local_fine:
+                wear = self.fine[key] if i < n and j < n else local_fine[key]
+            else:
+                ri = rate[i] if i >= n else self.rates[i]
+                rj = rate[j] if j >= n else self.rates[j]
+                wear = 0.5 * (ri + rj) * t
+            return t + weight * wear
+
+        local_checked: dict[tuple[int, int], bool] = {}
+        local_fine: dict[tuple[int, int], float] = {}
+        for _ in range(MAX_SEARCHES):
+            path = self._dijkstra(n, n + 1, neighbours, edge_cost, local_checked)
+            if path is None:
+                return None
+            changed = False
+            for i, j in zip(path[:-1], path[1:]):
+                both = i < n and j < n
+                key = (min(i, j), max(i, j)) if both else (i, j)
+                store_c, store_f = (self.checked, self.fine) if both else (local_checked, local_fine)
+                if key not in store_c:
+                    store_c[key] = bool(self.validity.segment_valid(point(i), point(j)))
+                    if not store_c[key]:
+                        changed = True
+                        break
+                if key not in store_f:
+                    t = motion_time(point(i), point(j), self.inv_speed)
+                    estimate = edge_cost(i, j, t)
+                    store_f[key] = self._fine_wear(point(i), point(j), t)
+                    if edge_cost(i, j, t) > estimate + 1e-12:
+                        changed = True
+                        break
+            if not changed:
+                return np.array([point(i) for i in path])
+        return None
+
+    def _fine_wear(self, a: np.ndarray, b: np.ndarray, t: float) -> float:
+        steps = max(1, int(math.ceil(float(np.max(np.abs(b - a))) / COST_STEP)))
+        rates = [self.cost.cost(a + (b - a) * (s / steps)) for s in range(steps + 1)]
+        return t * (0.5 * (rates[0] + rates[-1]) + sum(rates[1:-1])) / steps
+
+    def _dijkstra(self, source, target, neighbours, edge_cost, local_checked):
+        n = len(self.nodes)
+        dist = {source: 0.0}
+        prev = {}
+        heap = [(0.0, source)]
+        done = set()
+        while heap:
+            d, i = heapq.heappop(heap)
+            if i in done:
+                continue
+            if i == target:
+                path = [i]
+                while path[-1] in prev:
+                    path.append(prev[path[-1]])
+                return path[::-1]
+            done.add(i)
+            for j, t in neighbours(i):
+                both = i < n and j < n
+                key = (min(i, j), max(i, j)) if both else (i, j)
+                if (self.checked if both else local_checked).get(key) is False:
+                    continue
+                nd = d + edge_cost(i, j, t)
+                if nd < dist.get(j, math.inf):
+                    dist[j] = nd
+                    prev[j] = i
+                    heapq.heappush(heap, (nd, j))
+        return None
