@@ -113,8 +113,25 @@ class MapRoadmap:
                         changed = True
                         break
             if not changed:
-                return np.array([point(i) for i in path])
+                return self.simplify(np.array([point(i) for i in path]), weight)
         return None
+
+    def simplify(self, route: np.ndarray, weight: float) -> np.ndarray:
+        """Drop milestones whose neighbours join directly at no higher objective (every waypoint is a stop)."""
+        def objective(p, q):
+            t = motion_time(p, q, self.inv_speed)
+            return t + weight * self._fine_wear(p, q, t)
+
+        along = np.concatenate([[0.0], np.cumsum([objective(p, q) for p, q in zip(route[:-1], route[1:])])])
+        out, i = [route[0]], 0
+        while i < len(route) - 1:
+            j = len(route) - 1
+            while j > i + 1 and not (objective(route[i], route[j]) <= along[j] - along[i]
+                                     and self.validity.segment_valid(route[i], route[j])):
+                j -= 1
+            out.append(route[j])
+            i = j
+        return np.array(out)
 
     def _fine_wear(self, a: np.ndarray, b: np.ndarray, t: float) -> float:
         steps = max(1, int(math.ceil(float(np.max(np.abs(b - a))) / COST_STEP)))

@@ -49,15 +49,19 @@ class ViaRoutes:
                 return q
         return None
 
-    def candidates(self, a: np.ndarray, b: np.ndarray, rng: np.random.Generator,
-                   allowance: Allowance) -> list[np.ndarray]:
+    def candidates(self, a: np.ndarray, b: np.ndarray, rng: np.random.Generator, allowance: Allowance, *,
+                   include_direct: bool = True, limit: int | None = None) -> list[np.ndarray]:
+        """The direct route (unless ``include_direct`` is False), then via routes: ``limit`` candidates in all
+        (default ``n_routes``)."""
+        limit = self.n_routes if limit is None else limit
         out = []
-        try:
-            out += self.direct.candidates(a, b, rng, allowance)
-        except PlanningError:
-            pass
-        for _ in range(3 * self.n_routes):
-            if len(out) >= self.n_routes or allowance.out_of_time():
+        if include_direct:
+            try:
+                out += self.direct.candidates(a, b, rng, allowance)
+            except PlanningError:
+                pass
+        for _ in range(3 * limit):
+            if len(out) >= limit or allowance.out_of_time():
                 break
             via = self._sample_via(a, b, rng)
             if via is None:

@@ -1,28 +1,54 @@
-"""Global wear-aware planner: explores different route classes with OMPL (via random intermediate
-configurations), scores every candidate route by simulating the cable along it in path order, keeps the
-best and refines it locally. Unlike the thesis's local optimiser it can switch to another route class
-(e.g. under an obstacle instead of over it)."""
+"""Global wear-aware planner: candidate routes of different classes (the wear map's roadmap routes, and OMPL
+routes through random via configurations), each scored by simulating the cable along it in path order; the
+best is refined locally. Unlike the thesis's local optimiser it can switch to another route class (e.g. under
+an obstacle instead of over it)."""
 
 from __future__ import annotations
 
+from dresspack_gym.map_cost import MapStateCost
+from dresspack_gym.wear_map import WearMap, load_wear_map
+
 from .composed import ComposedPlanner
 from .leg_cost import LegCost
+from .map_roadmap import MapRoadmap
+from .map_routes import MapRoutes
 from .refine import LocalRefiner
 from .routes import ViaRoutes
 
 
 class OmplWearPlanner(ComposedPlanner):
-    """``routes`` (the budget's) candidate routes per leg, each scored by one cable simulation; the best refined."""
+    """``routes`` (the budget's) candidate routes per leg, each scored by one cable simulation; the best refined.
+
+    ``wear_map``: a map file (default: the shipped map of this robot and dresspack, if there is one; False:
+    none); with it the candidates start with the map's roadmap routes, without it they are via routes only
+    (``info["wear_map"]`` says which)."""
 
     name = "ompl-wear"
     color = "#e7298a"
 
     def __init__(self, *args, via_spread_deg: float = 90.0, n_interior: int = 3,
                  step_deg: float = 15.0, time_weight: float = 1.0, wear_weight: float = 1.0,
-                 cost_variant: str = "thesis", **kwargs):
+                 cost_variant: str = "thesis", wear_map: str | WearMap | bool | None = None, **kwargs):
         super().__init__(*args, **kwargs)
-        self.routes = ViaRoutes(self.connector, self.validity, self.budget.iterations, self.budget.routes,
-                                via_spread_deg)
+        via = ViaRoutes(self.connector, self.validity, self.budget.iterations, self.budget.routes, via_spread_deg)
+        if wear_map is False:
+            self.wear_map = None
+        elif isinstance(wear_map, WearMap):
+            self.wear_map = wear_map
+        else:
+            self.wear_map = load_wear_map(self.station.config, self.robot, wear_map)
+        roadmap = None
+        if self.wear_map is not None:  # built once, reused by every leg and plan (it depends on no seed)
+            cost = MapStateCost(self.station, self.wear_map, self.robot, cost_variant)
+            roadmap = MapRoadmap(self.wear_map, self.validity, cost, self.joint_speed * self.speed_fraction)
+        self.routes = MapRoutes(via, roadmap, self.budget.routes)
         self.leg_cost = LegCost(self.station, self.robot, time_weight=time_weight, wear_weight=wear_weight,
                                 cost_variant=cost_variant)
         self.refiner = LocalRefiner(self.validity, self.leg_cost, n_interior, step_deg)
+
+    def _plan(self, task):
+        traj, info = super()._plan(task)
+        info["wear_map"] = self.wear_map.info["key"] if self.wear_map is not None else None
+        if self.routes.roadmap is not None:
+            info["roadmap_milestones"] = len(self.routes.roadmap.nodes)
+        return traj, info

@@ -239,6 +239,33 @@ def cmd_twist_sweep(args) -> int:
     return 0
 
 
+def cmd_wear_map(args) -> int:
+    from .loading import load_station
+    from .wear_map import WearMapSettings, build_wear_map, shipped_map_path
+
+    config = load_station(args.station)
+    robot = _robot_index(config, args.robot)
+    settings = WearMapSettings(samples=args.samples, seed=args.seed)
+    out = args.out or shipped_map_path(config, robot)
+    wear_map = build_wear_map(config, robot, settings, progress=not args.json)
+    wear_map.save(ensure_parent(out))
+    info = {**wear_map.info, "path": str(out)}
+    if args.json:
+        print(json.dumps(info))
+    else:
+        print(f"wear map of {info['station']} / {info['robot']}: {info['settled']} of {info['drawn']} drawn "
+              f"configurations settled ({info['unconverged']} unconverged) in {info['build_seconds']} s; "
+              f"wrote {out}")
+    return 0
+
+
+def _robot_index(config, robot: int) -> int:
+    if not 0 <= robot < len(config.robots):
+        raise ConfigError("--robot", f"robot index {robot} does not exist: the station has {len(config.robots)} "
+                                     f"robot(s) (0..{len(config.robots) - 1})")
+    return robot
+
+
 def cmd_export(args) -> int:
     from .loading import load_station
     from .programs import TimedPath, write
@@ -401,6 +428,16 @@ def build_parser(extensions=None) -> argparse.ArgumentParser:
     tw.add_argument("--out", type=output_file, help="output JSON path")
     tw.add_argument("--json", action="store_true")
     tw.set_defaults(func=cmd_twist_sweep)
+    wm = sub.add_parser("wear-map", help="settle the free cable over sampled configurations: the planners' wear map")
+    wm.add_argument("station")
+    wm.add_argument("--robot", type=number(0, 63, integer=True), default=0, help="robot index (default 0)")
+    wm.add_argument("--samples", type=number(1, 1_000_000, integer=True), default=16000,
+                    help="configurations drawn (default 16000; those the cable cannot span are skipped)")
+    wm.add_argument("--seed", type=seed, default=0, help="the map's own sampling seed (default 0)")
+    wm.add_argument("--out", type=output_file, help="output .npz (default: the shipped location for this robot "
+                                                    "and dresspack, configs/wear_maps/<key>.npz)")
+    wm.add_argument("--json", action="store_true")
+    wm.set_defaults(func=cmd_wear_map)
     ex = sub.add_parser("export", help="write a planned trajectory as a robot program (CSV, JSON, ABB RAPID, KUKA KRL)")
     ex.add_argument("plan", help="trajectory .npz from `dresspack plan --out` or an evaluation's trajectories/")
     ex.add_argument("--format", choices=list(PROGRAM_FORMATS), required=True)

@@ -24,6 +24,7 @@ from .cable_shape import reference_shape
 from .config import StationConfig
 from .errors import ConfigError
 from .simulation import CableSimulator
+from .shipped import shipped_root
 from .station import DOWN, Station, _node_frames
 
 MAP_VERSION = 1
@@ -226,3 +227,21 @@ def build_wear_map(config: StationConfig, robot: int = 0, settings: WearMapSetti
     return WearMap(model, settings, np.array(kept).reshape(-1, 6), np.array(feats).reshape(len(feats), -1),
                    np.array(devs).reshape(len(devs), -1, 3), np.array(meas).reshape(-1, 3), np.array(conv, bool),
                    info)
+
+
+def shipped_map_path(config: StationConfig, robot: int = 0) -> Path:
+    """Where a shipped map for this robot and dresspack lives (``configs/wear_maps/<key>.npz``), present or not.
+    Only shipped or explicitly named maps are used: a map found in some cache would make a plan depend on
+    the machine's history."""
+    return shipped_root() / "wear_maps" / f"{map_key(config, robot)}.npz"
+
+
+def load_wear_map(config: StationConfig, robot: int = 0, path: str | Path | None = None) -> WearMap | None:
+    """The map at ``path``, else the shipped one for this robot and dresspack, else None."""
+    if path is not None:
+        if not Path(path).is_file():
+            raise ConfigError("wear_map", f"{path} is not a file (build one with: dresspack wear-map STATION "
+                                          "--out PATH)")
+        return WearMap.load(path, config, robot)
+    shipped = shipped_map_path(config, robot)
+    return WearMap.load(shipped, config, robot) if shipped.is_file() else None

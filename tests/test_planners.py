@@ -158,11 +158,13 @@ def test_chain_reach_bounds_every_multi_joint_move(default_station):
         assert worst <= reach @ np.abs(q1 - q0) + 1e-9
 
 
-@pytest.mark.slow
 def test_global_wear_planner_finds_the_low_tension_route():
-    """Thesis tension case: the wear-unaware route drags the cable over the cuboid (kN peaks here); the global
-    planner must find a route that keeps the peak low (measured 110 N and 81 N for seeds 0 and 1)."""
+    """Thesis tension case: the wear-unaware route drags the cable over the cuboid (~370 N); with the shipped wear
+    map the global planner takes the route under it, near the free-hanging cable's ~25 N (measured 37-53 N on
+    seeds 0-2; a 2x margin on the best route's ~30 N)."""
     base = plan_station("thesis_tension", "ompl", seed=0).summary()
-    aware = plan_station("thesis_tension", "ompl-wear", seed=0, evaluations=80).summary()
-    assert aware["max_tension"] < 0.1 * base["max_tension"] and aware["max_tension"] < 200
-    assert aware["cost"] < 0.1 * base["cost"]
+    aware = plan_station("thesis_tension", "ompl-wear", seed=0).summary()
+    assert aware["planner_info"]["wear_map"] is not None
+    assert base["max_tension"] > 300
+    assert aware["max_tension"] < 70
+    assert aware["cost"] < 0.2 * base["cost"]

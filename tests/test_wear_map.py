@@ -204,3 +204,31 @@ def test_roadmap_route_is_valid_no_worse_than_direct_and_reproducible(default_co
         assert _objective(roadmap, route, weight) <= _objective(roadmap, np.array([a, b]), weight) + 1e-9
     again = MapRoadmap(wm, MotionValidity(st, 0, margin=0.005), MapStateCost(st, wm), speeds).route(a, b, 50.0)
     np.testing.assert_array_equal(again, roadmap.route(a, b, 50.0))
+
+
+def test_wear_map_command_builds_a_loadable_map_and_names_bad_input(tmp_path, capsys):
+    import json
+
+    from dresspack_gym.cli import main
+
+    out = tmp_path / "m.npz"
+    assert main(["wear-map", "default", "--samples", "8", "--out", str(out), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["settled"] == 8 and info["path"] == str(out)
+    assert len(WearMap.load(out, load_station("default"))) == 8
+    assert main(["wear-map", "default", "--robot", "3", "--samples", "8", "--out", str(out)]) == 2
+    assert "--robot" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_info:  # argparse rejects it before anything runs
+        main(["wear-map", "default", "--samples", "0"])
+    assert exit_info.value.code == 2 and "--samples" in capsys.readouterr().err
+
+
+def test_planner_uses_the_shipped_map_or_says_it_has_none():
+    from dresspack.agents.planning import make_planner
+
+    with_map = make_planner("ompl-wear", Station(load_station("thesis_tension")))
+    assert with_map.wear_map is not None and with_map.routes.roadmap is not None
+    without = make_planner("ompl-wear", Station(load_station("thesis_distance")))
+    assert without.wear_map is None and without.routes.roadmap is None
+    with pytest.raises(ConfigError, match="wear_map"):
+        make_planner("ompl-wear", Station(load_station("thesis_distance")), wear_map="/nonexistent.npz")
