@@ -9,8 +9,8 @@ import math
 
 import numpy as np
 
+from dresspack_gym import time_law
 from dresspack_gym.map_cost import MapStateCost
-from dresspack_gym.time_law import CUBIC_PEAK_FACTOR
 from dresspack_gym.validity import MotionValidity
 from dresspack_gym.wear_map import WearMap
 
@@ -20,9 +20,9 @@ COST_STEP = math.radians(10.0)
 MAX_SEARCHES = 200
 
 
-def motion_time(a: np.ndarray, b: np.ndarray, inv_speed: np.ndarray) -> float:
-    """Seconds of the straight joint motion a -> b under the cubic time law (stop at b)."""
-    return CUBIC_PEAK_FACTOR * float(np.max(np.abs(b - a) * inv_speed))
+def motion_time(a: np.ndarray, b: np.ndarray, speeds: np.ndarray) -> float:
+    """Seconds of the straight joint motion a -> b under the simulator's time law (stop at b)."""
+    return float(time_law.segment_durations(b - a, speeds))
 
 
 class MapRoadmap:
@@ -35,7 +35,7 @@ class MapRoadmap:
     def __init__(self, wear_map: WearMap, validity: MotionValidity, cost: MapStateCost, speeds: np.ndarray,
                  neighbours: int | None = None):
         self.validity, self.cost = validity, cost
-        self.inv_speed = 1.0 / np.asarray(speeds, dtype=float)
+        self.speeds = np.asarray(speeds, dtype=float)
         qs = [q for q in wear_map.configurations if validity.valid(q)]
         self.nodes = np.array(qs).reshape(-1, 6)
         n = len(self.nodes)
@@ -52,7 +52,7 @@ class MapRoadmap:
         self.fine: dict[tuple[int, int], float] = {}  # edge -> ∫ C_map dt, finely sampled
 
     def _times(self, q: np.ndarray) -> np.ndarray:
-        return CUBIC_PEAK_FACTOR * np.max(np.abs(self.nodes - q) * self.inv_speed, axis=1)
+        return time_law.segment_durations(self.nodes - q, self.speeds)
 
     def route(self, a: np.ndarray, b: np.ndarray, weight: float) -> np.ndarray | None:
         """The best route a -> b found on the roadmap (waypoints, ends included), or None."""
@@ -68,47 +68,55 @@ class MapRoadmap:
         def point(i):
             return pts[i] if i >= n else self.nodes[i]
 
+        local_checked: dict[tuple[int, int], bool] = {}
+        local_fine: dict[tuple[int, int], float] = {}
+
+        def books(i, j):
+            """(key, validity store, fine-cost store) of edge i -> j: roadmap edges are kept (both directions
+            alike), the query's own edges to its ends only for this query."""
+            if i < n and j < n:
+                return (min(i, j), max(i, j)), self.checked, self.fine
+            return (i, j), local_checked, local_fine
+
         def neighbours(i):
             if i >= n:
-                out = dict(ends[i])
+                yield from ends[i].items()
                 if i == n:
-                    out[n + 1] = motion_time(a, b, self.inv_speed)
-                return out.items()
-            out = dict(self.edges[i])
+                    yield n + 1, motion_time(a, b, self.speeds)
+                return
+            yield from self.edges[i].items()
             if i in ends[n + 1]:
-                out[n + 1] = ends[n + 1][i]
-            return out.items()
+                yield n + 1, ends[n + 1][i]
 
         def edge_cost(i, j, t):
-            key = (min(i, j), max(i, j)) if i < n and j < n else (i, j)
-            if key in self.fine if i < n and j < n else key in local_fine:
-                wear = self.fine[key] if i < n and j < n else local_fine[key]
-            else:
+            key, _, fine = books(i, j)
+            wear = fine.get(key)
+            if wear is None:
                 ri = rate[i] if i >= n else self.rates[i]
                 rj = rate[j] if j >= n else self.rates[j]
                 wear = 0.5 * (ri + rj) * t
             return t + weight * wear
 
-        local_checked: dict[tuple[int, int], bool] = {}
-        local_fine: dict[tuple[int, int], float] = {}
+        def retired(i, j):
+            key, checked, _ = books(i, j)
+            return checked.get(key) is False
+
         for _ in range(MAX_SEARCHES):
-            path = self._dijkstra(n, n + 1, neighbours, edge_cost, local_checked)
+            path = self._dijkstra(n, n + 1, neighbours, edge_cost, retired)
             if path is None:
                 return None
             changed = False
             for i, j in zip(path[:-1], path[1:]):
-                both = i < n and j < n
-                key = (min(i, j), max(i, j)) if both else (i, j)
-                store_c, store_f = (self.checked, self.fine) if both else (local_checked, local_fine)
-                if key not in store_c:
-                    store_c[key] = bool(self.validity.segment_valid(point(i), point(j)))
-                    if not store_c[key]:
+                key, checked, fine = books(i, j)
+                if key not in checked:
+                    checked[key] = bool(self.validity.segment_valid(point(i), point(j)))
+                    if not checked[key]:
                         changed = True
                         break
-                if key not in store_f:
-                    t = motion_time(point(i), point(j), self.inv_speed)
+                if key not in fine:
+                    t = motion_time(point(i), point(j), self.speeds)
                     estimate = edge_cost(i, j, t)
-                    store_f[key] = self._fine_wear(point(i), point(j), t)
+                    fine[key] = self._fine_wear(point(i), point(j), t)
                     if edge_cost(i, j, t) > estimate + 1e-12:
                         changed = True
                         break
@@ -119,7 +127,7 @@ class MapRoadmap:
     def simplify(self, route: np.ndarray, weight: float) -> np.ndarray:
         """Drop milestones whose neighbours join directly at no higher objective (every waypoint is a stop)."""
         def objective(p, q):
-            t = motion_time(p, q, self.inv_speed)
+            t = motion_time(p, q, self.speeds)
             return t + weight * self._fine_wear(p, q, t)
 
         along = np.concatenate([[0.0], np.cumsum([objective(p, q) for p, q in zip(route[:-1], route[1:])])])
@@ -138,8 +146,8 @@ class MapRoadmap:
         rates = [self.cost.cost(a + (b - a) * (s / steps)) for s in range(steps + 1)]
         return t * (0.5 * (rates[0] + rates[-1]) + sum(rates[1:-1])) / steps
 
-    def _dijkstra(self, source, target, neighbours, edge_cost, local_checked):
-        n = len(self.nodes)
+    @staticmethod
+    def _dijkstra(source, target, neighbours, edge_cost, retired):
         dist = {source: 0.0}
         prev = {}
         heap = [(0.0, source)]
@@ -155,9 +163,7 @@ class MapRoadmap:
                 return path[::-1]
             done.add(i)
             for j, t in neighbours(i):
-                both = i < n and j < n
-                key = (min(i, j), max(i, j)) if both else (i, j)
-                if (self.checked if both else local_checked).get(key) is False:
+                if retired(i, j):
                     continue
                 nd = d + edge_cost(i, j, t)
                 if nd < dist.get(j, math.inf):

@@ -26,7 +26,7 @@ class DirectRoute:
 class ViaRoutes:
     """Up to ``n_routes`` candidates: the direct route, then OMPL routes through random via configurations
     (near the leg's midpoint or anywhere in the limits), so other route classes (under an obstacle instead of
-    over it) are explored. At most ``3 * n_routes`` vias are tried; each half-route gets ``via_iterations``."""
+    over it) are explored. At most 3 vias per route wanted are tried; each half-route gets ``via_iterations``."""
 
     def __init__(self, connector: OmplConnector, validity: MotionValidity, iterations: int, n_routes: int = 12,
                  via_spread_deg: float = 90.0, via_iterations: int | None = None):

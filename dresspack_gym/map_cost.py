@@ -49,7 +49,7 @@ class MapStateCost:
         else:
             clearance, _, _ = self.probe.min_distance(self.data, self.cable, pred.points, signed=True)
             m = WearMeasures(pred.max_curvature, pred.max_tension, max(clearance, 0.0), pred.max_twist_rate)
-            out = {k: v for k, v in self.cost_fn(m, self.cfg).terms().items()}
+            out = self.cost_fn(m, self.cfg).terms()
             out["obstruction"] = OBSTRUCTION_RATE * (min(clearance, 0.0) / OBSTRUCTION_DEPTH) ** 2
         self._cache[key] = out
         return out

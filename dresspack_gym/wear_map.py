@@ -15,7 +15,7 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +23,7 @@ import numpy as np
 from .cable_shape import reference_shape
 from .config import StationConfig
 from .errors import ConfigError
+from .robustness.algorithm import cable_only
 from .simulation import CableSimulator
 from .shipped import shipped_root
 from .station import DOWN, Station, _node_frames
@@ -77,7 +78,7 @@ class ShapeModel:
     """Shape features and the reference curve of one robot's dresspack (no simulation)."""
 
     def __init__(self, config: StationConfig, robot: int = 0, lever: float = WearMapSettings.lever):
-        self.station = Station(_cable_alone(config))
+        self.station = Station(cable_only(config))  # the map is the free cable's: no obstacles, no contact
         self.robot = self.station.check_robot(robot)
         self.placement = self.station.config.robots[self.robot]
         self.kinematics = self.station.robots[self.robot].kinematics
@@ -104,12 +105,6 @@ class ShapeModel:
             return reference_shape(self.placement.dresspack, frames, DOWN, resolution=REFERENCE_RESOLUTION)
         except ConfigError:
             return None
-
-
-def _cable_alone(config: StationConfig) -> StationConfig:
-    """The station without obstacles, floor, weld points and cable-robot contact (the map is the free cable's)."""
-    robots = tuple(replace(r, dresspack=replace(r.dresspack, collide_with_robot=False)) for r in config.robots)
-    return replace(config, obstacles=(), weld_points=(), floor=False, robots=robots)
 
 
 def map_key(config: StationConfig, robot: int = 0) -> str:

@@ -14,7 +14,8 @@ from dresspack_gym.simulation import CableSimulator
 from dresspack_gym.station import Station, _node_frames
 from dresspack_gym.validity import MotionValidity
 from dresspack.agents.map_roadmap import MapRoadmap, motion_time
-from dresspack_gym.wear_map import (WearMap, WearMapSettings, _cable_alone, build_wear_map, map_key,
+from dresspack_gym.robustness.algorithm import cable_only
+from dresspack_gym.wear_map import (WearMap, WearMapSettings, build_wear_map, map_key,
                                     sample_configurations)
 
 
@@ -92,7 +93,7 @@ def test_map_is_reproducible_and_exact_at_its_samples(default_config, small_map)
     assert small_map.info["settled"] == len(small_map) == 24  # a link 3 - link 6 cable spans everywhere
     # at a sample's own configuration the map returns that settle: re-settle independently and compare
     q = sample_configurations(default_config.robots[0].robot.joint_limits, small_map.settings)[5]
-    sim = CableSimulator(Station(_cable_alone(default_config)))
+    sim = CableSimulator(Station(cable_only(default_config)))
     sim.reset(q[None], settle=False)
     sim.settle()
     pred = small_map.predict(q)
@@ -119,7 +120,7 @@ def test_map_predicts_held_out_shapes_better_than_the_reference_curve(default_co
     """The interpolated deviation must carry real information: at configurations it never saw, the map's
     shape is nearer the settled one than the analytic curve through the same nodes."""
     wm = build_wear_map(default_config, 0, WearMapSettings(samples=300, seed=1))
-    sim = CableSimulator(Station(_cable_alone(default_config)))
+    sim = CableSimulator(Station(cable_only(default_config)))
     lim = default_config.robots[0].robot.joint_limits
     err_map, err_ref = [], []
     for q in np.random.default_rng(99).uniform(lim[:, 0], lim[:, 1], (12, 6)):
@@ -178,7 +179,7 @@ def _objective(roadmap, route, weight):
     """∫(1 + weight C_map) dt of a route, every segment costed finely."""
     total = 0.0
     for a, b in zip(route[:-1], route[1:]):
-        t = motion_time(a, b, roadmap.inv_speed)
+        t = motion_time(a, b, roadmap.speeds)
         total += t + weight * roadmap._fine_wear(a, b, t)
     return total
 
