@@ -51,6 +51,13 @@ class MapRoadmap:
         self.checked: dict[tuple[int, int], bool] = {}  # edge -> valid (robot collision, reach, limits)
         self.fine: dict[tuple[int, int], float] = {}  # edge -> ∫ C_map dt, finely sampled
 
+    def forget(self) -> None:
+        """Drop what earlier searches learnt about edges. A lazy search returns the first route whose edges are
+        all checked, so a fine cost learnt in an earlier plan can change a later route: each plan starts
+        afresh, so that it never depends on what the planner planned before."""
+        self.checked.clear()
+        self.fine.clear()
+
     def _times(self, q: np.ndarray) -> np.ndarray:
         return time_law.segment_durations(self.nodes - q, self.speeds)
 

@@ -46,6 +46,11 @@ class OmplWearPlanner(ComposedPlanner):
                                 cost_variant=cost_variant)
         self.refiner = LocalRefiner(self.validity, self.leg_cost, n_interior, step_deg)
 
+    def _reseed(self) -> None:
+        super()._reseed()
+        if self.routes.roadmap is not None:
+            self.routes.roadmap.forget()
+
     def _plan(self, task):
         traj, info = super()._plan(task)
         info["wear_map"] = self.wear_map.info["key"] if self.wear_map is not None else None

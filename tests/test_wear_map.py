@@ -203,8 +203,14 @@ def test_roadmap_route_is_valid_no_worse_than_direct_and_reproducible(default_co
         assert validity.path_valid(route)
         # the direct motion is one of the roadmap's edges: the search may only do better
         assert _objective(roadmap, route, weight) <= _objective(roadmap, np.array([a, b]), weight) + 1e-9
-    again = MapRoadmap(wm, MotionValidity(st, 0, margin=0.005), MapStateCost(st, wm), speeds).route(a, b, 50.0)
-    np.testing.assert_array_equal(again, roadmap.route(a, b, 50.0))
+    fresh = MapRoadmap(wm, MotionValidity(st, 0, margin=0.005), MapStateCost(st, wm), speeds)
+    first = fresh.route(a, b, 50.0)
+    np.testing.assert_array_equal(first, roadmap.route(a, b, 50.0))
+    # a plan starts afresh: what earlier searches learnt about edges cannot change a later route
+    fresh.route(b, a + np.radians([20.0, -10.0, 5.0, 30.0, -20.0, 10.0]), 5.0)
+    fresh.forget()
+    assert not fresh.checked and not fresh.fine
+    np.testing.assert_array_equal(fresh.route(a, b, 50.0), first)
 
 
 def test_wear_map_command_builds_a_loadable_map_and_names_bad_input(tmp_path, capsys):
