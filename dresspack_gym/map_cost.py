@@ -1,6 +1,7 @@
 """The wear map as a state cost: eq. (4.10) on the map's predicted free cable at a configuration, with the
 clearance of that shape computed exactly against the station's obstacles, plus an obstruction term where the
-free shape would pass through an obstacle (there the real cable is caught and the map cannot predict it)."""
+free shape would pass through a solid obstacle (there the real cable is caught and the map cannot predict it; a
+plane such as the floor only supports it)."""
 
 from __future__ import annotations
 
@@ -50,7 +51,10 @@ class MapStateCost:
             clearance, _, _ = self.probe.min_distance(self.data, self.cable, pred.points, signed=True)
             m = WearMeasures(pred.max_curvature, pred.max_tension, max(clearance, 0.0), pred.max_twist_rate)
             out = self.cost_fn(m, self.cfg).terms()
-            out["obstruction"] = OBSTRUCTION_RATE * (min(clearance, 0.0) / OBSTRUCTION_DEPTH) ** 2
+            # A plane (the floor) only supports a sagging cable, it cannot catch it: only solids obstruct.
+            solid = clearance if clearance >= 0 else self.probe.min_distance(self.data, self.cable, pred.points,
+                                                                             signed=True, planes=False)[0]
+            out["obstruction"] = OBSTRUCTION_RATE * (min(solid, 0.0) / OBSTRUCTION_DEPTH) ** 2
         self._cache[key] = out
         return out
 

@@ -160,11 +160,12 @@ class ClearanceProbe:
         self._rot = np.zeros(9)
 
     def min_distance(self, data: mujoco.MjData, cable: CableIndex, points: np.ndarray, *,
-                     signed: bool = False) -> tuple[float, int, str]:
+                     signed: bool = False, planes: bool = True) -> tuple[float, int, str]:
         """(distance, edge index, obstacle name) of the nearest obstacle; (MAX_CLEARANCE, -1, '') if none.
         The distance is 0 in contact, or with ``signed`` negative by the depth of the deepest penetration (a
-        predicted shape may pass through an obstacle; a simulated one only touches it)."""
-        if len(self.obstacles) == 0:
+        predicted shape may pass through an obstacle; a simulated one only touches it). ``planes=False`` leaves
+        the planes (the floor) out."""
+        if len(self.obstacles) == 0 or not (planes or not self.is_plane.all()):
             return MAX_CLEARANCE, -1, ""
         m = self.station.model
         mids = 0.5 * (points[1:] + points[:-1])
@@ -182,6 +183,8 @@ class ClearanceProbe:
             exact_plane = True
         else:
             exact_plane = False
+        if not planes:
+            lb[:, self.is_plane] = np.inf
         order = np.argsort(lb, axis=None)
         best, best_edge, best_obs = MAX_CLEARANCE, -1, -1
         size = m.geom_size[self.probe]

@@ -165,6 +165,26 @@ def test_map_cost_clearance_and_obstruction_against_geometry(default_config, sma
     assert terms["distance"] == pytest.approx(cfg.w_distance * min(0.0, d - cfg.clearance) ** 2, rel=1e-6)
 
 
+def test_a_plane_supports_the_predicted_cable_but_never_obstructs_it(default_config, small_map, monkeypatch):
+    """A predicted shape sagging through a plane (the floor) would rest on it, not be caught by it: no obstruction
+    term, clearance 0 for the distance term; a solid it passes through at the same time still obstructs."""
+    monkeypatch.setattr("dresspack_gym.station.check_station", lambda station: None)  # the raised floor cuts the base
+    q = np.radians([0, 10, 10, 30, -40, 20])
+    pts = small_map.predict(q).points
+    r = default_config.robots[0].dresspack.radius
+    floor = Obstacle(name="raised_floor", type="plane", pos=(0.0, 0.0, float(pts[:, 2].min()) + 0.1),
+                     rpy=(0.0, 0.0, 0.0), size=(5.0, 5.0, 0.1))
+    cfg = default_config.wear_cost
+    terms = MapStateCost(Station(replace(default_config, obstacles=(floor,))), small_map).terms(q)
+    assert terms["obstruction"] == 0.0
+    assert terms["distance"] == pytest.approx(cfg.w_distance * cfg.clearance ** 2, rel=1e-9)
+    R = 0.05
+    config = _with_sphere(default_config, pts[12], R)
+    config = replace(config, obstacles=config.obstacles + (floor,))
+    terms = MapStateCost(Station(config), small_map).terms(q)
+    assert terms["obstruction"] == pytest.approx(OBSTRUCTION_RATE * ((R + r) / OBSTRUCTION_DEPTH) ** 2, rel=1e-6)
+
+
 def test_map_cost_of_an_unreachable_configuration():
     config = load_station("thesis_tension")
     wm = build_wear_map(config, 0, WearMapSettings(samples=60, seed=0))
