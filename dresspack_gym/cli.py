@@ -259,6 +259,24 @@ def cmd_wear_map(args) -> int:
     return 0
 
 
+def cmd_robots(args) -> int:
+    from .loading import list_robots, load_robot
+    from .robot_check import ik_round_trip
+
+    names = args.names or list_robots()
+    rows = [ik_round_trip(load_robot(n), args.poses, args.seed).row() | {"source": load_robot(n).source}
+            for n in names]
+    if args.json:
+        print(json.dumps(rows))
+        return 0
+    print(f"{'robot':26} {'poses':>6} {'max pose err':>13} {'max joint err':>14} {'branches/pose':>14} "
+          f"{'raw branches':>13}  q found")
+    for r in rows:
+        print(f"{r['robot']:26} {r['poses']:6d} {r['max_pose_error']:13.1e} {r['max_joint_error']:14.1e} "
+              f"{r['mean_branches']:14.2f} {r['max_raw_branches']:13d}  {r['found_q']}")
+    return 0
+
+
 def _robot_index(config, robot: int) -> int:
     if not 0 <= robot < len(config.robots):
         raise ConfigError("--robot", f"robot index {robot} does not exist: the station has {len(config.robots)} "
@@ -279,7 +297,7 @@ def cmd_export(args) -> int:
         raise ConfigError("--robot", f"robot index {robot} does not exist: the station has {len(cfg.robots)}")
     fraction = args.speed_fraction or meta.get("speed_fraction") or cfg.simulation.speed_fraction
     placement = cfg.robots[robot]
-    path = TimedPath.of(traj, placement.robot.joint_speed, fraction, cfg.name, placement.name)
+    path = TimedPath.of(traj, placement.robot, fraction, cfg.name, placement.name)
     text = write(path, args.format)
     if args.out:
         ensure_parent(args.out).write_text(text)
@@ -438,6 +456,13 @@ def build_parser(extensions=None) -> argparse.ArgumentParser:
                                                     "and dresspack, configs/wear_maps/<key>.npz)")
     wm.add_argument("--json", action="store_true")
     wm.set_defaults(func=cmd_wear_map)
+    rb = sub.add_parser("robots", help="the shipped robots' FK/IK round trip: pose error and IK branches per robot")
+    rb.add_argument("names", nargs="*", help="robot names or YAML files (default: every shipped robot)")
+    rb.add_argument("--poses", type=number(1, 1_000_000, integer=True), default=1000,
+                    help="random configurations per robot (default 1000)")
+    rb.add_argument("--seed", type=seed, default=0)
+    rb.add_argument("--json", action="store_true")
+    rb.set_defaults(func=cmd_robots)
     ex = sub.add_parser("export", help="write a planned trajectory as a robot program (CSV, JSON, ABB RAPID, KUKA KRL)")
     ex.add_argument("plan", help="trajectory .npz from `dresspack plan --out` or an evaluation's trajectories/")
     ex.add_argument("--format", choices=list(PROGRAM_FORMATS), required=True)

@@ -65,6 +65,19 @@ class RobotConfig:
     tcp_pos: tuple[float, float, float]
     tcp_rpy: tuple[float, float, float]
     collision: tuple[CollisionPrimitive, ...]
+    # The controller's axis values of model joints q: sign * q + offset (the model's j2 = 0 is the upper arm
+    # vertical and its joints turn about +z, +y, +y, +x, +y, +x; makers count some axes the other way or from
+    # another zero, e.g. KUKA's A2 = -90 deg is the upper arm vertical). Identity for a robot that counts as we do.
+    controller_sign: tuple[float, ...] = (1.0,) * 6
+    controller_offset_rad: tuple[float, ...] = (0.0,) * 6
+
+    def to_controller(self, q) -> np.ndarray:
+        """Controller axis values [rad] of model joints ``q`` (..., 6)."""
+        return np.asarray(q, dtype=float) * np.array(self.controller_sign) + np.array(self.controller_offset_rad)
+
+    def from_controller(self, axes) -> np.ndarray:
+        """Model joints [rad] of controller axis values ``axes`` (..., 6)."""
+        return (np.asarray(axes, dtype=float) - np.array(self.controller_offset_rad)) * np.array(self.controller_sign)
 
     @property
     def joint_limits(self) -> np.ndarray:
@@ -104,9 +117,18 @@ class RobotConfig:
         tcp_rpy = tuple(np.radians(tool.vector("tcp_rpy_deg", 3, (0, 0, 0), lo=-360, hi=360, unit="deg")))
         tool.done()
         prims = tuple(_primitive(p, ROBOT_LINKS) for p in s.sections("collision", []))
+        sign, offset = (1.0,) * 6, (0.0,) * 6
+        if s.has("controller_axes"):
+            c = s.section("controller_axes")
+            sign = c.vector("sign", 6, sign)
+            for i, v in enumerate(sign):
+                if v not in (1.0, -1.0):
+                    raise ConfigError(f"{c.field('sign')}[{i}]", f"each sign is 1 or -1, got {v:g}")
+            offset = tuple(np.radians(c.vector("offset_deg", 6, offset, lo=-360.0, hi=360.0, unit="deg")).tolist())
+            c.done()
         s.done()
         return RobotConfig(name, source, kin, tuple(map(tuple, limits.tolist())), tuple(speed.tolist()), tcp_pos,
-                           tcp_rpy, prims)
+                           tcp_rpy, prims, tuple(map(float, sign)), offset)
 
 
 def _primitive(p: Section, links: tuple[str, ...]) -> CollisionPrimitive:

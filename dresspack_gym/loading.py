@@ -54,6 +54,10 @@ def list_stations() -> list[str]:
     return shipped_names("stations")
 
 
+def list_robots() -> list[str]:
+    return shipped_names("robots")
+
+
 def resolve_station_path(ref: str | Path) -> Path:
     """Accept a YAML path or the name of a shipped station (``default``, ``thesis_curvature``...)."""
     return find_shipped(ref, "stations", "station")

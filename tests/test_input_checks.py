@@ -162,7 +162,8 @@ REQUIRED = {"render": ["default", "--out", "x.png"], "robustness-map": ["--grid"
                                                                         "--out", "m"],
             "robustness-paths": ["--grid", "small", "--station", "default", "--out", "m"],
             "restrictions": ["default"], "twist-sweep": ["default"], "bench": ["physics"], "inspect": ["default"],
-            "export": ["p.npz", "--format", "csv"], "animate": ["p.npz", "--out", "x.mp4"], "wear-map": ["default"]}
+            "export": ["p.npz", "--format", "csv"], "animate": ["p.npz", "--out", "x.mp4"], "wear-map": ["default"],
+            "robots": []}
 
 
 def _out_of_range(bounds):

@@ -78,12 +78,12 @@ def test_csv_weld_list_to_plan_to_programs_round_trip(tmp_path):
     assert meta == {"station": "csv", "robot": "r1", "speed_fraction": 0.5}
     np.testing.assert_array_equal(traj.waypoints, run.plan.trajectory.waypoints)
     placement = station.config.robots[0]
-    path = TimedPath.of(traj, placement.robot.joint_speed, station.config.simulation.speed_fraction, "csv", "r1")
+    path = TimedPath.of(traj, placement.robot, station.config.simulation.speed_fraction, "csv", "r1")
     assert path.times[-1] == pytest.approx(run.replay.cycle_time, abs=station.config.simulation.timestep * len(
         traj.waypoints))  # the simulator rounds each segment up to whole steps
     for fmt in FORMATS:
         joints, times = parse(write(path, fmt), fmt)
-        np.testing.assert_allclose(joints, traj.waypoints, atol=1e-6, rtol=0)
+        np.testing.assert_allclose(placement.robot.from_controller(joints), traj.waypoints, atol=1e-6, rtol=0)
         if times is not None:
             np.testing.assert_allclose(times, path.times, atol=1e-6, rtol=0)
 
@@ -126,8 +126,7 @@ def test_animation_has_one_frame_per_sample_and_a_moving_time_cursor(tmp_path):
             pytest.skip(str(exc))
         raise
     frames = [f for f in imageio.get_reader(tmp_path / "a.mp4")]
-    duration = TimedPath.of(traj, station.config.robots[0].robot.joint_speed,
-                            station.config.simulation.speed_fraction).times[-1]
+    duration = TimedPath.of(traj, station.config.robots[0].robot, station.config.simulation.speed_fraction).times[-1]
     assert len(frames) == result["frames"] == 1 + int(np.ceil(duration * fps - 1e-9))
     assert frames[0].shape == (96 + 60, 160, 3)
 
