@@ -264,8 +264,15 @@ def cmd_robots(args) -> int:
     from .robot_check import ik_round_trip
 
     names = args.names or list_robots()
-    rows = [ik_round_trip(load_robot(n), args.poses, args.seed).row() | {"source": load_robot(n).source}
-            for n in names]
+    robots = [load_robot(n) for n in names]
+    rows = [ik_round_trip(r, args.poses, args.seed).row() | {"source": r.source} for r in robots]
+    if args.export:
+        from .robot_import import to_mjcf, to_urdf
+
+        args.export.mkdir(parents=True, exist_ok=True)
+        for r in robots:
+            (args.export / f"{r.name}.urdf").write_text(to_urdf(r))
+            (args.export / f"{r.name}.xml").write_text(to_mjcf(r))
     if args.json:
         print(json.dumps(rows))
         return 0
@@ -461,6 +468,8 @@ def build_parser(extensions=None) -> argparse.ArgumentParser:
     rb.add_argument("--poses", type=number(1, 1_000_000, integer=True), default=1000,
                     help="random configurations per robot (default 1000)")
     rb.add_argument("--seed", type=seed, default=0)
+    rb.add_argument("--export", type=output_dir, help="also write each robot's chain as <name>.urdf and <name>.xml "
+                                                      "(MJCF) in its controller's joint convention to this folder")
     rb.add_argument("--json", action="store_true")
     rb.set_defaults(func=cmd_robots)
     ex = sub.add_parser("export", help="write a planned trajectory as a robot program (CSV, JSON, ABB RAPID, KUKA KRL)")

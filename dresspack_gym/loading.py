@@ -65,7 +65,56 @@ def resolve_station_path(ref: str | Path) -> Path:
 
 def load_robot(ref: str | Path, base_dir: Path = CONFIG_DIR, field: str = "robot") -> RobotConfig:
     path = find_shipped(ref, "robots", field, base_dir=base_dir)
-    return RobotConfig.from_dict(read_yaml(path, field), path=f"{path.name}")
+    data = read_yaml(path, field)
+    if "model_file" in data:
+        data = _robot_from_model_file(data, path, f"{path.name}")
+    return RobotConfig.from_dict(data, path=f"{path.name}")
+
+
+DERIVED_FROM_MODEL = ("kinematics", "joint_limits_deg", "controller_axes")
+
+
+def _robot_from_model_file(data: dict[str, Any], yaml_path: Path, field: str) -> dict[str, Any]:
+    """The robot YAML with kinematics, limits, controller axes (and speeds, if the YAML has none) derived from its
+    ``model_file``: a URDF/MJCF path relative to the YAML, or ``{package, path}`` inside an installed package."""
+    from .robot_import import derive, load_model, urdf_velocities
+
+    data = dict(data)
+    ref = data.pop("model_file")
+    f = f"{field}.model_file"
+    for key in DERIVED_FROM_MODEL:
+        if key in data:
+            raise ConfigError(f"{field}.{key}", "is derived from model_file: leave it out of the YAML")
+    model_path = _model_file_path(ref, yaml_path.parent, f)
+    kin, sign, offset, limits = derive(load_model(model_path), f)
+    data["kinematics"] = {k: getattr(kin, k) for k in ("a1", "d1", "a2", "a3", "d4", "d6")}
+    data["joint_limits_deg"] = np.degrees(limits).tolist()
+    data["controller_axes"] = {"sign": sign.tolist(), "offset_deg": np.degrees(offset).tolist()}
+    if "joint_speed_deg_s" not in data:
+        speeds = urdf_velocities(model_path)
+        if speeds is None:
+            raise ConfigError(f"{field}.joint_speed_deg_s", f"{model_path.name} gives no velocity limit for every "
+                                                             "joint: state the 6 rated joint speeds in the YAML")
+        data["joint_speed_deg_s"] = np.degrees(speeds).tolist()
+    return data
+
+
+def _model_file_path(ref: Any, base_dir: Path, field: str) -> Path:
+    import importlib.util
+
+    if isinstance(ref, str):
+        path = base_dir / ref
+    elif isinstance(ref, Mapping) and set(ref) == {"package", "path"}:
+        spec = importlib.util.find_spec(str(ref["package"]))  # finds the package's folder without importing it
+        if spec is None or not spec.submodule_search_locations:
+            raise ConfigError(field, f"needs the Python package {ref['package']!r}, which is not installed "
+                                     "(pip install 'dresspack-gym[robots]')")
+        path = Path(list(spec.submodule_search_locations)[0]) / str(ref["path"])
+    else:
+        raise ConfigError(field, "expected a file path or {package: NAME, path: FILE IN THE PACKAGE}")
+    if not path.is_file():
+        raise ConfigError(field, f"file not found: {path}")
+    return path
 
 
 def _merge(base: dict[str, Any], overrides: Mapping[str, Any]) -> dict[str, Any]:

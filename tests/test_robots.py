@@ -113,3 +113,123 @@ def test_bad_controller_axes_name_the_field(patch, field):
     with pytest.raises(ConfigError) as exc:
         RobotConfig.from_dict({**data, **patch}, path="robot")
     assert field in str(exc.value)
+
+
+# ------------------------------------------------------------------------------------ URDF / MJCF in and out
+def _chain_urdf(chain, limits=None) -> str:
+    """A bare URDF of a joint chain [(origin, axis)...] (no geometry)."""
+    from dresspack_gym.robot_import import _xyz
+
+    inertial = ('<inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/>'
+                '</inertial>')
+    lines, parent = ['<robot name="maker">', '<link name="base_link"/>'], "base_link"
+    for i, (origin, axis) in enumerate(chain, start=1):
+        lo, hi = limits[i - 1] if limits is not None else (-3.0, 3.0)
+        lines += [f'<link name="link_{i}">{inertial}</link>',
+                  f'<joint name="joint_{i}" type="revolute"><parent link="{parent}"/><child link="link_{i}"/>'
+                  f'<origin xyz="{_xyz(origin)}" rpy="0 0 0"/><axis xyz="{_xyz(axis)}"/>'
+                  f'<limit lower="{lo}" upper="{hi}" effort="0" velocity="2"/></joint>']
+        parent = f"link_{i}"
+    return "\n".join(lines + ["</robot>"])
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_urdf_and_mjcf_round_trip(name, tmp_path):
+    """A robot written as URDF / MJCF (in its controller's convention) and read back is the same robot."""
+    from dresspack_gym.robot_import import robot_from_model, to_mjcf, to_urdf
+
+    robot = load_robot(name)
+    for suffix, text, tol in ((".urdf", to_urdf(robot), 1e-12), (".xml", to_mjcf(robot), 1e-5)):
+        (tmp_path / f"r{suffix}").write_text(text)
+        back = robot_from_model(replace(robot, controller_sign=(1.0,) * 6, controller_offset_rad=(0.0,) * 6),
+                                tmp_path / f"r{suffix}")
+        for k in ("a1", "d1", "a2", "a3", "d4", "d6"):
+            assert getattr(back.kinematics, k) == pytest.approx(getattr(robot.kinematics, k), abs=1e-12)
+        assert back.controller_sign == robot.controller_sign
+        np.testing.assert_allclose(back.controller_offset_rad, robot.controller_offset_rad, atol=1e-12)
+        np.testing.assert_allclose(back.joint_limits, robot.joint_limits, atol=tol)  # MJCF writes 6-7 digits
+        if suffix == ".urdf":
+            np.testing.assert_allclose(back.joint_speed, robot.joint_speed, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", sorted(MAKER_CHAINS))
+def test_the_makers_chain_read_as_urdf_gives_the_shipped_robot(name, tmp_path):
+    from dresspack_gym.robot_import import derive, load_model
+
+    (tmp_path / "m.urdf").write_text(_chain_urdf(MAKER_CHAINS[name]))
+    kin, sign, offset, _ = derive(load_model(tmp_path / "m.urdf"))
+    robot = load_robot(name)
+    for k in ("a1", "d1", "a2", "a3", "d4", "d6"):
+        assert getattr(kin, k) == pytest.approx(getattr(robot.kinematics, k), abs=1e-12)
+    assert tuple(sign) == robot.controller_sign
+    np.testing.assert_allclose(offset, robot.controller_offset_rad, atol=1e-12)
+
+
+def test_a_robot_read_from_an_installed_packages_urdf_matches_that_urdf():
+    """abb_irb4600_40_255 is read from compas_fab's URDF at run time: our FK of the derived robot puts the flange
+    where MuJoCo puts the URDF's own link_6, for random axis values, and the flange frames differ by one constant
+    rotation (the URDF's own choice of link_6 axes)."""
+    pytest.importorskip("compas_fab")
+    from dresspack_gym.loading import _model_file_path
+    from dresspack_gym.robot_import import load_model
+
+    robot = load_robot("abb_irb4600_40_255")
+    data = read_yaml(find_shipped("abb_irb4600_40_255", "robots", "robot"))
+    m = load_model(_model_file_path(data["model_file"], find_shipped("abb_irb4600_40_255", "robots", "r").parent,
+                                    "model_file"))
+    d = mujoco.MjData(m)
+    kin = RobotKinematics(robot)
+    last = int(m.jnt_bodyid[m.njnt - 1])
+    rel = None
+    lim = kin.limits
+    for q in np.random.default_rng(3).uniform(lim[:, 0], lim[:, 1], size=(100, 6)):
+        d.qpos[:] = robot.to_controller(q)
+        mujoco.mj_kinematics(m, d)
+        ours = kin.flange(q)
+        np.testing.assert_allclose(ours[:3, 3], d.xpos[last], atol=1e-4)  # the URDF rounds pi/2 to 1.57076
+        r = ours[:3, :3].T @ d.xmat[last].reshape(3, 3)
+        rel = r if rel is None else rel
+        np.testing.assert_allclose(r, rel, atol=1e-4)
+    assert robot.kinematics.d4 == pytest.approx(1.270) and robot.kinematics.a2 == pytest.approx(1.095)
+
+
+@pytest.mark.parametrize("chain_edit,match", [
+    (lambda c: c[:5], "exactly 6 revolute joints"),
+    (lambda c: [c[0], ((0.35, 0.2, 0), c[1][1])] + c[2:], "sideways offset"),
+    (lambda c: c[:4] + [((1.2, 0, 0.1), c[4][1])] + c[5:], "do not meet"),
+    (lambda c: [((0, 0, 0.675), (1, 0, 0))] + c[1:], "j1 is not vertical"),
+])
+def test_arms_of_another_form_are_refused_with_the_reason(tmp_path, chain_edit, match):
+    from dresspack_gym.robot_import import derive, load_model
+
+    (tmp_path / "m.urdf").write_text(_chain_urdf(chain_edit(list(MAKER_CHAINS["kuka_kr210_r2700_extra"]))))
+    with pytest.raises(ConfigError, match=match):
+        derive(load_model(tmp_path / "m.urdf"))
+
+
+def test_model_file_yaml_errors_name_the_field(tmp_path):
+    (tmp_path / "m.urdf").write_text(_chain_urdf(MAKER_CHAINS["kuka_kr210_r2700_extra"]))
+    base = "name: x\nsource: y\ntool: {tcp_pos: [0.4, 0, 0]}\n"
+    cases = [(base + "model_file: m.urdf\nkinematics: {a1: 1}\n", "x.yaml.kinematics"),
+             (base + "model_file: {package: no_such_package_xyz, path: a.urdf}\n", "not installed"),
+             (base + "model_file: missing.urdf\n", "file not found"),
+             (base + "model_file: [1, 2]\n", "expected a file path")]
+    for text, match in cases:
+        (tmp_path / "x.yaml").write_text(text)
+        with pytest.raises(ConfigError, match=match):
+            load_robot(tmp_path / "x.yaml")
+    (tmp_path / "x.yaml").write_text(base + "model_file: m.urdf\n")
+    robot = load_robot(tmp_path / "x.yaml")
+    assert robot.kinematics.d4 == pytest.approx(1.2) and robot.joint_speed == pytest.approx([2.0] * 6)
+
+
+def test_robots_command_prints_the_round_trip_and_writes_the_models(tmp_path, capsys):
+    import json
+
+    from dresspack_gym.cli import main
+
+    assert main(["robots", "fanuc_r2000ic_210f", "--poses", "40", "--json", "--export", str(tmp_path / "m")],
+                extensions=[]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert rows[0]["robot"] == "fanuc_r2000ic_210f" and rows[0]["found_q"] and rows[0]["max_raw_branches"] == 8
+    assert (tmp_path / "m" / "fanuc_r2000ic_210f.urdf").is_file() and (tmp_path / "m" / "fanuc_r2000ic_210f.xml").is_file()

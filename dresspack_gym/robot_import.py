@@ -1,0 +1,224 @@
+"""Robots in and out of URDF/MJCF: derive the spherical-wrist (OPW, b = 0) parameters, axis signs and zeros of a
+6R arm from its model file, and write a parametric robot as URDF or MJCF.
+
+MuJoCo reads both formats. The importer takes the model's six hinge joints in chain order at the model's zero pose
+and reads off, in the frame of the chain's root body: the shoulder offset a1 and height d1 (j2's anchor), the upper
+arm a2, the forearm offset a3 and length d4 (to the wrist centre, where j4, j5 and j6 meet), the flange distance
+d6, and how each model joint relates to ours (``controller_axes``: the model's joint = sign * ours + offset). Our
+zero is the upper arm vertical and the forearm horizontal, joints about +z, +y, +y, +x, +y, +x; a model drawn with
+the arm horizontal at zero (KUKA) gets a -90 deg offset on j2 and +90 deg on j3. An arm that is not of this form
+(no spherical wrist, a sideways offset b, axes not parallel/orthogonal) is refused with the reason.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import replace
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from .config import Kinematics, RobotConfig
+from .errors import ConfigError
+
+# Published URDFs round pi/2 to 5 decimals (1.57076: 3.7e-5 rad off), so "parallel" and "meet" are judged to
+# 1e-4 (rad, m); the derived lengths keep the file's own values.
+AXIS_TOL = 1e-4  # |cos| / |sin| of an angle between axes that must be parallel or orthogonal
+POINT_TOL = 1e-4  # [m] axes that must meet, offsets that must vanish
+
+
+def load_model(path: str | Path) -> mujoco.MjModel:
+    """Compile a URDF or MJCF file; its meshes are not needed (visual and collision geometry is dropped)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError("model_file", f"file not found: {path}")
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+    except Exception as exc:
+        raise ConfigError("model_file", f"{path.name} is not a URDF or MJCF file MuJoCo can read: {exc}") from None
+    for mesh in list(spec.meshes):  # geometry is ours to choose; the kinematics is all we take
+        spec.delete(mesh)
+    for geom in list(spec.geoms):
+        spec.delete(geom)
+    for body in spec.bodies[1:]:  # the kinematics does not depend on inertia; published values are not always valid
+        body.mass, body.inertia, body.explicitinertial = 1.0, [0.1, 0.1, 0.1], True
+        body.fullinertia = [math.nan] * 6
+        body.ipos, body.iquat = [0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]
+    try:
+        return spec.compile()
+    except Exception as exc:
+        raise ConfigError("model_file", f"{path.name} does not compile: {exc}") from None
+
+
+def _hinges(m: mujoco.MjModel, field: str) -> list[int]:
+    joints = [j for j in range(m.njnt) if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
+    if len(joints) != 6 or any(m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE for j in range(m.njnt)):
+        raise ConfigError(field, f"expected an arm of exactly 6 revolute joints and no other joint, found "
+                                 f"{len(joints)} revolute of {m.njnt}")
+    bodies = [int(m.jnt_bodyid[j]) for j in joints]
+    for parent, child in zip(bodies, bodies[1:]):
+        b = child
+        while b not in (parent, 0):
+            b = int(m.body_parentid[b])
+        if b != parent:
+            raise ConfigError(field, "the 6 revolute joints are not one serial chain")
+    return joints
+
+
+def derive(m: mujoco.MjModel, field: str = "model_file") -> tuple[Kinematics, np.ndarray, np.ndarray, np.ndarray]:
+    """(kinematics, sign (6,), offset (6,) [rad], joint limits in our convention (6, 2) [rad]) of a 6R arm."""
+    joints = _hinges(m, field)
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    root = int(m.body_parentid[m.jnt_bodyid[joints[0]]])
+    r0, p0 = d.xmat[root].reshape(3, 3), d.xpos[root]
+    anchor = [(d.xanchor[j] - p0) @ r0 for j in joints]  # in the root body's frame
+    axis = [r0.T @ d.xaxis[j] for j in joints]
+    x, y, z = np.eye(3)
+
+    def need(ok: bool, what: str) -> None:
+        if not ok:
+            raise ConfigError(field, f"not a spherical-wrist arm of the supported form at its zero pose: {what}")
+
+    need(abs(abs(axis[0] @ z) - 1) < AXIS_TOL, "j1 is not vertical")
+    need(abs(anchor[0][0]) < POINT_TOL and abs(anchor[0][1]) < POINT_TOL, "j1 does not pass through the base origin")
+    for k in (1, 2):
+        need(abs(abs(axis[k] @ y) - 1) < AXIS_TOL, f"j{k + 1} is not along the base y axis (arm drawn in x-z)")
+    p2, p3 = anchor[1], anchor[2]
+    need(abs(p2[1]) < POINT_TOL and abs(p3[1] - p2[1]) < POINT_TOL, "a sideways offset (OPW b) is not supported")
+    # the wrist centre: j5's axis line meets j4's and j6's
+    c = _meet(anchor[3], axis[3], anchor[4], axis[4])
+    need(c is not None, "j4 and j5 do not meet")
+    need(_distance_to_line(c, anchor[5], axis[5]) < POINT_TOL, "j6 does not pass through the wrist centre")
+    sign = np.array([np.sign(axis[0] @ z), np.sign(axis[1] @ y), np.sign(axis[2] @ y), 1.0, 0.0, 0.0])
+    upper = p3 - p2
+    theta2 = math.atan2(upper[0], upper[2])  # our j2 at the model's zero: the upper arm's tilt from vertical
+    u = axis[3] / np.linalg.norm(axis[3])
+    v = c - p3
+    if v @ u < 0:  # our j4 axis points from the elbow to the wrist
+        u, sign[3] = -u, -1.0
+    need(abs(u[1]) < AXIS_TOL, "j4 is not in the arm's plane")
+    phi = math.atan2(-u[2], u[0])  # j2 + j3 (ours) at the model's zero
+    forearm_up = np.array([math.sin(phi), 0.0, math.cos(phi)])
+    need(abs(abs(axis[4] @ y) - 1) < AXIS_TOL, "j5 is not along y (j4 not at its zero)")
+    need(abs(abs(axis[5] @ u) - 1) < AXIS_TOL, "j6 is not along the forearm (j5 not at its zero)")
+    sign[4], sign[5] = np.sign(axis[4] @ y), np.sign(axis[5] @ u)
+    flange = d.xpos[m.jnt_bodyid[joints[5]]]
+    flange = (flange - p0) @ r0
+    kin = Kinematics(a1=float(p2[0]), d1=float(p2[2]), a2=float(np.linalg.norm(upper)), a3=float(v @ forearm_up),
+                     d4=float(v @ u), d6=float((flange - c) @ u))
+    need(abs((flange - c) @ forearm_up) < POINT_TOL and abs(flange[1] - c[1]) < POINT_TOL,
+         "the flange is off the j6 axis")
+    ours_at_zero = np.array([0.0, theta2, phi - theta2, 0.0, 0.0, 0.0])
+    offset = -sign * ours_at_zero  # model = sign * ours + offset, and the model's zero is ours_at_zero
+    limits = np.zeros((6, 2))
+    for k, j in enumerate(joints):
+        lo, hi = (m.jnt_range[j] if m.jnt_limited[j] else (-2 * np.pi, 2 * np.pi))
+        ends = sign[k] * (np.array([lo, hi]) - offset[k])
+        limits[k] = np.sort(ends)
+    return kin, sign, offset, limits
+
+
+def _meet(p, a, q, b):
+    """The point where lines p + s a and q + t b meet, or None."""
+    a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
+    n = np.cross(a, b)
+    if np.linalg.norm(n) < AXIS_TOL or abs((q - p) @ n) / np.linalg.norm(n) > POINT_TOL:
+        return None
+    s, t = np.linalg.lstsq(np.stack([a, -b], axis=1), q - p, rcond=None)[0]
+    return p + s * a
+
+
+def _distance_to_line(c, p, a) -> float:
+    a = a / np.linalg.norm(a)
+    w = c - p
+    return float(np.linalg.norm(w - (w @ a) * a))
+
+
+def urdf_velocities(path: str | Path) -> np.ndarray | None:
+    """The six revolute joints' velocity limits [rad/s] from a URDF, in joint order; None if not all are given."""
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError:
+        return None
+    vel = [j.find("limit").get("velocity") if j.find("limit") is not None else None
+           for j in root.iter("joint") if j.get("type") in ("revolute", "continuous")]
+    if len(vel) != 6 or any(v is None for v in vel):
+        return None
+    return np.array([float(v) for v in vel])
+
+
+def robot_from_model(base: RobotConfig, path: str | Path, field: str = "model_file") -> RobotConfig:
+    """``base`` (name, tool, collision, speeds) with kinematics, limits and controller axes from a model file;
+    speeds from the URDF's velocity limits where it gives them."""
+    kin, sign, offset, limits = derive(load_model(path), field)
+    speeds = urdf_velocities(path)
+    return replace(base, kinematics=kin, joint_limits_rad=tuple(map(tuple, limits.tolist())),
+                   joint_speed_rad_s=tuple(speeds.tolist()) if speeds is not None else base.joint_speed_rad_s,
+                   controller_sign=tuple(sign.tolist()), controller_offset_rad=tuple(offset.tolist()))
+
+
+# ------------------------------------------------------------------------------------------------ writing out
+def _maker_chain(robot: RobotConfig):
+    """(origin xyz, origin rpy, axis) of the six joints in the robot's controller convention: the model's zero
+    pose is ours at from_controller(0), baked into the joint origins, and each axis turned by its sign."""
+    q0 = robot.from_controller(np.zeros(6))
+    out = []
+    for (origin, axis), a, sg in zip(_our_chain(robot.kinematics), q0, robot.controller_sign):
+        rpy = tuple(float(a) * c for c in (axis[0], axis[1], axis[2]))  # a coordinate axis: rpy is that angle
+        out.append((origin, rpy, tuple(sg * c for c in axis)))
+    return out
+
+
+def _our_chain(k: Kinematics):
+    """(origin in the parent link, axis) of our six joints at our zero pose; j6's origin is the flange (its axis
+    runs through the wrist centre either way), as in the makers' URDFs."""
+    return [((0.0, 0.0, 0.0), (0, 0, 1)), ((k.a1, 0.0, k.d1), (0, 1, 0)), ((0.0, 0.0, k.a2), (0, 1, 0)),
+            ((0.0, 0.0, k.a3), (1, 0, 0)), ((k.d4, 0.0, 0.0), (0, 1, 0)), ((k.d6, 0.0, 0.0), (1, 0, 0))]
+
+
+def to_urdf(robot: RobotConfig) -> str:
+    """The robot's kinematic chain as URDF in its controller's joint convention (signs, zero pose, limits and
+    velocity limits; link6's origin is the flange; no geometry). Reading it back gives the same robot."""
+    lines = [f'<robot name="{robot.name}">', '  <link name="base_link"/>']
+    inertial = ('<inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/>'
+                '</inertial>')
+    parent = "base_link"
+    for i, ((origin, rpy, axis), (lo, hi), v) in enumerate(zip(_maker_chain(robot), _controller_limits(robot),
+                                                               robot.joint_speed), start=1):
+        lines.append(f'  <link name="link{i}">{inertial}</link>')
+        lines.append(f'  <joint name="j{i}" type="revolute"><parent link="{parent}"/><child link="link{i}"/>'
+                     f'<origin xyz="{_xyz(origin)}" rpy="{_xyz(rpy)}"/><axis xyz="{_xyz(axis)}"/>'
+                     f'<limit lower="{float(lo)!r}" upper="{float(hi)!r}" effort="0" velocity="{float(v)!r}"/></joint>')
+        parent = f"link{i}"
+    lines.append("</robot>")
+    return "\n".join(lines) + "\n"
+
+
+def to_mjcf(robot: RobotConfig) -> str:
+    """The robot's kinematic chain as MJCF in its controller's joint convention, like :func:`to_urdf` (MJCF holds
+    no velocity limits)."""
+    spec = mujoco.MjSpec()
+    spec.modelname = robot.name
+    spec.compiler.degree = False
+    parent = spec.worldbody.add_body(name="base_link")
+    for i, ((origin, rpy, axis), (lo, hi)) in enumerate(zip(_maker_chain(robot), _controller_limits(robot)), start=1):
+        quat = np.zeros(4)
+        mujoco.mju_euler2Quat(quat, np.asarray(rpy, float), "XYZ")
+        body = parent.add_body(name=f"link{i}", pos=list(origin), quat=list(quat), mass=1.0,
+                               inertia=[0.1, 0.1, 0.1], explicitinertial=True)
+        body.add_joint(name=f"j{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(axis), range=[lo, hi],
+                       limited=mujoco.mjtLimited.mjLIMITED_TRUE)
+        parent = body
+    spec.compile()
+    return spec.to_xml()
+
+
+def _controller_limits(robot: RobotConfig) -> np.ndarray:
+    return np.sort(robot.to_controller(robot.joint_limits.T).T, axis=1)
+
+
+def _xyz(v) -> str:
+    return " ".join(repr(float(x)) for x in v)
