@@ -85,9 +85,13 @@ def cmd_inspect(args) -> int:
     print(f"Station {cfg.name!r}: {cfg.description}")
     for r, idx in zip(cfg.robots, station.robots):
         k = r.robot.kinematics
-        reach = k.a1 + k.a2 + float(np.hypot(k.d4, k.a3))
+        if k is not None:
+            reach = f"wrist reach {k.a1 + k.a2 + float(np.hypot(k.d4, k.a3)):.3f} m"
+        else:  # a general joint chain: the sum of its link offsets bounds the reach
+            c = r.robot.chain
+            reach = f"joint chain, numeric IK, links {sum(np.linalg.norm(o) for o in c.origins[1:]) + np.linalg.norm(c.flange_pos):.3f} m"
         dp = r.dresspack
-        print(f"\nRobot {r.name!r}: {r.robot.name} (wrist reach {reach:.3f} m) at {r.base_pos}, yaw "
+        print(f"\nRobot {r.name!r}: {r.robot.name} ({reach}) at {r.base_pos}, yaw "
               f"{np.degrees(r.base_yaw):.0f} deg\n  source: {r.robot.source}")
         print(f"  Home [deg]: {np.round(np.degrees(r.home), 1).tolist()}")
         print(f"  Dresspack {dp.name!r}: L={dp.length} m, r={dp.radius} m, rho={dp.linear_density} kg/m, "

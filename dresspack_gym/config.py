@@ -40,6 +40,45 @@ class Kinematics:
 
 
 @dataclass(frozen=True)
+class JointChain:
+    """A general serial 6R arm (no analytic IK; solved numerically): per joint the fixed transform from the
+    previous link's frame (origin [m], roll-pitch-yaw [rad]) and the turning axis in the new link's frame, at
+    joint value 0; then the flange in link6's frame."""
+
+    origins: tuple[tuple[float, float, float], ...]
+    rpys: tuple[tuple[float, float, float], ...]
+    axes: tuple[tuple[float, float, float], ...]
+    flange_pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    flange_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @staticmethod
+    def from_section(c: "Section") -> "JointChain":
+        def rows(key, unit, lo, hi):
+            raw = c.raw(key)
+            if not isinstance(raw, list) or len(raw) != 6:
+                raise ConfigError(c.field(key), "expected 6 rows [x, y, z], one per joint")
+            return tuple(check_vector(r, f"{c.field(key)}[{i}]", 3, lo=lo, hi=hi, unit=unit) for i, r in enumerate(raw))
+
+        origins = rows("origins", "m", -5.0, 5.0)
+        rpys = tuple(tuple(math.radians(v) for v in r) for r in rows("rpys_deg", "deg", -360.0, 360.0))
+        axes = rows("axes", "", -1.0, 1.0)
+        for i, a in enumerate(axes):
+            if abs(math.hypot(*a) - 1.0) > 1e-6:
+                raise ConfigError(f"{c.field('axes')}[{i}]", f"a joint axis is a unit vector, got length {math.hypot(*a):.6g}")
+        flange_pos = c.vector("flange_pos", 3, (0.0, 0.0, 0.0), lo=-5.0, hi=5.0, unit="m")
+        flange_rpy = tuple(math.radians(v) for v in c.vector("flange_rpy_deg", 3, (0.0, 0.0, 0.0), lo=-360.0,
+                                                              hi=360.0, unit="deg"))
+        c.done()
+        return JointChain(origins, rpys, axes, flange_pos, flange_rpy)
+
+    def as_yaml(self) -> dict:
+        return {"origins": [list(o) for o in self.origins],
+                "rpys_deg": [[math.degrees(v) for v in r] for r in self.rpys],
+                "axes": [list(a) for a in self.axes], "flange_pos": list(self.flange_pos),
+                "flange_rpy_deg": [math.degrees(v) for v in self.flange_rpy]}
+
+
+@dataclass(frozen=True)
 class CollisionPrimitive:
     """A capsule, box, sphere or cylinder rigidly attached to one robot link (link frame)."""
 
@@ -59,7 +98,7 @@ class RobotConfig:
 
     name: str
     source: str
-    kinematics: Kinematics
+    kinematics: Kinematics | None  # the spherical-wrist (OPW) form, solved analytically; None for a general chain
     joint_limits_rad: tuple[tuple[float, float], ...]  # 6 x (lower, upper)
     joint_speed_rad_s: tuple[float, ...]  # 6 rated joint speeds
     tcp_pos: tuple[float, float, float]
@@ -70,6 +109,7 @@ class RobotConfig:
     # another zero, e.g. KUKA's A2 = -90 deg is the upper arm vertical). Identity for a robot that counts as we do.
     controller_sign: tuple[float, ...] = (1.0,) * 6
     controller_offset_rad: tuple[float, ...] = (0.0,) * 6
+    chain: JointChain | None = None  # a general 6R arm (kinematics is None), e.g. from a URDF of another form
 
     def to_controller(self, q) -> np.ndarray:
         """Controller axis values [rad] of model joints ``q`` (..., 6)."""
@@ -94,13 +134,19 @@ class RobotConfig:
         s = Section(data, path)
         name = s.string("name")
         source = s.string("source")
-        k = s.section("kinematics")
-        kin = Kinematics(*(k.number(key, lo=-5.0, hi=5.0, unit="m",
-                                    hint="kinematic lengths are metres, not millimetres")
-                           for key in ("a1", "d1", "a2", "a3", "d4", "d6")))
-        k.done()
-        if kin.a2 <= 0 or kin.d4 <= 0:
-            raise ConfigError(f"{path}.kinematics", "a2 and d4 must be positive link lengths")
+        chain, kin = None, None
+        if s.has("chain"):
+            if s.has("kinematics"):
+                raise ConfigError(s.field("kinematics"), "give either kinematics (spherical wrist) or chain, not both")
+            chain = JointChain.from_section(s.section("chain"))
+        else:
+            k = s.section("kinematics")
+            kin = Kinematics(*(k.number(key, lo=-5.0, hi=5.0, unit="m",
+                                        hint="kinematic lengths are metres, not millimetres")
+                               for key in ("a1", "d1", "a2", "a3", "d4", "d6")))
+            k.done()
+            if kin.a2 <= 0 or kin.d4 <= 0:
+                raise ConfigError(f"{path}.kinematics", "a2 and d4 must be positive link lengths")
         limits_raw = s.raw("joint_limits_deg")
         if not isinstance(limits_raw, list) or len(limits_raw) != 6:
             raise ConfigError(s.field("joint_limits_deg"), "expected 6 pairs [lower, upper] in degrees")
@@ -128,7 +174,7 @@ class RobotConfig:
             c.done()
         s.done()
         return RobotConfig(name, source, kin, tuple(map(tuple, limits.tolist())), tuple(speed.tolist()), tcp_pos,
-                           tcp_rpy, prims, tuple(map(float, sign)), offset)
+                           tcp_rpy, prims, tuple(map(float, sign)), offset, chain)
 
 
 def _primitive(p: Section, links: tuple[str, ...]) -> CollisionPrimitive:

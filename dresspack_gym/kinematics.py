@@ -1,4 +1,5 @@
-"""Forward and analytic inverse kinematics of a 6-axis robot with a spherical wrist (thesis eq. 2.3-2.5).
+"""Forward and inverse kinematics of a 6-axis robot: analytic for the spherical-wrist form (thesis eq. 2.3-2.5),
+numeric (multi-start damped least squares, several branches) for a general joint chain.
 
 Joint layout (thesis Figure 2.2): j1 about base z, j2/j3 about y (shoulder, elbow), j4 about the
 forearm axis (x), j5 about y, j6 about the tool-plate axis (x). The chain, in the base frame, is
@@ -45,6 +46,33 @@ def homogeneous(rot: np.ndarray, pos) -> np.ndarray:
     return t
 
 
+def axis_rotation(axis, a: float) -> np.ndarray:
+    """Rotation by ``a`` about the unit vector ``axis`` (Rodrigues)."""
+    x, y, z = axis
+    c, s, v = np.cos(a), np.sin(a), 1 - np.cos(a)
+    return np.array([[c + x * x * v, x * y * v - z * s, x * z * v + y * s],
+                     [y * x * v + z * s, c + y * y * v, y * z * v - x * s],
+                     [z * x * v - y * s, z * y * v + x * s, c + z * z * v]])
+
+
+def _axis_rotations(axis, a: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) rotations by angles ``a`` (n,) about one unit ``axis``."""
+    x, y, z = axis
+    c, s = np.cos(a), np.sin(a)
+    v = 1 - c
+    return np.stack([np.stack([c + x * x * v, x * y * v - z * s, x * z * v + y * s], -1),
+                     np.stack([y * x * v + z * s, c + y * y * v, y * z * v - x * s], -1),
+                     np.stack([z * x * v - y * s, z * y * v + x * s, c + z * z * v], -1)], -2)
+
+
+# Numeric IK of a general chain: starts spread over the joint limits (fixed, so results are reproducible), damped
+# least squares until the flange pose is met to IK_TOL; distinct solutions are the branches.
+IK_STARTS = 128
+IK_ITERATIONS = 60
+IK_TOL = 1e-10  # [m] and [rad]
+IK_DAMPING = 1e-3
+
+
 def wrap_angle(a):
     """Wrap to (-pi, pi]."""
     return -((-np.asarray(a) + np.pi) % (2 * np.pi) - np.pi)
@@ -61,12 +89,26 @@ class RobotKinematics:
         self.tcp = homogeneous(rpy_matrix(robot.tcp_rpy), robot.tcp_pos)
         self.tcp_inv = np.linalg.inv(self.tcp)
         self.limits = robot.joint_limits
+        self.chain = robot.chain
+        if self.chain is not None:
+            self._fixed = [homogeneous(rpy_matrix(r), o) for o, r in zip(self.chain.origins, self.chain.rpys)]
+            self._axes = [np.asarray(a, dtype=float) for a in self.chain.axes]
+            self._flange = homogeneous(rpy_matrix(self.chain.flange_rpy), self.chain.flange_pos)
+            self._starts = np.random.default_rng(0).uniform(self.limits[:, 0], self.limits[:, 1], (IK_STARTS, 6))
 
     # ----------------------------------------------------------------------------- forward
     def link_frames(self, q) -> list[np.ndarray]:
         """World frames of base, link1..link6 (link6 = wrist centre, rotated by j6) and the flange."""
-        k = self.k
         q = np.asarray(q, dtype=float)
+        if self.chain is not None:
+            frames = [self.base]
+            t = self.base
+            for fixed, axis, a in zip(self._fixed, self._axes, q):
+                t = t @ fixed @ homogeneous(axis_rotation(axis, a), (0, 0, 0))
+                frames.append(t)
+            frames.append(t @ self._flange)
+            return frames
+        k = self.k
         frames = [self.base]
         t = self.base @ homogeneous(rot_z(q[0]), (0, 0, 0))
         frames.append(t)
@@ -96,7 +138,11 @@ class RobotKinematics:
 
         Branches: front/back (j1 and j1+pi), elbow up/down, wrist flip (j5 sign). j4 and j6 are
         returned in (-pi, pi]; :meth:`expand_turns` adds the +-2pi equivalents a wide-range wrist allows.
+        A general chain is solved numerically (:meth:`_numeric_ik`): the branches its starts converge to.
         """
+        if self.chain is not None:
+            sols = self._numeric_ik(np.asarray(target, dtype=float))
+            return self.expand_turns(sols) if within_limits and len(sols) else sols
         k = self.k
         t = self.base_inv @ np.asarray(target, dtype=float)
         r, p = t[:3, :3], t[:3, 3]
@@ -141,6 +187,46 @@ class RobotKinematics:
         if within_limits and len(sols):
             sols = self.expand_turns(sols)
         return sols
+
+    def _batch_flange(self, qs: np.ndarray):
+        """Flange poses (n, 4, 4) and the joints' world axes and anchors (n, 6, 3) of configurations (n, 6)."""
+        n = len(qs)
+        t = np.repeat(self.base[None], n, axis=0)
+        axes, anchors = np.zeros((n, 6, 3)), np.zeros((n, 6, 3))
+        for i, (fixed, axis) in enumerate(zip(self._fixed, self._axes)):
+            t = t @ fixed
+            axes[:, i] = t[:, :3, :3] @ axis
+            anchors[:, i] = t[:, :3, 3]
+            rot = np.zeros((n, 4, 4))
+            rot[:, :3, :3] = _axis_rotations(axis, qs[:, i])
+            rot[:, 3, 3] = 1.0
+            t = t @ rot
+        return t @ self._flange, axes, anchors
+
+    def _numeric_ik(self, target: np.ndarray) -> np.ndarray:
+        q = self._starts.copy()
+        for _ in range(IK_ITERATIONS):
+            pose, axes, anchors = self._batch_flange(q)
+            dp = target[:3, 3] - pose[:, :3, 3]
+            r = target[:3, :3] @ np.transpose(pose[:, :3, :3], (0, 2, 1))  # remaining rotation, world frame
+            dw = 0.5 * np.stack([r[:, 2, 1] - r[:, 1, 2], r[:, 0, 2] - r[:, 2, 0], r[:, 1, 0] - r[:, 0, 1]], -1)
+            err = np.concatenate([dp, dw], axis=1)
+            if np.all(np.abs(err).max(axis=1) < IK_TOL):
+                break
+            jac = np.concatenate([np.cross(axes, pose[:, None, :3, 3] - anchors), axes], axis=2)  # (n, 6 joints, 6)
+            jac = np.transpose(jac, (0, 2, 1))
+            jjt = jac @ np.transpose(jac, (0, 2, 1)) + IK_DAMPING ** 2 * np.eye(6)
+            step = np.einsum("nji,nj->ni", jac, np.linalg.solve(jjt, err[..., None])[..., 0])
+            q = q + np.clip(step, -0.5, 0.5)
+        pose, _, _ = self._batch_flange(q)
+        ok = (np.abs(pose[:, :3, 3] - target[:3, 3]).max(axis=1) < 1e-9) & \
+             (np.abs(pose[:, :3, :3] - target[:3, :3]).max(axis=(1, 2)) < 1e-9)
+        kept: list[np.ndarray] = []
+        for sol in wrap_angle(q[ok]):  # starts that met the same branch agree to ~1e-10 rad
+            d = [np.abs(wrap_angle(sol - k)).max() for k in kept]
+            if not d or min(d) > 1e-6:
+                kept.append(sol)
+        return np.array(kept).reshape(-1, 6)
 
     def ik(self, tcp_target: np.ndarray, *, within_limits: bool = True) -> np.ndarray:
         """All joint solutions placing the TCP at ``tcp_target`` (4x4 world pose)."""

@@ -71,13 +71,13 @@ def load_robot(ref: str | Path, base_dir: Path = CONFIG_DIR, field: str = "robot
     return RobotConfig.from_dict(data, path=f"{path.name}")
 
 
-DERIVED_FROM_MODEL = ("kinematics", "joint_limits_deg", "controller_axes")
+DERIVED_FROM_MODEL = ("kinematics", "chain", "joint_limits_deg", "controller_axes")
 
 
 def _robot_from_model_file(data: dict[str, Any], yaml_path: Path, field: str) -> dict[str, Any]:
     """The robot YAML with kinematics, limits, controller axes (and speeds, if the YAML has none) derived from its
     ``model_file``: a URDF/MJCF path relative to the YAML, or ``{package, path}`` inside an installed package."""
-    from .robot_import import derive, load_model, urdf_velocities
+    from .robot_import import NotSphericalWrist, chain_from_model, derive, load_model, urdf_velocities
 
     data = dict(data)
     ref = data.pop("model_file")
@@ -86,10 +86,15 @@ def _robot_from_model_file(data: dict[str, Any], yaml_path: Path, field: str) ->
         if key in data:
             raise ConfigError(f"{field}.{key}", "is derived from model_file: leave it out of the YAML")
     model_path = _model_file_path(ref, yaml_path.parent, f)
-    kin, sign, offset, limits = derive(load_model(model_path), f)
-    data["kinematics"] = {k: getattr(kin, k) for k in ("a1", "d1", "a2", "a3", "d4", "d6")}
+    model = load_model(model_path)
+    try:
+        kin, sign, offset, limits = derive(model, f)
+        data["kinematics"] = {k: getattr(kin, k) for k in ("a1", "d1", "a2", "a3", "d4", "d6")}
+        data["controller_axes"] = {"sign": sign.tolist(), "offset_deg": np.degrees(offset).tolist()}
+    except NotSphericalWrist:  # a general chain, solved numerically, in the model's own joint convention
+        chain, limits = chain_from_model(model, f)
+        data["chain"] = chain.as_yaml()
     data["joint_limits_deg"] = np.degrees(limits).tolist()
-    data["controller_axes"] = {"sign": sign.tolist(), "offset_deg": np.degrees(offset).tolist()}
     if "joint_speed_deg_s" not in data:
         speeds = urdf_velocities(model_path)
         if speeds is None:

@@ -12,6 +12,9 @@ from .kinematics import RobotKinematics
 
 WRIST_SINGULAR = 1e-3  # |sin j5| below this: the wrist is singular, j4 and j6 are not separately defined
 SHOULDER_SINGULAR = 1e-3  # [m] wrist centre this near the j1 axis: j1 is free
+# A general chain has no closed-form singularity list: a pose whose flange Jacobian's smallest singular value is
+# below this [m or 1 per rad] is near-singular (its IK branches merge), and is skipped like the ones above.
+CHAIN_SINGULAR = 1e-3
 
 
 @dataclass(frozen=True)
@@ -32,6 +35,15 @@ class IkRoundTrip:
                 "max_raw_branches": self.max_raw_branches, "found_q": self.found_q}
 
 
+def _singular(kin: RobotKinematics, q: np.ndarray, base_pos) -> bool:
+    if kin.chain is not None:
+        pose, axes, anchors = kin._batch_flange(q[None])
+        jac = np.concatenate([np.cross(axes[0], pose[0, :3, 3] - anchors[0]), axes[0]], axis=1)
+        return bool(np.linalg.svd(jac, compute_uv=False).min() < CHAIN_SINGULAR)
+    wrist = kin.link_frames(q)[5][:3, 3] - np.asarray(base_pos)
+    return abs(np.sin(q[4])) < WRIST_SINGULAR or np.hypot(wrist[0], wrist[1]) < SHOULDER_SINGULAR
+
+
 def ik_round_trip(robot: RobotConfig, poses: int = 1000, seed: int = 0, base_pos=(0.0, 0.0, 0.0),
                   base_yaw: float = 0.0) -> IkRoundTrip:
     kin = RobotKinematics(robot, base_pos, base_yaw)
@@ -39,8 +51,7 @@ def ik_round_trip(robot: RobotConfig, poses: int = 1000, seed: int = 0, base_pos
     lim = kin.limits
     pose_err, joint_err, branches, raw_max, found, checked = 0.0, 0.0, [], 0, True, 0
     for q in rng.uniform(lim[:, 0], lim[:, 1], size=(poses, 6)):
-        wrist = kin.link_frames(q)[5][:3, 3] - np.asarray(base_pos)
-        if abs(np.sin(q[4])) < WRIST_SINGULAR or np.hypot(wrist[0], wrist[1]) < SHOULDER_SINGULAR:
+        if _singular(kin, q, base_pos):
             continue
         target = kin.tcp_pose(q)
         sols = kin.ik(target)

@@ -7,7 +7,8 @@ arm a2, the forearm offset a3 and length d4 (to the wrist centre, where j4, j5 a
 d6, and how each model joint relates to ours (``controller_axes``: the model's joint = sign * ours + offset). Our
 zero is the upper arm vertical and the forearm horizontal, joints about +z, +y, +y, +x, +y, +x; a model drawn with
 the arm horizontal at zero (KUKA) gets a -90 deg offset on j2 and +90 deg on j3. An arm that is not of this form
-(no spherical wrist, a sideways offset b, axes not parallel/orthogonal) is refused with the reason.
+(no spherical wrist, a sideways offset b, axes not parallel/orthogonal) becomes a general joint chain, solved by
+numeric IK (``kinematics.RobotKinematics``); an arm that is not a serial 6R chain is refused with the reason.
 """
 
 from __future__ import annotations
@@ -20,8 +21,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from .config import Kinematics, RobotConfig
+from .config import JointChain, Kinematics, RobotConfig
 from .errors import ConfigError
+from .kinematics import homogeneous, rpy_matrix
 
 # Published URDFs round pi/2 to 5 decimals (1.57076: 3.7e-5 rad off), so "parallel" and "meet" are judged to
 # 1e-4 (rad, m); the derived lengths keep the file's own values.
@@ -52,6 +54,10 @@ def load_model(path: str | Path) -> mujoco.MjModel:
         raise ConfigError("model_file", f"{path.name} does not compile: {exc}") from None
 
 
+class NotSphericalWrist(ConfigError):
+    """The arm is a serial 6R chain, but not of the spherical-wrist form the analytic IK solves."""
+
+
 def _hinges(m: mujoco.MjModel, field: str) -> list[int]:
     joints = [j for j in range(m.njnt) if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
     if len(joints) != 6 or any(m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE for j in range(m.njnt)):
@@ -80,7 +86,7 @@ def derive(m: mujoco.MjModel, field: str = "model_file") -> tuple[Kinematics, np
 
     def need(ok: bool, what: str) -> None:
         if not ok:
-            raise ConfigError(field, f"not a spherical-wrist arm of the supported form at its zero pose: {what}")
+            raise NotSphericalWrist(field, f"not a spherical-wrist arm of the supported form at its zero pose: {what}")
 
     need(abs(abs(axis[0] @ z) - 1) < AXIS_TOL, "j1 is not vertical")
     need(abs(anchor[0][0]) < POINT_TOL and abs(anchor[0][1]) < POINT_TOL, "j1 does not pass through the base origin")
@@ -150,25 +156,85 @@ def urdf_velocities(path: str | Path) -> np.ndarray | None:
     return np.array([float(v) for v in vel])
 
 
+def chain_from_model(m: mujoco.MjModel, field: str = "model_file") -> tuple[JointChain, np.ndarray]:
+    """(the general joint chain, joint limits (6, 2) [rad]) of a serial 6R arm, in the model's own convention:
+    each link frame sits on its joint's anchor, turned as the model's body; the flange is the last body's origin."""
+    joints = _hinges(m, field)
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+
+    def frame(b, p=np.zeros(3)):
+        rot = d.xmat[b].reshape(3, 3)
+        return homogeneous(rot, d.xpos[b] + rot @ p)
+
+    prev = frame(int(m.body_parentid[m.jnt_bodyid[joints[0]]]))
+    origins, rpys, axes = [], [], []
+    for j in joints:
+        link = frame(int(m.jnt_bodyid[j]), m.jnt_pos[j])
+        rel = np.linalg.inv(prev) @ link
+        origins.append(tuple(float(v) for v in rel[:3, 3]))
+        rpys.append(rpy_from_matrix(rel[:3, :3]))
+        axis = m.jnt_axis[j] / np.linalg.norm(m.jnt_axis[j])
+        axes.append(tuple(float(v) for v in axis))
+        prev = link
+    flange = np.linalg.inv(prev) @ frame(int(m.jnt_bodyid[joints[-1]]))
+    limits = np.array([m.jnt_range[j] if m.jnt_limited[j] else (-2 * np.pi, 2 * np.pi) for j in joints], float)
+    return JointChain(tuple(origins), tuple(rpys), tuple(axes), tuple(float(v) for v in flange[:3, 3]),
+                      rpy_from_matrix(flange[:3, :3])), limits
+
+
+def rpy_from_matrix(r: np.ndarray) -> tuple[float, float, float]:
+    """Fixed-axis roll, pitch, yaw of ``r`` = Rz(yaw) Ry(pitch) Rx(roll) (the inverse of kinematics.rpy_matrix)."""
+    pitch = math.asin(-max(-1.0, min(1.0, float(r[2, 0]))))
+    if abs(math.cos(pitch)) < 1e-9:  # gimbal lock: roll and yaw share one angle; put it in yaw
+        return 0.0, pitch, math.atan2(-float(r[0, 1]), float(r[1, 1]))
+    return math.atan2(float(r[2, 1]), float(r[2, 2])), pitch, math.atan2(float(r[1, 0]), float(r[0, 0]))
+
+
 def robot_from_model(base: RobotConfig, path: str | Path, field: str = "model_file") -> RobotConfig:
-    """``base`` (name, tool, collision, speeds) with kinematics, limits and controller axes from a model file;
-    speeds from the URDF's velocity limits where it gives them."""
-    kin, sign, offset, limits = derive(load_model(path), field)
+    """``base`` (name, tool, collision, speeds) with kinematics, limits and controller axes from a model file, or
+    a general joint chain (numeric IK) if the arm is not of the spherical-wrist form; speeds from the URDF's
+    velocity limits where it gives them."""
+    m = load_model(path)
     speeds = urdf_velocities(path)
-    return replace(base, kinematics=kin, joint_limits_rad=tuple(map(tuple, limits.tolist())),
-                   joint_speed_rad_s=tuple(speeds.tolist()) if speeds is not None else base.joint_speed_rad_s,
-                   controller_sign=tuple(sign.tolist()), controller_offset_rad=tuple(offset.tolist()))
+    speeds = tuple(speeds.tolist()) if speeds is not None else base.joint_speed_rad_s
+    try:
+        kin, sign, offset, limits = derive(m, field)
+    except NotSphericalWrist:
+        chain, limits = chain_from_model(m, field)
+        return replace(base, kinematics=None, chain=chain, joint_limits_rad=tuple(map(tuple, limits.tolist())),
+                       joint_speed_rad_s=speeds, controller_sign=(1.0,) * 6, controller_offset_rad=(0.0,) * 6)
+    return replace(base, kinematics=kin, chain=None, joint_limits_rad=tuple(map(tuple, limits.tolist())),
+                   joint_speed_rad_s=speeds, controller_sign=tuple(sign.tolist()),
+                   controller_offset_rad=tuple(offset.tolist()))
 
 
 # ------------------------------------------------------------------------------------------------ writing out
 def _maker_chain(robot: RobotConfig):
     """(origin xyz, origin rpy, axis) of the six joints in the robot's controller convention: the model's zero
     pose is ours at from_controller(0), baked into the joint origins, and each axis turned by its sign."""
+    if robot.chain is not None:
+        return _general_chain(robot)
     q0 = robot.from_controller(np.zeros(6))
     out = []
     for (origin, axis), a, sg in zip(_our_chain(robot.kinematics), q0, robot.controller_sign):
         rpy = tuple(float(a) * c for c in (axis[0], axis[1], axis[2]))  # a coordinate axis: rpy is that angle
         out.append((origin, rpy, tuple(sg * c for c in axis)))
+    return out
+
+
+def _general_chain(robot: RobotConfig):
+    """A general chain's joints, its flange folded into joint 6 (link6's origin is the flange in the files we
+    write): exact when the flange lies on j6's axis, as in every URDF we read; otherwise it cannot be written."""
+    c = robot.chain
+    out = [(o, r, a) for o, r, a in zip(c.origins[:5], c.rpys[:5], c.axes[:5])]
+    r6 = rpy_matrix(c.rpys[5])
+    fr = rpy_matrix(c.flange_rpy)
+    t, axis = np.asarray(c.flange_pos, float), np.asarray(c.axes[5], float)
+    if np.linalg.norm(t - (t @ axis) * axis) > POINT_TOL:
+        raise ConfigError("chain.flange_pos", "the flange is off j6's axis: this chain cannot be written as URDF/MJCF")
+    origin = tuple(float(v) for v in np.asarray(c.origins[5]) + r6 @ t)
+    out.append((origin, rpy_from_matrix(r6 @ fr), tuple(float(v) for v in fr.T @ axis)))
     return out
 
 
@@ -216,7 +282,7 @@ def to_mjcf(robot: RobotConfig) -> str:
     return spec.to_xml()
 
 
-def _controller_limits(robot: RobotConfig) -> np.ndarray:
+def _controller_limits(robot: RobotConfig) -> np.ndarray:  # a general chain's controller axes are the identity
     return np.sort(robot.to_controller(robot.joint_limits.T).T, axis=1)
 
 

@@ -58,22 +58,27 @@ def joint_name(robot: str, j: int) -> str:
 def add_robot(spec: mujoco.MjSpec, placement: RobotPlacement, index: int = 0) -> None:
     """Add base, link1..link6, flange and TCP sites of robot number ``index`` to ``spec``."""
     name = placement.name
-    k = placement.robot.kinematics
-    lim = placement.robot.joint_limits
+    robot = placement.robot
+    lim = robot.joint_limits
     base = spec.worldbody.add_body(name=body_name(name, "base"), pos=list(placement.base_pos),
                                    quat=list(mat_to_quat(_rz(placement.base_yaw))))
-    chain = [  # (link, parent offset, joint axis)
-        ("link1", (0, 0, 0), (0, 0, 1)),
-        ("link2", (k.a1, 0, k.d1), (0, 1, 0)),
-        ("link3", (0, 0, k.a2), (0, 1, 0)),
-        ("link4", (0, 0, k.a3), (1, 0, 0)),
-        ("link5", (k.d4, 0, 0), (0, 1, 0)),
-        ("link6", (0, 0, 0), (1, 0, 0)),
-    ]
+    if robot.chain is None:  # the spherical-wrist form: (parent offset, rotation, joint axis) of link1..link6
+        k = robot.kinematics
+        links = [((0, 0, 0), np.eye(3), (0, 0, 1)), ((k.a1, 0, k.d1), np.eye(3), (0, 1, 0)),
+                 ((0, 0, k.a2), np.eye(3), (0, 1, 0)), ((0, 0, k.a3), np.eye(3), (1, 0, 0)),
+                 ((k.d4, 0, 0), np.eye(3), (0, 1, 0)), ((0, 0, 0), np.eye(3), (1, 0, 0))]
+        flange = np.eye(4)
+        flange[0, 3] = k.d6
+    else:
+        c = robot.chain
+        links = [(o, rpy_matrix(r), a) for o, r, a in zip(c.origins, c.rpys, c.axes)]
+        flange = np.eye(4)
+        flange[:3, :3], flange[:3, 3] = rpy_matrix(c.flange_rpy), c.flange_pos
     bodies = {"base": base}
     parent = base
-    for j, (link, offset, axis) in enumerate(chain):
-        b = parent.add_body(name=body_name(name, link), pos=list(offset))
+    for j, (offset, rot, axis) in enumerate(links):
+        link = f"link{j + 1}"
+        b = parent.add_body(name=body_name(name, link), pos=list(offset), quat=list(mat_to_quat(rot)))
         b.gravcomp = 1.0
         b.mass = 1.0
         b.inertia = [0.1, 0.1, 0.1]
@@ -82,12 +87,13 @@ def add_robot(spec: mujoco.MjSpec, placement: RobotPlacement, index: int = 0) ->
                     armature=ROBOT_ARMATURE, range=list(lim[j]), limited=mujoco.mjtLimited.mjLIMITED_FALSE)
         bodies[link] = b
         parent = b
-    bodies["link6"].add_site(name=f"{name}/flange", pos=[k.d6, 0, 0], size=[0.02, 0, 0])
-    tcp_rot = rpy_matrix(placement.robot.tcp_rpy)
-    tcp_pos = np.array([k.d6, 0, 0]) + np.asarray(placement.robot.tcp_pos)
-    bodies["link6"].add_site(name=f"{name}/tcp", pos=list(tcp_pos), quat=list(mat_to_quat(tcp_rot)),
+    bodies["link6"].add_site(name=f"{name}/flange", pos=list(flange[:3, 3]), quat=list(mat_to_quat(flange[:3, :3])),
+                             size=[0.02, 0, 0])
+    tcp = flange[:3, :3] @ rpy_matrix(robot.tcp_rpy)
+    tcp_pos = flange[:3, 3] + flange[:3, :3] @ np.asarray(robot.tcp_pos)
+    bodies["link6"].add_site(name=f"{name}/tcp", pos=list(tcp_pos), quat=list(mat_to_quat(tcp)),
                              size=[0.015, 0, 0], rgba=[1, 0, 0, 1])
-    for i, prim in enumerate(placement.robot.collision):
+    for i, prim in enumerate(robot.collision):
         g = bodies[prim.link].add_geom(name=f"{name}/{prim.link}_geom{i}", rgba=list(ROBOT_RGBA))
         g.contype = robot_bits(index)
         g.conaffinity = 0

@@ -233,3 +233,99 @@ def test_robots_command_prints_the_round_trip_and_writes_the_models(tmp_path, ca
     rows = json.loads(capsys.readouterr().out)
     assert rows[0]["robot"] == "fanuc_r2000ic_210f" and rows[0]["found_q"] and rows[0]["max_raw_branches"] == 8
     assert (tmp_path / "m" / "fanuc_r2000ic_210f.urdf").is_file() and (tmp_path / "m" / "fanuc_r2000ic_210f.xml").is_file()
+
+
+# ------------------------------------------------------------------------------ general arms: numeric IK
+def _ur10e_yaml(tmp_path):
+    pytest.importorskip("compas_fab")
+    (tmp_path / "ur10e.yaml").write_text(
+        "name: ur10e\nsource: compas_fab URDF\n"
+        "model_file: {package: compas_fab, path: data/robot_library/ur10e_robot/urdf/robot_description.urdf}\n"
+        "tool: {tcp_pos: [0, 0, 0.2]}\n")
+    return load_robot(tmp_path / "ur10e.yaml")
+
+
+def test_an_arm_without_a_spherical_wrist_becomes_a_joint_chain_solved_numerically(tmp_path):
+    """A UR10e (offset wrist) read from compas_fab's URDF: a general chain whose numeric IK finds the sampled
+    configuration every time, and whose flange is where MuJoCo puts the URDF's last link."""
+    from dresspack_gym.loading import _model_file_path
+    from dresspack_gym.robot_import import load_model
+
+    robot = _ur10e_yaml(tmp_path)
+    assert robot.kinematics is None and robot.chain is not None
+    r = ik_round_trip(robot, poses=25, seed=4)
+    assert r.poses >= 22 and r.found_q and r.max_pose_error < 1e-9 and r.max_raw_branches == 8
+    m = load_model(_model_file_path({"package": "compas_fab", "path": "data/robot_library/ur10e_robot/urdf/"
+                                                                      "robot_description.urdf"}, tmp_path, "f"))
+    d = mujoco.MjData(m)
+    kin = RobotKinematics(robot)
+    last = int(m.jnt_bodyid[m.njnt - 1])
+    lim = kin.limits
+    for q in np.random.default_rng(5).uniform(lim[:, 0], lim[:, 1], size=(50, 6)):
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        np.testing.assert_allclose(kin.flange(q)[:3, 3], d.xpos[last], atol=1e-9)
+        np.testing.assert_allclose(kin.flange(q)[:3, :3], d.xmat[last].reshape(3, 3), atol=1e-9)
+
+
+def test_a_joint_chain_robot_builds_in_mujoco_as_its_kinematics(tmp_path):
+    from dresspack_gym.config import RobotPlacement
+    from dresspack_gym.restrictions import RestrictionSet
+    from dresspack_gym.robot_model import add_robot
+
+    robot = _ur10e_yaml(tmp_path)
+    spec = mujoco.MjSpec()
+    placement = RobotPlacement("r1", robot, load_station("default").robots[0].dresspack, (0.5, -0.2, 0.1), 0.7,
+                               (0.0,) * 6, RestrictionSet(()))
+    add_robot(spec, placement)
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    kin = RobotKinematics(robot, (0.5, -0.2, 0.1), 0.7)
+    lim = kin.limits
+    for q in np.random.default_rng(6).uniform(lim[:, 0], lim[:, 1], size=(30, 6)):
+        d.qpos[:6] = q
+        mujoco.mj_kinematics(m, d)
+        for i, frame in enumerate(kin.link_frames(q)[1:7], start=1):
+            np.testing.assert_allclose(d.xpos[m.body(f"r1/link{i}").id], frame[:3, 3], atol=1e-9)
+        tcp = kin.tcp_pose(q)
+        np.testing.assert_allclose(d.site_xpos[m.site("r1/tcp").id], tcp[:3, 3], atol=1e-9)
+        np.testing.assert_allclose(d.site_xmat[m.site("r1/tcp").id].reshape(3, 3), tcp[:3, :3], atol=1e-9)
+
+
+def test_numeric_ik_finds_every_analytic_branch(tmp_path):
+    """The spherical-wrist ABB IRB 6700 read as a general chain: for generic poses, the numeric IK's solutions are
+    exactly the analytic IK's branches (eight where the wrist can also be reached from behind)."""
+    from dresspack_gym.robot_import import chain_from_model, load_model, to_urdf
+
+    robot = load_robot("abb_irb6700_200_260")
+    (tmp_path / "a.urdf").write_text(to_urdf(robot))
+    chain, _ = chain_from_model(load_model(tmp_path / "a.urdf"))
+    numeric = RobotKinematics(replace(robot, kinematics=None, chain=chain))
+    analytic = RobotKinematics(robot)
+    rng = np.random.default_rng(7)
+    qs = np.vstack([[0.41, -0.69, -1.38, -1.45, 0.94, 1.24], rng.uniform(-1.2, 1.2, size=(5, 6))])
+    counts = []
+    for q in qs:
+        target = analytic.flange(q)
+        a = analytic.ik_flange(target, within_limits=False)
+        n = numeric.ik_flange(target, within_limits=False)
+        assert len(n) == len(a)
+        for s in a:
+            assert np.min(np.abs(np.angle(np.exp(1j * (n - s)))).max(axis=1)) < 1e-7
+        counts.append(len(a))
+    assert max(counts) == 8
+
+
+def test_a_joint_chain_robot_round_trips_through_urdf_and_mjcf(tmp_path):
+    from dresspack_gym.robot_import import robot_from_model, to_mjcf, to_urdf
+
+    robot = _ur10e_yaml(tmp_path)
+    qs = np.random.default_rng(8).uniform(-3, 3, size=(20, 6))
+    for suffix, text, tol in ((".urdf", to_urdf(robot), 1e-12), (".xml", to_mjcf(robot), 1e-5)):
+        (tmp_path / f"w{suffix}").write_text(text)
+        back = robot_from_model(robot, tmp_path / f"w{suffix}")
+        assert back.chain is not None
+        a, b = RobotKinematics(robot), RobotKinematics(back)
+        for q in qs:
+            np.testing.assert_allclose(b.tcp_pose(q), a.tcp_pose(q), atol=1e-8)
+        np.testing.assert_allclose(back.joint_limits, robot.joint_limits, atol=tol)
