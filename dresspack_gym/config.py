@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
@@ -80,7 +81,8 @@ class JointChain:
 
 @dataclass(frozen=True)
 class CollisionPrimitive:
-    """A capsule, box, sphere or cylinder rigidly attached to one robot link (link frame)."""
+    """A capsule, box, sphere, cylinder or mesh (its convex hull; an STL/OBJ file) rigidly attached to one robot
+    link (link frame)."""
 
     link: str
     type: str
@@ -88,6 +90,8 @@ class CollisionPrimitive:
     pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
     fromto: tuple[float, ...] | None = None
+    mesh_file: str | None = None
+    mesh_scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -179,9 +183,15 @@ class RobotConfig:
 
 def _primitive(p: Section, links: tuple[str, ...]) -> CollisionPrimitive:
     link = p.string("link", choices=links)
-    kind = p.string("type", choices=PRIMITIVES)
-    fromto = None
-    if kind == "capsule" and p.has("fromto"):
+    kind = p.string("type", choices=PRIMITIVES + ("mesh",))
+    fromto, mesh, scale = None, None, (1.0, 1.0, 1.0)
+    if kind == "mesh":  # the loader has made the path absolute (relative paths are relative to the robot YAML)
+        mesh = p.string("file")
+        if not Path(mesh).is_file():
+            raise ConfigError(p.field("file"), f"mesh file not found: {mesh}")
+        scale = p.vector("scale", 3, scale, lo=1e-6, hi=1e3)
+        size = (0.0,)
+    elif kind == "capsule" and p.has("fromto"):
         fromto = p.vector("fromto", 6, lo=-10, hi=10, unit="m")
         size = (p.number("radius", lo=0.0, lo_open=True, hi=2.0, unit="m"),)
     elif kind == "box":
@@ -194,7 +204,7 @@ def _primitive(p: Section, links: tuple[str, ...]) -> CollisionPrimitive:
     pos = p.vector("pos", 3, (0, 0, 0), lo=-50, hi=50, unit="m")
     rpy = tuple(np.radians(p.vector("rpy_deg", 3, (0, 0, 0), lo=-360, hi=360, unit="deg")))
     p.done()
-    return CollisionPrimitive(link, kind, size, pos, rpy, fromto)
+    return CollisionPrimitive(link, kind, size, pos, rpy, fromto, mesh, scale)
 
 
 @dataclass(frozen=True)

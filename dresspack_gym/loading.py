@@ -101,6 +101,11 @@ def _robot_from_model_file(data: dict[str, Any], yaml_path: Path, field: str) ->
             raise ConfigError(f"{field}.joint_speed_deg_s", f"{model_path.name} gives no velocity limit for every "
                                                              "joint: state the 6 rated joint speeds in the YAML")
         data["joint_speed_deg_s"] = np.degrees(speeds).tolist()
+    if data.get("collision") == "from_model":  # the maker's collision meshes, carried into our link frames
+        from .robot_import import model_collision
+
+        data["collision"] = model_collision(model_path, RobotConfig.from_dict({**data, "collision": []}, field),
+                                            f"{field}.collision")
     return data
 
 

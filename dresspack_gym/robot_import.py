@@ -209,6 +209,70 @@ def robot_from_model(base: RobotConfig, path: str | Path, field: str = "model_fi
                    controller_offset_rad=tuple(offset.tolist()))
 
 
+def model_collision(path: str | Path, robot: RobotConfig, field: str = "collision") -> list[dict]:
+    """The URDF's collision meshes as collision entries of ``robot`` (YAML form, in our link frames): each mesh
+    on the link its URDF link moves with, its pose carried from the URDF link frame into ours (the two differ by
+    a constant transform: compared at the model's zero pose)."""
+    from .kinematics import RobotKinematics
+
+    path = Path(path)
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise ConfigError(field, f"collision: from_model needs a URDF: {exc}") from None
+    m = load_model(path)
+    joints = _hinges(m, field)
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    bodies = [int(m.body_parentid[m.jnt_bodyid[joints[0]]])] + [int(m.jnt_bodyid[j]) for j in joints]
+    kin = RobotKinematics(robot)
+    q0 = robot.from_controller(np.zeros(6)) if robot.chain is None else np.zeros(6)
+    ours = kin.link_frames(q0)[:7]
+    out = []
+    first = next((j for j in root.iter("joint") if j.get("type") in ("revolute", "continuous")), None)
+    base_name = first.find("parent").get("link") if first is not None else None
+    for k, b in enumerate(bodies):  # MuJoCo may fuse the URDF's fixed base link into the world (body 0)
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) if b else base_name
+        link = root.find(f"./link[@name='{name}']") if name else None
+        if link is None:
+            continue
+        theirs = homogeneous(d.xmat[b].reshape(3, 3), d.xpos[b])
+        to_ours = np.linalg.inv(ours[k]) @ theirs
+        for col in link.findall("collision"):
+            mesh = col.find("geometry/mesh")
+            if mesh is None:
+                continue
+            org = col.find("origin")
+            xyz = [float(v) for v in (org.get("xyz", "0 0 0").split() if org is not None else [0, 0, 0])]
+            rpy = [float(v) for v in (org.get("rpy", "0 0 0").split() if org is not None else [0, 0, 0])]
+            pose = to_ours @ homogeneous(rpy_matrix(rpy), xyz)
+            scale = [float(v) for v in mesh.get("scale", "1 1 1").split()]
+            out.append({"link": "base" if k == 0 else f"link{k}", "type": "mesh",
+                        "file": str(_mesh_path(mesh.get("filename"), path, field)),
+                        "pos": pose[:3, 3].tolist(), "rpy_deg": np.degrees(rpy_from_matrix(pose[:3, :3])).tolist(),
+                        "scale": scale})
+    if not out:
+        raise ConfigError(field, f"collision: from_model, but {path.name} has no collision meshes")
+    return out
+
+
+def _mesh_path(ref: str, urdf: Path, field: str) -> Path:
+    """A URDF mesh reference: ``package://PKG/rest`` looked up in the folders above the URDF (a ROS package folder
+    named PKG), or a path relative to the URDF."""
+    if ref.startswith("package://"):
+        pkg, _, rest = ref[len("package://"):].partition("/")
+        for folder in urdf.parents:
+            for cand in (folder / pkg / rest, folder / rest if folder.name == pkg else None):
+                if cand is not None and cand.is_file():
+                    return cand
+        raise ConfigError(field, f"mesh {ref!r}: no folder {pkg!r} holding {rest!r} above {urdf}")
+    cand = Path(ref.removeprefix("file://"))
+    cand = cand if cand.is_absolute() else urdf.parent / cand
+    if not cand.is_file():
+        raise ConfigError(field, f"mesh file not found: {cand}")
+    return cand
+
+
 # ------------------------------------------------------------------------------------------------ writing out
 def _maker_chain(robot: RobotConfig):
     """(origin xyz, origin rpy, axis) of the six joints in the robot's controller convention: the model's zero

@@ -97,6 +97,11 @@ def add_robot(spec: mujoco.MjSpec, placement: RobotPlacement, index: int = 0) ->
         g = bodies[prim.link].add_geom(name=f"{name}/{prim.link}_geom{i}", rgba=list(ROBOT_RGBA))
         g.contype = robot_bits(index)
         g.conaffinity = 0
+        if prim.type == "mesh":  # the convex hull of the maker's collision mesh (MuJoCo collides hulls)
+            spec.add_mesh(name=f"{name}/mesh{i}", file=prim.mesh_file, scale=list(prim.mesh_scale))
+            g.type, g.meshname = mujoco.mjtGeom.mjGEOM_MESH, f"{name}/mesh{i}"
+            g.pos, g.quat = list(prim.pos), list(mat_to_quat(rpy_matrix(prim.rpy)))
+            continue
         _set_primitive(g, prim.type, prim.size, prim.pos, prim.rpy, prim.fromto)
 
 

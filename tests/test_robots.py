@@ -329,3 +329,39 @@ def test_a_joint_chain_robot_round_trips_through_urdf_and_mjcf(tmp_path):
         for q in qs:
             np.testing.assert_allclose(b.tcp_pose(q), a.tcp_pose(q), atol=1e-8)
         np.testing.assert_allclose(back.joint_limits, robot.joint_limits, atol=tol)
+
+
+def test_collision_from_model_uses_the_makers_meshes(tmp_path):
+    """``collision: from_model`` puts the URDF's collision meshes on our links; the robot's distance to a ball
+    placed 2 cm behind the arm's rearmost mesh vertex at Home is 2 cm (MuJoCo collides the meshes' convex hulls)."""
+    pytest.importorskip("compas_fab")
+    from dresspack_gym.collision import RobotCollisionChecker
+    from dresspack_gym.config import Obstacle
+
+    (tmp_path / "irb.yaml").write_text(
+        "name: irb4600_meshes\nsource: compas_fab URDF\n"
+        "model_file: {package: compas_fab, path: data/robot_library/abb_irb4600_40_255/urdf/robot_description.urdf}\n"
+        "tool: {tcp_pos: [0.45, 0, 0], tcp_rpy_deg: [0, 90, 0]}\ncollision: from_model\n")
+    robot = load_robot(tmp_path / "irb.yaml")
+    assert {p.link for p in robot.collision} == {"base", "link1", "link2", "link3", "link4", "link5", "link6"}
+    assert all(p.type == "mesh" for p in robot.collision)
+    cfg = load_station("default")
+    cfg = replace(cfg, robots=(replace(cfg.robots[0], robot=robot),), obstacles=(), weld_points=())
+    station = Station(cfg)
+    m, d = station.model, mujoco.MjData(station.model)
+    d.qpos[station.robots[0].qpos] = station.home[0]
+    mujoco.mj_kinematics(m, d)
+    back = None
+    for g in station.robots[0].geom_ids:
+        if m.geom_type[g] != mujoco.mjtGeom.mjGEOM_MESH:  # the dresspack's node markers
+            continue
+        mesh = m.geom_dataid[g]
+        verts = m.mesh_vert[m.mesh_vertadr[mesh]:m.mesh_vertadr[mesh] + m.mesh_vertnum[mesh]]
+        world = d.geom_xpos[g] + verts @ d.geom_xmat[g].reshape(3, 3).T
+        v = world[np.argmin(world[:, 0])]
+        back = v if back is None or v[0] < back[0] else back
+    R = 0.05
+    ball = Obstacle(name="ball", type="sphere", pos=(float(back[0] - 0.02 - R), float(back[1]), float(back[2])),
+                    rpy=(0.0, 0.0, 0.0), size=(R,))
+    station = Station(replace(cfg, obstacles=(ball,)))
+    assert RobotCollisionChecker(station).min_distance(station.home[0]) == pytest.approx(0.02, abs=2e-4)
