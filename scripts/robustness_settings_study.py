@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dresspack_gym.loading import load_station, read_yaml, resolve_shipped
+from dresspack_gym.loading import load_station, read_yaml
+from dresspack_gym.shipped import find_shipped
 from dresspack_gym.robustness.algorithm import RobustnessSettings
 from dresspack_gym.robustness.grid import RobustnessGrid
 from dresspack_gym.robustness.runner import run_map
@@ -51,7 +52,7 @@ def main() -> None:
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--out", default="out/robustness_study")
     args = p.parse_args()
-    grid = RobustnessGrid.from_dict(read_yaml(resolve_shipped(args.grid, "grids", "grid"), "grid"))
+    grid = RobustnessGrid.from_dict(read_yaml(find_shipped(args.grid, "grids", "grid"), "grid"))
     station = load_station(args.station)
     idx = sorted(np.random.default_rng(args.seed).choice(len(grid), args.sample, replace=False).tolist())
     out = Path(args.out)
@@ -85,7 +86,7 @@ if __name__ == "__main__":
 def tolerance_check(grid_name: str = "thesis_67500", sample: int = 100, seed: int = 0, out: str = "out/robustness_tol",
                     workers: int = 1) -> dict:
     """Fraction of non-robust flags that survive a 10x tighter equilibrium tolerance (default settings)."""
-    grid = RobustnessGrid.from_dict(read_yaml(resolve_shipped(grid_name, "grids", "grid"), "grid"))
+    grid = RobustnessGrid.from_dict(read_yaml(find_shipped(grid_name, "grids", "grid"), "grid"))
     base = load_station("default")
     sim = base.simulation
     tight = replace(base, simulation=replace(sim, equilibrium_tolerance=sim.equilibrium_tolerance / 10,
