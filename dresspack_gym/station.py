@@ -174,8 +174,8 @@ class Station:
         self._home_shapes = []
         for i, r in enumerate(config.robots):
             kin = RobotKinematics(r.robot, r.base_pos, r.base_yaw)
-            zero_frames = _node_frames(r, kin.link_frames(np.zeros(6)))
-            home_frames = _node_frames(r, kin.link_frames(r.home))
+            zero_frames = node_frames(r, kin.link_frames(np.zeros(6)))
+            home_frames = node_frames(r, kin.link_frames(r.home))
             try:  # the Home reference shape fixes the clamps' roll (installed untwisted at Home)
                 home_shape = reference_shape(r.dresspack, home_frames, DOWN)
             except ConfigError as exc:
@@ -242,10 +242,10 @@ class Station:
 
     def initial_cable_shapes_for(self, i: int, q: np.ndarray) -> np.ndarray:
         r = self.config.robots[i]
-        return reference_shape(r.dresspack, _node_frames(r, self.robots[i].kinematics.link_frames(q)), DOWN)
+        return reference_shape(r.dresspack, node_frames(r, self.robots[i].kinematics.link_frames(q)), DOWN)
 
 
-def _node_frames(placement, link_frames: list[np.ndarray]) -> list[np.ndarray]:
+def node_frames(placement, link_frames: list[np.ndarray]) -> list[np.ndarray]:
     """World pose of the body holding each node of the robot's dresspack."""
     return [np.eye(4) if nd.body == "world" else link_frames[LINK_INDEX[nd.body]] for nd in placement.dresspack.nodes]
 

@@ -10,7 +10,7 @@ import numpy as np
 from .cable_shape import node_vertices, node_world_points, span_slack
 from .collision import RobotCollisionChecker
 from .joint_limits import within_limits
-from .station import LINK_INDEX, Station, _node_frames
+from .station import LINK_INDEX, Station, node_frames
 
 
 MIN_MARGIN = 0.002  # [m] conservative advancement needs a positive clearance to make progress
@@ -64,7 +64,7 @@ class MotionValidity:
         """The dresspack's smallest span slack [m] at q (negative: the robot would tear the cable)."""
         if not self._may_tear:
             return np.inf
-        return span_slack(self._placement.dresspack, _node_frames(self._placement, self._kinematics.link_frames(q)))
+        return span_slack(self._placement.dresspack, node_frames(self._placement, self._kinematics.link_frames(q)))
 
     def segment_valid(self, q0, q1) -> bool:
         """Joint limits and restrictions sampled every ``resolution`` (they are cheap, smooth functions of q);
@@ -105,7 +105,7 @@ def _may_tear(placement, kinematics, checker: RobotCollisionChecker) -> bool:
     its cable can never tear and the per-configuration check is skipped (for a link 3 - link 6 dresspack)."""
     dresspack = placement.dresspack
     home = placement.home
-    frames = _node_frames(placement, kinematics.link_frames(home))
+    frames = node_frames(placement, kinematics.link_frames(home))
     checker._pose(home)
     origin = checker.data.xanchor[checker.joint_ids].copy()  # joint k (1-based) -> row k - 1
     axis = checker.data.xaxis[checker.joint_ids].copy()

@@ -26,7 +26,7 @@ from .errors import ConfigError
 from .robustness.algorithm import cable_only
 from .simulation import CableSimulator
 from .shipped import shipped_root
-from .station import DOWN, Station, _node_frames
+from .station import DOWN, Station, node_frames
 
 MAP_VERSION = 1
 # Points of each reference span's curve (the simulator's initial shapes use 2001; the map needs speed, and its
@@ -85,7 +85,7 @@ class ShapeModel:
         self.lever = float(lever)
 
     def frames(self, q: np.ndarray) -> list[np.ndarray]:
-        return _node_frames(self.placement, self.kinematics.link_frames(q))
+        return node_frames(self.placement, self.kinematics.link_frames(q))
 
     def features(self, frames: list[np.ndarray]) -> np.ndarray:
         """Each later node's position and two axis tips (x lever) in the first node's body frame, and gravity
@@ -108,10 +108,12 @@ class ShapeModel:
 
 
 def map_key(config: StationConfig, robot: int = 0) -> str:
-    """What the map depends on: the robot (model, base pose), its dresspack, the physics and gravity; not the
-    obstacles, the weld points or the other robots."""
+    """What the map depends on: the robot's kinematic chain and joint limits (where samples are drawn), its base
+    pose, its dresspack, the physics and gravity; not the robot's name, tool, speeds, collision geometry (the map
+    settles the cable alone) or controller conventions, nor the obstacles, weld points or other robots."""
     p = config.robots[robot]
-    what = repr((MAP_VERSION, p.robot, p.base_pos, p.base_yaw, p.dresspack, config.simulation))
+    arm = p.robot.kinematics if p.robot.chain is None else p.robot.chain
+    what = repr((MAP_VERSION, arm, p.robot.joint_limits_rad, p.base_pos, p.base_yaw, p.dresspack, config.simulation))
     return hashlib.sha256(what.encode()).hexdigest()[:16]
 
 

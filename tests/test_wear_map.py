@@ -11,7 +11,7 @@ from dresspack_gym.errors import ConfigError
 from dresspack_gym.loading import load_station
 from dresspack_gym.map_cost import OBSTRUCTION_DEPTH, OBSTRUCTION_RATE, UNSPANNABLE_RATE, MapStateCost
 from dresspack_gym.simulation import CableSimulator
-from dresspack_gym.station import Station, _node_frames
+from dresspack_gym.station import Station, node_frames
 from dresspack_gym.validity import MotionValidity
 from dresspack.agents.map_roadmap import MapRoadmap, motion_time
 from dresspack_gym.robustness.algorithm import cable_only
@@ -36,7 +36,7 @@ def test_span_slack_is_cable_minus_chord_for_a_world_anchored_cable():
     p = config.robots[0]
     dp = p.dresspack
     for q in (st.home[0], np.radians([20, 30, 10, 0, 40, 0])):
-        frames = _node_frames(p, st.robots[0].kinematics.link_frames(q))
+        frames = node_frames(p, st.robots[0].kinematics.link_frames(q))
         # the inner clamp points: one edge in from each end along its clamp direction
         start = frames[0][:3, :3] @ np.array(dp.nodes[0].pos) + frames[0][:3, 3]
         start = start + frames[0][:3, :3] @ np.array(dp.nodes[0].direction) * dp.segment_length
@@ -66,7 +66,7 @@ def test_link3_to_link6_dresspack_can_never_tear_and_skips_the_check(default_con
     p = default_config.robots[0]
     lim = p.robot.joint_limits
     qs = np.random.default_rng(0).uniform(lim[:, 0], lim[:, 1], (300, 6))
-    slack = [span_slack(p.dresspack, _node_frames(p, st.robots[0].kinematics.link_frames(q))) for q in qs]
+    slack = [span_slack(p.dresspack, node_frames(p, st.robots[0].kinematics.link_frames(q))) for q in qs]
     assert min(slack) > 0
 
 
@@ -84,6 +84,21 @@ def test_map_key_ignores_obstacles_and_welds_but_not_the_dresspack(default_confi
     r = default_config.robots[0]
     longer = replace(default_config, robots=(replace(r, dresspack=replace(r.dresspack, length=1.8)),))
     assert map_key(longer) != map_key(default_config)
+
+
+def test_map_key_ignores_what_the_map_does_not_depend_on(default_config):
+    """Tool, speeds, collision geometry, controller conventions or the robot's name do not change a settled free
+    cable; the kinematic chain and the joint limits (where samples are drawn) do."""
+    p = default_config.robots[0]
+    key = map_key(default_config)
+
+    def with_robot(**changes):
+        return replace(default_config, robots=(replace(p, robot=replace(p.robot, **changes)),))
+
+    assert map_key(with_robot(name="x", tcp_pos=(0.1, 0.0, 0.0), joint_speed_rad_s=(1.0,) * 6, collision=(),
+                              controller_sign=(-1.0,) * 6)) == key
+    assert map_key(with_robot(kinematics=replace(p.robot.kinematics, d4=1.2))) != key
+    assert map_key(with_robot(joint_limits_rad=((-1.0, 1.0),) * 6)) != key
 
 
 def test_map_is_reproducible_and_exact_at_its_samples(default_config, small_map):
