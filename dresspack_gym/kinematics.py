@@ -46,17 +46,8 @@ def homogeneous(rot: np.ndarray, pos) -> np.ndarray:
     return t
 
 
-def axis_rotation(axis, a: float) -> np.ndarray:
-    """Rotation by ``a`` about the unit vector ``axis`` (Rodrigues)."""
-    x, y, z = axis
-    c, s, v = np.cos(a), np.sin(a), 1 - np.cos(a)
-    return np.array([[c + x * x * v, x * y * v - z * s, x * z * v + y * s],
-                     [y * x * v + z * s, c + y * y * v, y * z * v - x * s],
-                     [z * x * v - y * s, z * y * v + x * s, c + z * z * v]])
-
-
-def _axis_rotations(axis, a: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) rotations by angles ``a`` (n,) about one unit ``axis``."""
+def axis_rotations(axis, a: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) rotations by angles ``a`` (n,) about one unit ``axis`` (Rodrigues)."""
     x, y, z = axis
     c, s = np.cos(a), np.sin(a)
     v = 1 - c
@@ -104,7 +95,7 @@ class RobotKinematics:
             frames = [self.base]
             t = self.base
             for fixed, axis, a in zip(self._fixed, self._axes, q):
-                t = t @ fixed @ homogeneous(axis_rotation(axis, a), (0, 0, 0))
+                t = t @ fixed @ homogeneous(axis_rotations(axis, np.array([a]))[0], (0, 0, 0))
                 frames.append(t)
             frames.append(t @ self._flange)
             return frames
@@ -188,6 +179,13 @@ class RobotKinematics:
             sols = self.expand_turns(sols)
         return sols
 
+    def flange_jacobian(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A general chain's flange poses (n, 4, 4) and geometric Jacobians (n, 6, 6) (rows: linear then angular
+        velocity of the flange; columns: joints) at configurations (n, 6)."""
+        pose, axes, anchors = self._batch_flange(qs)
+        jac = np.concatenate([np.cross(axes, pose[:, None, :3, 3] - anchors), axes], axis=2)  # (n, joints, 6)
+        return pose, np.transpose(jac, (0, 2, 1))
+
     def _batch_flange(self, qs: np.ndarray):
         """Flange poses (n, 4, 4) and the joints' world axes and anchors (n, 6, 3) of configurations (n, 6)."""
         n = len(qs)
@@ -198,7 +196,7 @@ class RobotKinematics:
             axes[:, i] = t[:, :3, :3] @ axis
             anchors[:, i] = t[:, :3, 3]
             rot = np.zeros((n, 4, 4))
-            rot[:, :3, :3] = _axis_rotations(axis, qs[:, i])
+            rot[:, :3, :3] = axis_rotations(axis, qs[:, i])
             rot[:, 3, 3] = 1.0
             t = t @ rot
         return t @ self._flange, axes, anchors
@@ -206,15 +204,13 @@ class RobotKinematics:
     def _numeric_ik(self, target: np.ndarray) -> np.ndarray:
         q = self._starts.copy()
         for _ in range(IK_ITERATIONS):
-            pose, axes, anchors = self._batch_flange(q)
+            pose, jac = self.flange_jacobian(q)
             dp = target[:3, 3] - pose[:, :3, 3]
             r = target[:3, :3] @ np.transpose(pose[:, :3, :3], (0, 2, 1))  # remaining rotation, world frame
             dw = 0.5 * np.stack([r[:, 2, 1] - r[:, 1, 2], r[:, 0, 2] - r[:, 2, 0], r[:, 1, 0] - r[:, 0, 1]], -1)
             err = np.concatenate([dp, dw], axis=1)
             if np.all(np.abs(err).max(axis=1) < IK_TOL):
                 break
-            jac = np.concatenate([np.cross(axes, pose[:, None, :3, 3] - anchors), axes], axis=2)  # (n, 6 joints, 6)
-            jac = np.transpose(jac, (0, 2, 1))
             jjt = jac @ np.transpose(jac, (0, 2, 1)) + IK_DAMPING ** 2 * np.eye(6)
             step = np.einsum("nji,nj->ni", jac, np.linalg.solve(jjt, err[..., None])[..., 0])
             q = q + np.clip(step, -0.5, 0.5)

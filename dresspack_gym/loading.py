@@ -77,7 +77,8 @@ DERIVED_FROM_MODEL = ("kinematics", "chain", "joint_limits_deg", "controller_axe
 def _robot_from_model_file(data: dict[str, Any], yaml_path: Path, field: str) -> dict[str, Any]:
     """The robot YAML with kinematics, limits, controller axes (and speeds, if the YAML has none) derived from its
     ``model_file``: a URDF/MJCF path relative to the YAML, or ``{package, path}`` inside an installed package."""
-    from .robot_import import NotSphericalWrist, chain_from_model, derive, load_model, urdf_velocities
+    from .robot_import import (NotSphericalWrist, chain_from_model, derive, load_model, model_collision,
+                               urdf_velocities)
 
     data = dict(data)
     ref = data.pop("model_file")
@@ -102,9 +103,7 @@ def _robot_from_model_file(data: dict[str, Any], yaml_path: Path, field: str) ->
                                                              "joint: state the 6 rated joint speeds in the YAML")
         data["joint_speed_deg_s"] = np.degrees(speeds).tolist()
     if data.get("collision") == "from_model":  # the maker's collision meshes, carried into our link frames
-        from .robot_import import model_collision
-
-        data["collision"] = model_collision(model_path, RobotConfig.from_dict({**data, "collision": []}, field),
+        data["collision"] = model_collision(model_path, model, RobotConfig.from_dict({**data, "collision": []}, field),
                                             f"{field}.collision")
     return data
 

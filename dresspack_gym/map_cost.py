@@ -48,12 +48,14 @@ class MapStateCost:
         if pred is None:
             out = {"unspannable": UNSPANNABLE_RATE}
         else:
-            clearance, _, _ = self.probe.min_distance(self.data, self.cable, pred.points, signed=True)
+            clearance, _, nearest = self.probe.min_distance(self.data, self.cable, pred.points, signed=True)
             m = WearMeasures(pred.max_curvature, pred.max_tension, max(clearance, 0.0), pred.max_twist_rate)
             out = self.cost_fn(m, self.cfg).terms()
-            # A plane (the floor) only supports a sagging cable, it cannot catch it: only solids obstruct.
-            solid = clearance if clearance >= 0 else self.probe.min_distance(self.data, self.cable, pred.points,
-                                                                             signed=True, planes=False)[0]
+            # A plane (the floor) only supports a sagging cable, it cannot catch it: only solids obstruct. The
+            # solids are queried again only when the deepest penetration is a plane's.
+            solid = clearance
+            if clearance < 0 and nearest in self.probe.plane_names:
+                solid = self.probe.min_distance(self.data, self.cable, pred.points, signed=True, planes=False)[0]
             out["obstruction"] = OBSTRUCTION_RATE * (min(solid, 0.0) / OBSTRUCTION_DEPTH) ** 2
         self._cache[key] = out
         return out

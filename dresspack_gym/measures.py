@@ -155,6 +155,7 @@ class ClearanceProbe:
         self.rbound = m.geom_rbound[self.obstacles].copy()
         self.is_plane = m.geom_type[self.obstacles] == mujoco.mjtGeom.mjGEOM_PLANE
         self.names = [m.geom(g).name.removeprefix("obstacle/") for g in self.obstacles]
+        self.plane_names = frozenset(n for n, p in zip(self.names, self.is_plane) if p)
         self._fromto = np.zeros(6)
         self._quat = np.zeros(4)
         self._rot = np.zeros(9)
@@ -165,7 +166,7 @@ class ClearanceProbe:
         The distance is 0 in contact, or with ``signed`` negative by the depth of the deepest penetration (a
         predicted shape may pass through an obstacle; a simulated one only touches it). ``planes=False`` leaves
         the planes (the floor) out."""
-        if len(self.obstacles) == 0 or not (planes or not self.is_plane.all()):
+        if len(self.obstacles) == 0 or (not planes and self.is_plane.all()):
             return MAX_CLEARANCE, -1, ""
         m = self.station.model
         mids = 0.5 * (points[1:] + points[:-1])

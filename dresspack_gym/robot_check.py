@@ -37,9 +37,8 @@ class IkRoundTrip:
 
 def _singular(kin: RobotKinematics, q: np.ndarray, base_pos) -> bool:
     if kin.chain is not None:
-        pose, axes, anchors = kin._batch_flange(q[None])
-        jac = np.concatenate([np.cross(axes[0], pose[0, :3, 3] - anchors[0]), axes[0]], axis=1)
-        return bool(np.linalg.svd(jac, compute_uv=False).min() < CHAIN_SINGULAR)
+        _, jac = kin.flange_jacobian(q[None])
+        return bool(np.linalg.svd(jac[0], compute_uv=False).min() < CHAIN_SINGULAR)
     wrist = kin.link_frames(q)[5][:3, 3] - np.asarray(base_pos)
     return abs(np.sin(q[4])) < WRIST_SINGULAR or np.hypot(wrist[0], wrist[1]) < SHOULDER_SINGULAR
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from .config import JointChain, Kinematics, RobotConfig
 from .errors import ConfigError
-from .kinematics import homogeneous, rpy_matrix
+from .kinematics import RobotKinematics, homogeneous, rpy_matrix
 
 # Published URDFs round pi/2 to 5 decimals (1.57076: 3.7e-5 rad off), so "parallel" and "meet" are judged to
 # 1e-4 (rad, m); the derived lengths keep the file's own values.
@@ -209,18 +209,15 @@ def robot_from_model(base: RobotConfig, path: str | Path, field: str = "model_fi
                    controller_offset_rad=tuple(offset.tolist()))
 
 
-def model_collision(path: str | Path, robot: RobotConfig, field: str = "collision") -> list[dict]:
+def model_collision(path: str | Path, m: mujoco.MjModel, robot: RobotConfig, field: str = "collision") -> list[dict]:
     """The URDF's collision meshes as collision entries of ``robot`` (YAML form, in our link frames): each mesh
     on the link its URDF link moves with, its pose carried from the URDF link frame into ours (the two differ by
-    a constant transform: compared at the model's zero pose)."""
-    from .kinematics import RobotKinematics
-
+    a constant transform: compared at the model's zero pose). ``m`` is the file as :func:`load_model` compiled it."""
     path = Path(path)
     try:
         root = ET.parse(path).getroot()
     except ET.ParseError as exc:
         raise ConfigError(field, f"collision: from_model needs a URDF: {exc}") from None
-    m = load_model(path)
     joints = _hinges(m, field)
     d = mujoco.MjData(m)
     mujoco.mj_kinematics(m, d)
