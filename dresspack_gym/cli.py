@@ -89,7 +89,8 @@ def cmd_inspect(args) -> int:
             reach = f"wrist reach {k.a1 + k.a2 + float(np.hypot(k.d4, k.a3)):.3f} m"
         else:  # a general joint chain: the sum of its link offsets bounds the reach
             c = r.robot.chain
-            reach = f"joint chain, numeric IK, links {sum(np.linalg.norm(o) for o in c.origins[1:]) + np.linalg.norm(c.flange_pos):.3f} m"
+            links = sum(np.linalg.norm(o) for o in c.origins[1:]) + np.linalg.norm(c.flange_pos)
+            reach = f"joint chain, numeric IK, links {links:.3f} m"
         dp = r.dresspack
         print(f"\nRobot {r.name!r}: {r.robot.name} ({reach}) at {r.base_pos}, yaw "
               f"{np.degrees(r.base_yaw):.0f} deg\n  source: {r.robot.source}")

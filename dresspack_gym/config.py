@@ -39,6 +39,16 @@ class Kinematics:
     d4: float
     d6: float
 
+    def joint_chain(self) -> "JointChain":
+        """The same arm as a general joint chain (link6 at the wrist centre, the flange d6 along its x): the body
+        chain the MuJoCo model is built from and the URDF/MJCF writers start from."""
+        zero = (0.0, 0.0, 0.0)
+        return JointChain(origins=(zero, (self.a1, 0.0, self.d1), (0.0, 0.0, self.a2), (0.0, 0.0, self.a3),
+                                   (self.d4, 0.0, 0.0), zero),
+                          rpys=(zero,) * 6, axes=((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0),
+                                                  (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)),
+                          flange_pos=(self.d6, 0.0, 0.0))
+
 
 @dataclass(frozen=True)
 class JointChain:

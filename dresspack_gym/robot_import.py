@@ -275,19 +275,18 @@ def _maker_chain(robot: RobotConfig):
     """(origin xyz, origin rpy, axis) of the six joints in the robot's controller convention: the model's zero
     pose is ours at from_controller(0), baked into the joint origins, and each axis turned by its sign."""
     if robot.chain is not None:
-        return _general_chain(robot)
+        return _flange_folded(robot.chain)
     q0 = robot.from_controller(np.zeros(6))
     out = []
-    for (origin, axis), a, sg in zip(_our_chain(robot.kinematics), q0, robot.controller_sign):
-        rpy = tuple(float(a) * c for c in (axis[0], axis[1], axis[2]))  # a coordinate axis: rpy is that angle
+    for (origin, _, axis), a, sg in zip(_flange_folded(robot.kinematics.joint_chain()), q0, robot.controller_sign):
+        rpy = tuple(float(a) * c for c in axis)  # a coordinate axis: rpy is that angle
         out.append((origin, rpy, tuple(sg * c for c in axis)))
     return out
 
 
-def _general_chain(robot: RobotConfig):
-    """A general chain's joints, its flange folded into joint 6 (link6's origin is the flange in the files we
-    write): exact when the flange lies on j6's axis, as in every URDF we read; otherwise it cannot be written."""
-    c = robot.chain
+def _flange_folded(c: JointChain):
+    """A chain's joints with its flange folded into joint 6 (link6's origin is the flange in the files we write):
+    exact when the flange lies on j6's axis, as in every URDF we read; otherwise it cannot be written."""
     out = [(o, r, a) for o, r, a in zip(c.origins[:5], c.rpys[:5], c.axes[:5])]
     r6 = rpy_matrix(c.rpys[5])
     fr = rpy_matrix(c.flange_rpy)
@@ -297,13 +296,6 @@ def _general_chain(robot: RobotConfig):
     origin = tuple(float(v) for v in np.asarray(c.origins[5]) + r6 @ t)
     out.append((origin, rpy_from_matrix(r6 @ fr), tuple(float(v) for v in fr.T @ axis)))
     return out
-
-
-def _our_chain(k: Kinematics):
-    """(origin in the parent link, axis) of our six joints at our zero pose; j6's origin is the flange (its axis
-    runs through the wrist centre either way), as in the makers' URDFs."""
-    return [((0.0, 0.0, 0.0), (0, 0, 1)), ((k.a1, 0.0, k.d1), (0, 1, 0)), ((0.0, 0.0, k.a2), (0, 1, 0)),
-            ((0.0, 0.0, k.a3), (1, 0, 0)), ((k.d4, 0.0, 0.0), (0, 1, 0)), ((k.d6, 0.0, 0.0), (1, 0, 0))]
 
 
 def to_urdf(robot: RobotConfig) -> str:

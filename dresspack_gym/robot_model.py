@@ -62,18 +62,10 @@ def add_robot(spec: mujoco.MjSpec, placement: RobotPlacement, index: int = 0) ->
     lim = robot.joint_limits
     base = spec.worldbody.add_body(name=body_name(name, "base"), pos=list(placement.base_pos),
                                    quat=list(mat_to_quat(_rz(placement.base_yaw))))
-    if robot.chain is None:  # the spherical-wrist form: (parent offset, rotation, joint axis) of link1..link6
-        k = robot.kinematics
-        links = [((0, 0, 0), np.eye(3), (0, 0, 1)), ((k.a1, 0, k.d1), np.eye(3), (0, 1, 0)),
-                 ((0, 0, k.a2), np.eye(3), (0, 1, 0)), ((0, 0, k.a3), np.eye(3), (1, 0, 0)),
-                 ((k.d4, 0, 0), np.eye(3), (0, 1, 0)), ((0, 0, 0), np.eye(3), (1, 0, 0))]
-        flange = np.eye(4)
-        flange[0, 3] = k.d6
-    else:
-        c = robot.chain
-        links = [(o, rpy_matrix(r), a) for o, r, a in zip(c.origins, c.rpys, c.axes)]
-        flange = np.eye(4)
-        flange[:3, :3], flange[:3, 3] = rpy_matrix(c.flange_rpy), c.flange_pos
+    c = robot.chain if robot.chain is not None else robot.kinematics.joint_chain()
+    links = [(o, rpy_matrix(r), a) for o, r, a in zip(c.origins, c.rpys, c.axes)]  # (parent offset, rotation, axis)
+    flange = np.eye(4)
+    flange[:3, :3], flange[:3, 3] = rpy_matrix(c.flange_rpy), c.flange_pos
     bodies = {"base": base}
     parent = base
     for j, (offset, rot, axis) in enumerate(links):
