@@ -47,7 +47,8 @@ def plan_one(job: tuple[str, int, bool]) -> dict:
     if use_map and s["planner_info"].get("wear_map") is None:  # e.g. the shipped map renamed while this ran
         raise RuntimeError(f"{variant} seed {seed}: planned without a wear map; no row written")
     return {"variant": variant, "seed": seed, "map": use_map, "max_tension": s["max_tension"],
-            "cycle_time": s["cycle_time"], "cost": s["cost"], "plan_seconds": round(time.perf_counter() - t, 2),
+            "cycle_time": s["cycle_time"], "cost": s["cost"], "unconverged_stops": s["unconverged_stops"],
+            "plan_seconds": round(time.perf_counter() - t, 2),
             "wear_map": s["planner_info"].get("wear_map")}
 
 
