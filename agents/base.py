@@ -53,8 +53,9 @@ class Planner(ABC):
         self.budget = Budget(iterations, evaluations, routes, time_budget)
         self.seed = int(seed)
         self.validity = MotionValidity(station, robot, margin, resolution_deg)
-        self.joint_speed = station.config.robots[robot].robot.joint_speed
-        self.speed_fraction = station.config.simulation.speed_fraction
+        # the simulator's time law at the station's programmed speed: every method's motions are timed alike
+        self.motion_limits = station.config.robots[robot].robot.joint_motion_limits.at_speed(
+            station.config.simulation.speed_fraction)
         self.rng = np.random.default_rng(self.seed)
         self.allowance = Allowance(self.budget)
 
@@ -82,7 +83,7 @@ class Planner(ABC):
 
     def duration(self, traj: Trajectory) -> float:
         """Motion time [s] of a trajectory under the simulator's time law."""
-        return float(traj.segment_durations(self.joint_speed, self.speed_fraction).sum())
+        return float(traj.segment_durations(self.motion_limits).sum())
 
     @abstractmethod
     def _plan(self, task: Task) -> tuple[Trajectory, dict]:

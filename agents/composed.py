@@ -40,7 +40,7 @@ class ComposedPlanner(Planner):
         n = len(stops) - 1
         cost = self.leg_cost
         state = cost.start_state(task.start) if cost is not None else None
-        legs, explored, before, after = [], 0, 0.0, 0.0
+        legs, explored, before, after, route_scores = [], 0, 0.0, 0.0, []
         for k, (a, b) in enumerate(zip(stops[:-1], stops[1:])):
             cands = self.routes.candidates(a, b, self.rng, self.allowance)
             explored += len(cands)
@@ -48,6 +48,7 @@ class ComposedPlanner(Planner):
                 legs.append(cands[0])
                 continue
             scores = [cost.cost(state, c)[0] for c in cands]
+            route_scores.append([float(x) for x in scores])
             best = cands[int(np.argmin(scores))]
             if self.refiner is not None:
                 share = max(0, self.budget.evaluations - self._refine_queries) // (n - k)
@@ -61,5 +62,6 @@ class ComposedPlanner(Planner):
         info = {"duration": self.duration(traj), "waypoints": len(traj.waypoints), "routes_explored": explored,
                 "ompl_iterations": self.connector.iterations_used}
         if cost is not None:
-            info.update(objective_nominal=before, objective=after, cable_evaluations=cost.evaluations)
+            info.update(objective_nominal=before, objective=after, cable_evaluations=cost.evaluations,
+                        route_scores=route_scores)  # per leg, each candidate route's leg cost before refinement
         return traj, info

@@ -20,9 +20,9 @@ COST_STEP = math.radians(10.0)
 MAX_SEARCHES = 200
 
 
-def motion_time(a: np.ndarray, b: np.ndarray, speeds: np.ndarray) -> float:
+def motion_time(a: np.ndarray, b: np.ndarray, limits: time_law.JointLimits) -> float:
     """Seconds of the straight joint motion a -> b under the simulator's time law (stop at b)."""
-    return float(time_law.segment_durations(b - a, speeds))
+    return float(time_law.segment_durations(b - a, limits))
 
 
 class MapRoadmap:
@@ -32,10 +32,10 @@ class MapRoadmap:
     an invalid edge is retired, an edge whose fine cost exceeds its estimate is re-priced, and the search repeats
     until the best route consists of checked, finely costed edges."""
 
-    def __init__(self, wear_map: WearMap, validity: MotionValidity, cost: MapStateCost, speeds: np.ndarray,
-                 neighbours: int | None = None):
+    def __init__(self, wear_map: WearMap, validity: MotionValidity, cost: MapStateCost,
+                 limits: time_law.JointLimits, neighbours: int | None = None):
         self.validity, self.cost = validity, cost
-        self.speeds = np.asarray(speeds, dtype=float)
+        self.limits = limits
         qs = [q for q in wear_map.configurations if validity.valid(q)]
         self.nodes = np.array(qs).reshape(-1, 6)
         n = len(self.nodes)
@@ -43,11 +43,8 @@ class MapRoadmap:
         self.rates = np.array([cost.cost(q) for q in self.nodes])
         self.edges: list[dict[int, float]] = [{} for _ in range(n)]  # node -> {neighbour: motion time}
         for i in range(n):
-            t = self._times(self.nodes[i])
-            t[i] = np.inf
-            near = np.argpartition(t, self.k)[:self.k] if n > self.k + 1 else np.flatnonzero(np.isfinite(t))
-            for j in near:  # motion time is symmetric: one edge serves both directions
-                self.edges[i][int(j)] = self.edges[int(j)][i] = float(t[j])
+            for j, t in self._nearest(self.nodes[i], exclude=i).items():  # symmetric: one edge, both directions
+                self.edges[i][j] = self.edges[j][i] = t
         self.checked: dict[tuple[int, int], bool] = {}  # edge -> valid (robot collision, reach, limits)
         self.fine: dict[tuple[int, int], float] = {}  # edge -> ∫ C_map dt, finely sampled
 
@@ -58,8 +55,22 @@ class MapRoadmap:
         self.checked.clear()
         self.fine.clear()
 
-    def _times(self, q: np.ndarray) -> np.ndarray:
-        return time_law.segment_durations(self.nodes - q, self.speeds)
+    def _nearest(self, q: np.ndarray, exclude: int = -1) -> dict[int, float]:
+        """The k nodes nearest to ``q`` in motion time, with their times. Exact, though only a few are timed by
+        the time law: the k nearest by the cheap lower bound give an upper bound of the k-th time, and only
+        nodes whose lower bound is within it can be among the k nearest."""
+        bound = time_law.velocity_bound(self.nodes - q, self.limits)
+        if 0 <= exclude < len(bound):
+            bound[exclude] = np.inf
+        k = min(self.k, int(np.isfinite(bound).sum()))
+        if k == 0:
+            return {}
+        first = np.argpartition(bound, k - 1)[:k]
+        kth = float(np.max(time_law.segment_durations(self.nodes[first] - q, self.limits)))
+        cand = np.flatnonzero(bound <= kth)
+        t = time_law.segment_durations(self.nodes[cand] - q, self.limits)
+        near = np.argsort(t, kind="stable")[:k]
+        return {int(cand[m]): float(t[m]) for m in near}
 
     def route(self, a: np.ndarray, b: np.ndarray, weight: float) -> np.ndarray | None:
         """The best route a -> b found on the roadmap (waypoints, ends included), or None."""
@@ -67,9 +78,7 @@ class MapRoadmap:
         pts = {n: a, n + 1: b}
         ends = {}
         for e, q in ((n, a), (n + 1, b)):
-            t = self._times(q)
-            near = np.argsort(t)[:self.k]
-            ends[e] = {int(j): float(t[j]) for j in near}
+            ends[e] = self._nearest(q)
         rate = {n: self.cost.cost(a), n + 1: self.cost.cost(b)}
 
         def point(i):
@@ -89,7 +98,7 @@ class MapRoadmap:
             if i >= n:
                 yield from ends[i].items()
                 if i == n:
-                    yield n + 1, motion_time(a, b, self.speeds)
+                    yield n + 1, motion_time(a, b, self.limits)
                 return
             yield from self.edges[i].items()
             if i in ends[n + 1]:
@@ -121,7 +130,7 @@ class MapRoadmap:
                         changed = True
                         break
                 if key not in fine:
-                    t = motion_time(point(i), point(j), self.speeds)
+                    t = motion_time(point(i), point(j), self.limits)
                     estimate = edge_cost(i, j, t)
                     fine[key] = self._fine_wear(point(i), point(j), t)
                     if edge_cost(i, j, t) > estimate + 1e-12:
@@ -134,7 +143,7 @@ class MapRoadmap:
     def simplify(self, route: np.ndarray, weight: float) -> np.ndarray:
         """Drop milestones whose neighbours join directly at no higher objective (every waypoint is a stop)."""
         def objective(p, q):
-            t = motion_time(p, q, self.speeds)
+            t = motion_time(p, q, self.limits)
             return t + weight * self._fine_wear(p, q, t)
 
         along = np.concatenate([[0.0], np.cumsum([objective(p, q) for p, q in zip(route[:-1], route[1:])])])

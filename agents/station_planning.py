@@ -123,7 +123,7 @@ class StationPlanner:
         self.leg_planners = [OmplPlanner(station, r, iterations=config.iterations, seed=config.seed)
                              for r in range(station.n_robots)]
         cfg = station.config
-        self.speeds = [r.robot.joint_speed * cfg.simulation.speed_fraction for r in cfg.robots]
+        self.limits = [r.robot.joint_motion_limits.at_speed(cfg.simulation.speed_fraction) for r in cfg.robots]
         self._rates: dict[tuple, float] = {}
         self._unconverged: set[tuple] = set()  # cost settles that ended above the equilibrium residual (flagged)
         # legs and conflicts are keyed by the configurations they join (not by node numbers, which belong to
@@ -203,7 +203,7 @@ class StationPlanner:
         node_robot = np.concatenate([np.arange(R), [o.robot for o in options]]).astype(int)
         index = {w: k for k, w in enumerate(task.weld_names)}
         node_weld = np.concatenate([np.full(R, -1), [index[o.weld] for o in options]]).astype(int)
-        travel = np.stack([time_law.segment_durations(qs[None, :, :] - qs[:, None, :], self.speeds[r])
+        travel = np.stack([time_law.segment_durations(qs[None, :, :] - qs[:, None, :], self.limits[r])
                            for r in range(R)])
         node_of = {}
         for n, (r, q) in enumerate(zip(node_robot, qs)):
@@ -211,7 +211,7 @@ class StationPlanner:
         for (r, qa, qb), leg in self._legs.items():  # planned legs are exact
             for i in node_of.get((r, qa), ()):
                 for j in node_of.get((r, qb), ()):
-                    travel[r, i, j] = BLOCKED if leg is None else time_law.path_duration(leg, self.speeds[r])
+                    travel[r, i, j] = BLOCKED if leg is None else time_law.path_duration(leg, self.limits[r])
         rates = np.array([self.cost_rate(r, q) for r, q in zip(node_robot, qs)])
         key = qs.tobytes() + node_robot.tobytes()
         if key not in self._conflicts:
@@ -281,7 +281,7 @@ class StationPlanner:
             for a, b in zip(path[:-1], path[1:]):
                 estimate = problem.travel[r, a, b]
                 leg = self.leg(r, a, b, qs)
-                real = BLOCKED if leg is None else time_law.path_duration(leg, self.speeds[r])
+                real = BLOCKED if leg is None else time_law.path_duration(leg, self.limits[r])
                 changed += real > estimate * (1 + EXACT_TOLERANCE) + 1e-6
         return changed
 
@@ -300,12 +300,12 @@ class StationPlanner:
         for r, route in enumerate(routes):
             if not route:  # a robot without welds stays Home (and is still an obstacle to the others)
                 schedules.append(RobotSchedule.as_soon_as_possible(r, [], [np.array([task.homes[r]] * 2)],
-                                                                   self.speeds[r], task.weld_time))
+                                                                   self.limits[r], task.weld_time))
                 continue
             path = [r, *route, r]
             legs = [self.leg(r, a, b, qs) for a, b in zip(path[:-1], path[1:])]
             schedules.append(RobotSchedule.as_soon_as_possible(r, [options[n - R].weld for n in route], legs,
-                                                               self.speeds[r], task.weld_time))
+                                                               self.limits[r], task.weld_time))
         return StationSchedule(tuple(schedules), task.homes)
 
     def _best(self, problem: RoutingProblem, candidates: list[Assignment], task: StationTask,

@@ -40,7 +40,7 @@ class OmplWearPlanner(ComposedPlanner):
         roadmap = None
         if self.wear_map is not None:  # built once, reused by every leg and plan (it depends on no seed)
             cost = MapStateCost(self.station, self.wear_map, self.robot, cost_variant)
-            roadmap = MapRoadmap(self.wear_map, self.validity, cost, self.joint_speed * self.speed_fraction)
+            roadmap = MapRoadmap(self.wear_map, self.validity, cost, self.motion_limits)
         self.routes = MapRoutes(via, roadmap, self.budget.routes)
         self.leg_cost = LegCost(self.station, self.robot, time_weight=time_weight, wear_weight=wear_weight,
                                 cost_variant=cost_variant)

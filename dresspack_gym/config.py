@@ -16,12 +16,18 @@ import numpy as np
 
 from .errors import ConfigError
 from .restrictions import RestrictionSet
+from .time_law import JointLimits
 from .validation import Section, check_number, check_vector, check_unique
 
 ROBOT_LINKS = ("base", "link1", "link2", "link3", "link4", "link5", "link6")
 NODE_BODIES = ROBOT_LINKS + ("world",)
 PRIMITIVES = ("box", "capsule", "sphere", "cylinder")
 OBSTACLE_TYPES = PRIMITIVES + ("plane", "mesh")
+# [s] Makers publish rated joint speeds but no accelerations or jerks. A robot YAML without them gets joints that
+# reach their rated speed in ACCELERATION_TIME from rest and their full acceleration in JERK_TIME: large spot-welding
+# robots ramp to full axis speed in roughly a quarter second. State the controller's values where they are known.
+ACCELERATION_TIME = 0.25
+JERK_TIME = 0.1
 
 
 @dataclass(frozen=True)
@@ -124,6 +130,10 @@ class RobotConfig:
     controller_sign: tuple[float, ...] = (1.0,) * 6
     controller_offset_rad: tuple[float, ...] = (0.0,) * 6
     chain: JointChain | None = None  # a general 6R arm (kinematics is None), e.g. from a URDF of another form
+    # Joint acceleration [rad/s^2] and jerk [rad/s^3] limits of the time law. Makers publish neither; a YAML may
+    # state them (joint_acceleration_deg_s2, joint_jerk_deg_s3), else ACCELERATION_TIME / JERK_TIME set them.
+    joint_acceleration_rad_s2: tuple[float, ...] | None = None
+    joint_jerk_rad_s3: tuple[float, ...] | None = None
 
     def to_controller(self, q) -> np.ndarray:
         """Controller axis values [rad] of model joints ``q`` (..., 6)."""
@@ -142,6 +152,25 @@ class RobotConfig:
     def joint_speed(self) -> np.ndarray:
         """(6,) rad/s."""
         return np.array(self.joint_speed_rad_s, dtype=float)
+
+    @property
+    def joint_acceleration(self) -> np.ndarray:
+        """(6,) rad/s^2: stated, or rated speed reached in ACCELERATION_TIME."""
+        if self.joint_acceleration_rad_s2 is not None:
+            return np.array(self.joint_acceleration_rad_s2, dtype=float)
+        return self.joint_speed / ACCELERATION_TIME
+
+    @property
+    def joint_jerk(self) -> np.ndarray:
+        """(6,) rad/s^3: stated, or full acceleration reached in JERK_TIME."""
+        if self.joint_jerk_rad_s3 is not None:
+            return np.array(self.joint_jerk_rad_s3, dtype=float)
+        return self.joint_acceleration / JERK_TIME
+
+    @property
+    def joint_motion_limits(self) -> JointLimits:
+        """The time law's velocity, acceleration and jerk limits at full program speed."""
+        return JointLimits(self.joint_speed, self.joint_acceleration, self.joint_jerk)
 
     @staticmethod
     def from_dict(data: Mapping[str, Any], path: str = "robot") -> "RobotConfig":
@@ -172,6 +201,11 @@ class RobotConfig:
                 raise ConfigError(f, f"lower limit {lo} must be below upper limit {hi}")
             limits[i] = np.radians([lo, hi])
         speed = np.radians(s.vector("joint_speed_deg_s", 6, lo=1e-3, hi=2000.0, unit="deg/s"))
+        accel = jerk = None
+        if s.has("joint_acceleration_deg_s2"):
+            accel = tuple(np.radians(s.vector("joint_acceleration_deg_s2", 6, lo=1e-3, hi=1e5, unit="deg/s^2")))
+        if s.has("joint_jerk_deg_s3"):
+            jerk = tuple(np.radians(s.vector("joint_jerk_deg_s3", 6, lo=1e-3, hi=1e7, unit="deg/s^3")))
         tool = s.section("tool")
         tcp_pos = tool.vector("tcp_pos", 3, lo=-3.0, hi=3.0, unit="m")
         tcp_rpy = tuple(np.radians(tool.vector("tcp_rpy_deg", 3, (0, 0, 0), lo=-360, hi=360, unit="deg")))
@@ -188,7 +222,9 @@ class RobotConfig:
             c.done()
         s.done()
         return RobotConfig(name, source, kin, tuple(map(tuple, limits.tolist())), tuple(speed.tolist()), tcp_pos,
-                           tcp_rpy, prims, tuple(map(float, sign)), offset, chain)
+                           tcp_rpy, prims, tuple(map(float, sign)), offset, chain,
+                           None if accel is None else tuple(map(float, accel)),
+                           None if jerk is None else tuple(map(float, jerk)))
 
 
 def _primitive(p: Section, links: tuple[str, ...]) -> CollisionPrimitive:

@@ -77,7 +77,7 @@ def first_conflict(pairs: RobotPairDistance, mover: RobotSchedule, others: list[
     """The first time in [t0, t1] that ``mover`` comes closer than ``margin`` to one of ``others``. Continuous,
     not sampled: no robot point moves faster than the joints' reach times their peak speeds (the time law never
     exceeds them), so after a check with clearance d the next can wait until d - margin / 2 could be used up."""
-    speed = {s.robot: float(pairs.reach[s.robot] @ s.speeds) for s in [mover, *others]}
+    speed = {s.robot: float(pairs.reach[s.robot] @ s.limits.velocity) for s in [mover, *others]}
     t = t0
     while True:
         q, _ = schedule.at([t])

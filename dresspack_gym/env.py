@@ -64,6 +64,7 @@ from .rendering import check_frame_size
 from .simulation import CableSimulator
 from .station import Station
 from .tasks import random_start
+from .time_law import segment_durations
 from .validation import check_choice, check_integer, check_number
 from .validity import MotionValidity
 from .weld_cycle import REWARD_TERMS, WeldCycleTask
@@ -269,7 +270,7 @@ class DresspackEnv(gym.Env):
         if invalid:
             pass  # the robot stays where it is
         elif a == STAY:  # waiting costs the time of one joint step, while the cable swings/settles
-            wait = self.step_size / float(np.max(self._speeds()))
+            wait = self._step_time()
             self.sim.settle(wait)
             self.sim.motion_time += wait
         else:
@@ -429,8 +430,12 @@ class DresspackEnv(gym.Env):
             return "joint restriction: " + "; ".join(self.restrictions.violated_by(qs[np.argmax(bad)]))
         return "robot-obstacle collision"
 
-    def _speeds(self) -> np.ndarray:
-        return self.placement.robot.joint_speed * self.sim.config.speed_fraction
+    def _step_time(self) -> float:
+        """Seconds of one joint step of the fastest joint under the simulator's time law."""
+        limits = self.sim.motion_limits()
+        dq = np.zeros(limits.velocity.shape)
+        dq[self.robot_index, int(np.argmax(limits.velocity[self.robot_index]))] = self.step_size
+        return float(segment_durations(dq, limits))
 
     def _move(self, target: np.ndarray) -> None:
         q_all = self.sim.q.copy()

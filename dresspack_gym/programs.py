@@ -46,7 +46,7 @@ class TimedPath:
            robot: str = "") -> "TimedPath":
         """The trajectory timed by the robots' time law at ``speed_fraction`` of ``model``'s rated joint speeds,
         its joints as ``model``'s controller axis values."""
-        durations = traj.segment_durations(model.joint_speed, speed_fraction)
+        durations = traj.segment_durations(model.joint_motion_limits.at_speed(speed_fraction))
         return TimedPath(np.concatenate([[0.0], np.cumsum(durations)]), model.to_controller(traj.waypoints),
                          tuple(traj.stops), station, robot, float(speed_fraction), model.name)
 
@@ -146,6 +146,7 @@ def to_krl(path: TimedPath, name: str = "dresspack_plan") -> str:
     lines = [f"DEF {name}()", f"  ; {_header(path)}", "  ; axis values in degrees",
              "  BAS(#INITMOV, 0)"]
     lines += [f"  $VEL_AXIS[{i + 1}] = {pct}" for i in range(6)]
+    lines += [f"  $ACC_AXIS[{i + 1}] = 100" for i in range(6)]  # the plan was timed with the full accelerations
     stops = set(path.stops)
     for k, q in enumerate(path.joints):
         axes = ", ".join(f"A{i + 1} {v}" for i, v in enumerate(_deg(q)))

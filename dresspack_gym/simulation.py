@@ -2,7 +2,7 @@
 
 The robots (and the nodes' load cells) are position-driven: their joint positions and velocities are
 written before every physics step, so the cable never pushes them. Motions follow straight joint-space
-segments with a smooth (cubic) time law at a fraction of the rated joint speeds; the cable is damped
+segments under the robots' time law (jerk-limited, :mod:`time_law`) at a program speed fraction; the cable is damped
 (viscous drag on its free vertices) so that its shape stays near equilibrium while still depending on
 the path travelled. A settle ends when the equilibrium residual says so, never on time alone.
 """
@@ -21,7 +21,7 @@ from .joint_limits import check_within_limits
 from .measures import ClearanceProbe, WearMeasures, cable_points, measure_cable, node_loads
 from .segment_state import SegmentState, SegmentStateReader
 from .station import Station
-from .time_law import cubic_position, cubic_speed, segment_durations
+from .time_law import JointLimits, SegmentMotion
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_INTEGRATION | mujoco.mjtState.mjSTATE_PLASTIC
 # Settling checks the equilibrium residual every this many steps (one extra forward pass each).
@@ -175,13 +175,23 @@ class CableSimulator:
         mujoco.mj_forward(self.model, self.data)
 
     # ------------------------------------------------------------------------------ motion
+    def motion_limits(self, speed_fraction: float | None = None, *, quasi_static: bool = False) -> JointLimits:
+        """The time law's joint limits of all robots, (n_robots, 6) each, at ``speed_fraction`` (default: the
+        simulation's) of the rated speeds; ``quasi_static`` slows the full-speed motion down in time instead, so
+        accelerations shrink too (f^2)."""
+        frac = self.config.speed_fraction if speed_fraction is None else float(speed_fraction)
+        full = JointLimits.stack(r.robot.joint_motion_limits for r in self.station.config.robots)
+        return full.slowed(frac) if quasi_static else full.at_speed(frac)
+
     def move_to(self, q_target, *, speed_fraction: float | None = None, settle: bool = True,
                 record_every: float | None = None, until: float | None = None,
-                record_states: bool = False, on_sample=None) -> MotionTrace:
+                record_states: bool = False, on_sample=None, quasi_static: bool = False) -> MotionTrace:
         """Move all robots along a straight joint-space segment to ``q_target`` and (optionally) settle.
 
-        Duration: the slowest joint at ``speed_fraction`` of its rated speed under the cubic time law
-        (:mod:`time_law`). Returns samples every ``record_every`` s.
+        Timing: the time law (:mod:`time_law`), every joint of every robot within its velocity, acceleration and
+        jerk limits, velocities at ``speed_fraction`` of the rated speeds (a program's speed data), or with
+        ``quasi_static`` the full-speed motion slowed down in time by that fraction (for probing the cable's
+        static response: accelerations shrink with the square). Returns samples every ``record_every`` s.
         With ``until`` (a motion time) the motion stops there, mid-segment, without settling.
         The settle's outcome is kept in ``last_settle``.
         """
@@ -191,16 +201,14 @@ class CableSimulator:
             raise ConfigError("speed_fraction", f"must be in (0, 1], got {frac}")
         start = self.q.copy()
         delta = target - start
-        speeds = np.stack([r.robot.joint_speed for r in self.station.config.robots]) * frac
-        duration = float(np.max(segment_durations(delta, speeds))) if np.any(delta) else 0.0
         dt = self.model.opt.timestep
-        steps = int(np.ceil(duration / dt)) if duration > 0 else 0
+        # The whole segment is computed up front (same arithmetic as per step) to keep the loop lean.
+        frac_done, rate = SegmentMotion(delta, self.motion_limits(frac, quasi_static=quasi_static)).on_steps(dt)
+        steps = len(frac_done)
         trace = MotionTrace()
         stride = max(1, int(round(record_every / dt))) if record_every else 0
-        # The whole segment is computed up front (same arithmetic as per step) to keep the loop lean.
-        taus = np.arange(1, steps + 1) / steps if steps else np.zeros(0)
-        path = start.ravel() + cubic_position(taus)[:, None] * delta.ravel()
-        vel = cubic_speed(taus, duration)[:, None] * delta.ravel() if steps else np.zeros((0, delta.size))
+        path = start.ravel() + frac_done[:, None] * delta.ravel()
+        vel = rate[:, None] * delta.ravel()
         v_before = self.data.qvel[self._free_dof_idx].copy()
         g_window = _residual_gravity(self.config.gravity) * SETTLE_CHECK_EVERY * dt
         for k in range(1, steps + 1):

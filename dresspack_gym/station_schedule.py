@@ -1,4 +1,4 @@
-"""Timed robot programs on one station clock: legs (straight joint segments, cubic time law), welds, waits.
+"""Timed robot programs on one station clock: legs (straight joint segments under the time law), welds, waits.
 
 Where every robot is at any time ``t`` is answered here only (the coordination check, the station replay and the
 Gantt chart all read it), so they cannot disagree about the timing."""
@@ -23,12 +23,13 @@ class RobotSchedule:
     welds: tuple[str, ...]
     legs: tuple[np.ndarray, ...]
     leg_start: np.ndarray
-    speeds: np.ndarray  # (6,) joint speeds of the time law [rad/s] (rated x speed fraction)
+    limits: time_law.JointLimits  # (6,) joint limits of the time law (velocity at the programmed speed fraction)
     weld_time: float
     _table: tuple = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
-        durations = [time_law.segment_durations(np.diff(leg, axis=0), self.speeds) for leg in self.legs]
+        motions = [[time_law.SegmentMotion(dq, self.limits) for dq in np.diff(leg, axis=0)] for leg in self.legs]
+        durations = [np.array([m.duration for m in leg]) for leg in motions]
         object.__setattr__(self, "_leg_durations", np.array([float(d.sum()) for d in durations]))
         t0, d, a, b = [], [], [], []
         for start, leg, dur in zip(self.leg_start, self.legs, durations):
@@ -39,19 +40,21 @@ class RobotSchedule:
             b.append(leg[1:])
         table = (np.concatenate(t0), np.concatenate(d), np.concatenate(a), np.concatenate(b))
         object.__setattr__(self, "_table", table)
+        object.__setattr__(self, "_motions", [m for leg in motions for m in leg])
         object.__setattr__(self, "leg_start", np.asarray(self.leg_start, dtype=float))
 
     @staticmethod
-    def as_soon_as_possible(robot: int, welds, legs, speeds, weld_time: float, start: float = 0.0) -> RobotSchedule:
+    def as_soon_as_possible(robot: int, welds, legs, limits: time_law.JointLimits, weld_time: float,
+                            start: float = 0.0) -> RobotSchedule:
         """Every leg starts as soon as the previous weld is done (no waits)."""
         starts, t = [], start
         for k, leg in enumerate(legs):
             starts.append(t)
-            t += time_law.path_duration(leg, speeds)
+            t += time_law.path_duration(leg, limits)
             if k < len(welds):
                 t += weld_time
         return RobotSchedule(robot, tuple(welds), tuple(np.asarray(x, dtype=float) for x in legs),
-                             np.array(starts), np.asarray(speeds, dtype=float), float(weld_time))
+                             np.array(starts), limits, float(weld_time))
 
     # ---------------------------------------------------------------------------- timing
     def leg_durations(self) -> np.ndarray:
@@ -105,10 +108,11 @@ class RobotSchedule:
         tau = np.where(dur[k] > 0, (t - t0[k]) / np.where(dur[k] > 0, dur[k], 1.0), 1.0)
         moving = ~before & (tau < 1.0)
         resting = ~before & ~moving
-        tm = tau[moving]
-        km = k[moving]
-        q[moving] = a[km] + time_law.cubic_position(tm)[:, None] * (b[km] - a[km])
-        qd[moving] = time_law.cubic_speed(tm, 1.0)[:, None] / dur[km][:, None] * (b[km] - a[km])
+        for seg in np.unique(k[moving]):  # each segment's own timed motion, over the times that fall in it
+            rows = np.flatnonzero(moving & (k == seg))
+            frac, rate = self._motions[seg].at(t[rows] - t0[seg])
+            q[rows] = a[seg] + frac[:, None] * (b[seg] - a[seg])
+            qd[rows] = rate[:, None] * (b[seg] - a[seg])
         q[resting] = b[k[resting]]
         return q, qd
 

@@ -1,29 +1,154 @@
-"""The robots' time law on a straight joint-space segment: a cubic (smoothstep), at rest at both ends."""
+"""The robots' time law: rest-to-rest straight joint-space segments, time-optimal under every joint's velocity,
+acceleration and jerk limits, computed by Ruckig (the maintained online trajectory generator).
+
+A straight segment ``q(t) = a + s(t) (b - a)`` is one scalar motion s: 0 -> 1 whose limits are the tightest of the
+joints' (joint i allows s' <= v_i / |b_i - a_i|, likewise for s'' and s'''). Every joint of every robot then moves in
+phase, the path stays the straight segment the planners checked for collisions, no joint exceeds its limits, and
+the slowest joint is driven at its limits. Ruckig solves the scalar motion (a 7-phase jerk-limited profile).
+
+``speed_fraction`` is the programmed speed, as in a robot program's speed data: it scales the joints' velocity
+limits; accelerations and jerks stay the robot's own. (The cubic law of version 0 instead stretched every segment
+to 1.5x the slowest joint's time at that speed, whatever its length: short moves accelerated far beyond what a
+large robot does, long ones never reached the programmed speed.)
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from functools import lru_cache
+
 import numpy as np
+from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory as RuckigTrajectory
 
-# The cubic s(t) = 3 t^2 - 2 t^3 peaks at 1.5x its mean speed: a segment lasts 1.5x the time the slowest joint
-# needs at its allowed speed, so no joint ever exceeds that speed.
-CUBIC_PEAK_FACTOR = 1.5
-
-
-def segment_durations(dq: np.ndarray, speeds: np.ndarray) -> np.ndarray:
-    """Seconds per segment for joint changes ``dq`` (..., n_joints) at peak joint ``speeds`` [rad/s]."""
-    return CUBIC_PEAK_FACTOR * np.max(np.abs(dq) / np.asarray(speeds), axis=-1)
-
-
-def path_duration(waypoints: np.ndarray, speeds: np.ndarray) -> float:
-    """Seconds to run a path (K, n_joints) of straight segments, stopping at every waypoint."""
-    return float(segment_durations(np.diff(np.asarray(waypoints, dtype=float), axis=0), speeds).sum())
+# Scalar motions solved per Ruckig call when durations are asked for in bulk (planners cost thousands of moves).
+BATCH = 2048
+# Recorded with results that depend on timing (robustness maps), so one computed under another law is not resumed.
+TIME_LAW = "ruckig rest-to-rest, jerk-limited, velocity x speed_fraction"
+# [rad] a joint change below this is "not moving": it would otherwise set an absurd scalar limit v / |dq|.
+STILL = 1e-12
 
 
-def cubic_position(tau: np.ndarray) -> np.ndarray:
-    """Fraction of the segment covered at normalised time ``tau`` in [0, 1]."""
-    return 3 * tau ** 2 - 2 * tau ** 3
+@dataclass(frozen=True)
+class JointLimits:
+    """Velocity [rad/s], acceleration [rad/s^2] and jerk [rad/s^3] limits per joint, arrays of one shape
+    (6,) for a robot, (n_robots, 6) for a station."""
+
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    jerk: np.ndarray
+
+    def at_speed(self, fraction: float) -> JointLimits:
+        """The limits of a program run at ``fraction`` of the rated joint speeds (velocity scaled only)."""
+        return JointLimits(self.velocity * float(fraction), self.acceleration, self.jerk)
+
+    def slowed(self, fraction: float) -> JointLimits:
+        """The full-speed motion run ``1 / fraction`` times slower in time (v f, a f^2, j f^3): the same profile
+        stretched, for quasi-static probing where accelerations must shrink with the speed."""
+        f = float(fraction)
+        return JointLimits(self.velocity * f, self.acceleration * f ** 2, self.jerk * f ** 3)
+
+    @staticmethod
+    def stack(limits) -> JointLimits:
+        """One set of limits for several robots moving together: (n_robots, 6) arrays."""
+        limits = list(limits)
+        return JointLimits(*(np.stack([getattr(x, k) for x in limits]) for k in ("velocity", "acceleration", "jerk")))
 
 
-def cubic_speed(tau: np.ndarray, duration: float) -> np.ndarray:
-    """d(fraction)/dt [1/s] at normalised time ``tau`` of a segment lasting ``duration`` seconds."""
-    return (6 * tau - 6 * tau ** 2) / duration
+def _scalar_limits(dq: np.ndarray, limits: JointLimits) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per segment (rows of ``dq`` flattened to (M, n)): the velocity-bound time 1/V and the scalar motion's
+    limits in units where s runs over that time at speed 1 (distance 1/V, speed 1, acceleration A/V, jerk J/V).
+    These units keep the numbers moderate for tiny and huge moves alike (the duration is unit-free)."""
+    n = int(np.prod(np.shape(limits.velocity)))
+    d = np.abs(np.asarray(dq, dtype=float)).reshape(-1, n)
+    moving = d > STILL
+    safe = np.where(moving, d, 1.0)
+    per = [np.where(moving, np.broadcast_to(np.ravel(x), d.shape) / safe, np.inf)
+           for x in (limits.velocity, limits.acceleration, limits.jerk)]
+    v, a, j = (x.min(axis=1) for x in per)
+    return np.where(np.isfinite(v), 1.0 / np.where(np.isfinite(v), v, 1.0), 0.0), v, a, j
+
+
+@lru_cache(maxsize=4)
+def _solver(n: int) -> tuple[Ruckig, InputParameter, RuckigTrajectory]:
+    """A Ruckig instance for ``n`` independent scalar motions from rest to rest (kept: building one costs more
+    than solving it)."""
+    inp = InputParameter(n)
+    inp.synchronization = Synchronization.No
+    inp.current_position = np.zeros(n)
+    return Ruckig(n), inp, RuckigTrajectory(n)
+
+
+def _check(result, what: str) -> None:
+    if result not in (Result.Working, Result.Finished):
+        raise RuntimeError(f"Ruckig could not time {what}: {result}")  # limits are validated positive upstream
+
+
+def segment_durations(dq: np.ndarray, limits: JointLimits) -> np.ndarray:
+    """Seconds of each rest-to-rest straight segment with joint changes ``dq`` (..., *limits shape)."""
+    dq = np.asarray(dq, dtype=float)
+    shape = dq.shape[:dq.ndim - np.ndim(limits.velocity)]
+    length, v, a, j = _scalar_limits(dq, limits)
+    out = np.zeros(length.size)
+    todo = np.flatnonzero(length > 0)
+    solver = _solver(BATCH)
+    for start in range(0, todo.size, BATCH):
+        idx = todo[start:start + BATCH]
+        otg, inp, traj = solver
+        pad = BATCH - idx.size  # padded with unit motions, so one solver size serves every call
+        inp.target_position = np.concatenate([length[idx], np.ones(pad)])
+        inp.max_velocity = np.ones(BATCH)
+        inp.max_acceleration = np.concatenate([a[idx] / v[idx], np.ones(pad)])
+        inp.max_jerk = np.concatenate([j[idx] / v[idx], np.ones(pad)])
+        _check(otg.calculate(inp, traj), f"{idx.size} segments")
+        out[idx] = np.asarray(traj.independent_min_durations)[:idx.size]
+    return out.reshape(shape)
+
+
+def velocity_bound(dq: np.ndarray, limits: JointLimits) -> np.ndarray:
+    """A lower bound of :func:`segment_durations` (the slowest joint's time at its top speed), cheap in bulk."""
+    dq = np.asarray(dq, dtype=float)
+    return np.max(np.abs(dq) / limits.velocity, axis=tuple(range(dq.ndim - np.ndim(limits.velocity), dq.ndim)))
+
+
+def path_duration(waypoints: np.ndarray, limits: JointLimits) -> float:
+    """Seconds to run a path (K, *limits shape) of straight segments, stopping at every waypoint."""
+    return float(segment_durations(np.diff(np.asarray(waypoints, dtype=float), axis=0), limits).sum())
+
+
+class SegmentMotion:
+    """The timed motion of one straight segment: ``fraction(t)`` of the way and its rate at times t in
+    [0, duration], plus the motion stretched to end on a whole number of simulator steps (``on_steps``)."""
+
+    def __init__(self, dq: np.ndarray, limits: JointLimits):
+        length, v, a, j = (float(x[0]) for x in _scalar_limits(dq, limits))
+        self.length = length
+        self.duration = 0.0
+        if length <= 0:
+            return
+        otg, inp, self._traj = Ruckig(1), InputParameter(1), RuckigTrajectory(1)
+        inp.current_position, inp.target_position = [0.0], [length]
+        inp.max_velocity, inp.max_acceleration, inp.max_jerk = [1.0], [a / v], [j / v]
+        _check(otg.calculate(inp, self._traj), "a segment")
+        self.duration = float(self._traj.duration)
+
+    def at(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """(fraction of the segment covered, its rate [1/s]) at times ``t`` [s] (clipped to the motion)."""
+        t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), 0.0, self.duration)
+        if self.length <= 0:
+            return np.ones_like(t), np.zeros_like(t)
+        pos, vel = np.empty_like(t), np.empty_like(t)
+        for i, ti in enumerate(t):
+            p, v, _ = self._traj.at_time(float(ti))
+            pos[i], vel[i] = p[0], v[0]
+        return np.clip(pos / self.length, 0.0, 1.0), vel / self.length
+
+    def on_steps(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """(fraction, rate) after each of the ceil(duration / dt) steps of ``dt``: the motion slowed by a hair so
+        it ends exactly on the last step (a slower copy of a motion within the limits stays within them)."""
+        steps = int(np.ceil(self.duration / dt - 1e-9)) if self.duration > 0 else 0
+        if steps == 0:
+            return np.zeros(0), np.zeros(0)
+        stretch = self.duration / (steps * dt)
+        frac, rate = self.at(np.arange(1, steps + 1) * dt * stretch)
+        frac[-1] = 1.0
+        return frac, rate * stretch

@@ -21,8 +21,8 @@ MEASURES = ("curvature", "tension", "clearance", "twist_rate")
 
 @dataclass(frozen=True)
 class Trajectory:
-    """Waypoints (K, 6) [rad] joined by straight joint-space segments with the simulator's cubic time law
-    (zero speed at each waypoint, peak joint speed = ``speed_fraction`` x rated); ``stops`` are the
+    """Waypoints (K, 6) [rad] joined by straight joint-space segments under the simulator's time law
+    (at rest at each waypoint, joint speeds up to ``speed_fraction`` x rated); ``stops`` are the
     waypoint indices of the task's welds and final Home, where the robot stands still and the cable settles."""
 
     waypoints: np.ndarray
@@ -38,9 +38,9 @@ class Trajectory:
             raise ConfigError("trajectory.stops", f"must be increasing waypoint indices in [1, {len(w) - 1}]")
         object.__setattr__(self, "waypoints", w)
 
-    def segment_durations(self, joint_speed: np.ndarray, speed_fraction: float) -> np.ndarray:
-        """Seconds per segment: the slowest joint at ``speed_fraction`` of its rated speed (cubic time law)."""
-        return time_law.segment_durations(np.diff(self.waypoints, axis=0), np.asarray(joint_speed) * speed_fraction)
+    def segment_durations(self, limits: time_law.JointLimits) -> np.ndarray:
+        """Seconds per segment under the time law with the robot's joint ``limits`` (at the programmed speed)."""
+        return time_law.segment_durations(np.diff(self.waypoints, axis=0), limits)
 
     def legs(self) -> list[np.ndarray]:
         """The waypoints of each leg (between consecutive stops, both ends included)."""

@@ -19,7 +19,7 @@ from dresspack_gym.simulation import CableSimulator
 from dresspack_gym.station import Station
 from dresspack_gym.station_schedule import RobotSchedule, StationSchedule
 from dresspack_gym.station_tasks import make_station_task
-from dresspack_gym.time_law import segment_durations
+from dresspack_gym.time_law import JointLimits, segment_durations
 
 
 def brute_force_makespan(p: RoutingProblem) -> float:
@@ -110,11 +110,11 @@ def test_station_solver_is_optimal_on_a_two_robot_station(two_robot_station):
 
 
 def test_schedule_timing_follows_the_time_law_with_welds_and_waits():
-    speeds = np.full(6, 1.0)
+    limits = JointLimits(np.full(6, 1.0), np.full(6, 4.0), np.full(6, 40.0))
     home, a, b = np.zeros(6), np.full(6, 0.3), np.array([0.5, 0, 0, 0, 0, 0])
     s = RobotSchedule.as_soon_as_possible(0, ["w1", "w2"], [np.array([home, a]), np.array([a, b]), np.array([b, home])],
-                                          speeds, weld_time=2.0)
-    d = [float(segment_durations(x - y, speeds)) for x, y in [(a, home), (b, a), (home, b)]]
+                                          limits, weld_time=2.0)
+    d = [float(segment_durations(x - y, limits)) for x, y in [(a, home), (b, a), (home, b)]]
     assert s.end_time == pytest.approx(sum(d) + 4.0)
     q, qd = s.at([d[0], d[0] + 1.0, d[0] + 2.0, s.end_time + 5.0, -1.0])
     np.testing.assert_allclose(q[0], a)
@@ -123,7 +123,7 @@ def test_schedule_timing_follows_the_time_law_with_welds_and_waits():
     np.testing.assert_allclose(q[3], home)
     np.testing.assert_allclose(q[4], home)
     mid = s.at([d[0] / 2])[0][0]
-    np.testing.assert_allclose(mid, a / 2)  # the cubic is symmetric: half way at half time
+    np.testing.assert_allclose(mid, a / 2)  # a rest-to-rest profile is symmetric: half way at half time
     late = s.delayed(1, 3.0)
     assert late.waits().tolist() == pytest.approx([0.0, 3.0, 0.0])
     assert late.end_time == pytest.approx(s.end_time + 3.0)
@@ -134,10 +134,10 @@ def _both_to_one_weld(station: Station) -> StationSchedule:
     """Both robots sent to the same weld option at the same time (a collision by construction)."""
     task = make_station_task(station, lambda r: None, ["r2_b_pillar_1"])
     q = {r: next(o.q for o in task.options["r2_b_pillar_1"] if o.robot == r) for r in (0, 1)}
-    speeds = station.config.robots[0].robot.joint_speed * station.config.simulation.speed_fraction
+    limits = station.config.robots[0].robot.joint_motion_limits.at_speed(station.config.simulation.speed_fraction)
     robots = tuple(RobotSchedule.as_soon_as_possible(r, ["r2_b_pillar_1"], [np.array([task.homes[r], q[r]]),
                                                                              np.array([q[r], task.homes[r]])],
-                                                     speeds, 1.0) for r in (0, 1))
+                                                     limits, 1.0) for r in (0, 1))
     return StationSchedule(robots, task.homes)
 
 
@@ -176,16 +176,20 @@ def test_follow_drives_the_cables_like_move_to(two_robot_station):
     """A timed program that is one straight segment gives the same cables as move_to (same steps, same law):
     r1 turns its base for exactly 0.5 s (a whole number of steps), r2 stands still."""
     st = two_robot_station
-    speeds = st.config.robots[0].robot.joint_speed * st.config.simulation.speed_fraction
+    limits = st.config.robots[0].robot.joint_motion_limits.at_speed(st.config.simulation.speed_fraction)
+    lo, hi = 0.0, 1.0  # the base turn that takes 0.5 s (the law's time grows with the distance)
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if segment_durations(np.array([mid, 0, 0, 0, 0, 0]), limits) < 0.5 else (lo, mid)
     target = st.home.copy()
-    target[0, 0] += 0.5 * speeds[0] / 1.5  # the cubic law: duration = 1.5 dq / speed = 0.5 s
+    target[0, 0] += 0.5 * (lo + hi)
     a, b = CableSimulator(st), CableSimulator(st)
     a.reset(st.home)
     b.reset(st.home)
     a.move_to(target, settle=False)
     program = StationSchedule((
-        RobotSchedule.as_soon_as_possible(0, [], [np.array([st.home[0], target[0]])], speeds, 0.0),
-        RobotSchedule.as_soon_as_possible(1, [], [np.array([st.home[1], st.home[1]])], speeds, 0.0)), st.home)
+        RobotSchedule.as_soon_as_possible(0, [], [np.array([st.home[0], target[0]])], limits, 0.0),
+        RobotSchedule.as_soon_as_possible(1, [], [np.array([st.home[1], st.home[1]])], limits, 0.0)), st.home)
     assert program.makespan == pytest.approx(0.5)
     b.follow(program.at, 0.5, record_every=0.1)
     assert b.motion_time == pytest.approx(a.motion_time)

@@ -214,7 +214,7 @@ def _objective(roadmap, route, weight):
     """∫(1 + weight C_map) dt of a route, every segment costed finely."""
     total = 0.0
     for a, b in zip(route[:-1], route[1:]):
-        t = motion_time(a, b, roadmap.speeds)
+        t = motion_time(a, b, roadmap.limits)
         total += t + weight * roadmap._fine_wear(a, b, t)
     return total
 
@@ -223,9 +223,9 @@ def test_roadmap_route_is_valid_no_worse_than_direct_and_reproducible(default_co
     st = Station(default_config)
     wm = build_wear_map(default_config, 0, WearMapSettings(samples=150, seed=2))
     validity = MotionValidity(st, 0, margin=0.005)
-    speeds = default_config.robots[0].robot.joint_speed * default_config.simulation.speed_fraction
+    limits = default_config.robots[0].robot.joint_motion_limits.at_speed(default_config.simulation.speed_fraction)
     cost = MapStateCost(st, wm)
-    roadmap = MapRoadmap(wm, validity, cost, speeds)
+    roadmap = MapRoadmap(wm, validity, cost, limits)
     assert 0 < len(roadmap.nodes) <= len(wm)
     a = st.home[0]
     b = a + np.radians([-30.0, 15.0, 0.0, -20.0, 10.0, -20.0])
@@ -238,7 +238,7 @@ def test_roadmap_route_is_valid_no_worse_than_direct_and_reproducible(default_co
         assert validity.path_valid(route)
         # the direct motion is one of the roadmap's edges: the search may only do better
         assert _objective(roadmap, route, weight) <= _objective(roadmap, np.array([a, b]), weight) + 1e-9
-    fresh = MapRoadmap(wm, MotionValidity(st, 0, margin=0.005), MapStateCost(st, wm), speeds)
+    fresh = MapRoadmap(wm, MotionValidity(st, 0, margin=0.005), MapStateCost(st, wm), limits)
     first = fresh.route(a, b, 50.0)
     np.testing.assert_array_equal(first, roadmap.route(a, b, 50.0))
     # a plan starts afresh: what earlier searches learnt about edges cannot change a later route

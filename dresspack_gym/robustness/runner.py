@@ -14,6 +14,7 @@ import numpy as np
 
 from ..config import StationConfig
 from ..errors import ConfigError
+from ..time_law import TIME_LAW
 from ..validation import check_choice
 from .algorithm import RobustnessEvaluator, RobustnessSettings
 from .grid import RobustnessGrid
@@ -31,6 +32,7 @@ def _fingerprint(grid: RobustnessGrid, station_name: str, settings: RobustnessSe
         h.update(np.round(axis, 12).tobytes())
     h.update(station_name.encode())
     h.update(json.dumps(asdict(settings), sort_keys=True, default=float).encode())
+    h.update(TIME_LAW.encode())  # the moves between configurations are timed by it
     return h.hexdigest()[:16]
 
 
@@ -161,10 +163,13 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
     if meta_path.is_file():
         meta = json.loads(meta_path.read_text())
         if meta.get("fingerprint") != fp:
-            raise ConfigError("out", f"{out} holds a map of a different grid, station or settings "
-                                     f"({meta.get('grid')}, {meta.get('station')}); use another --out folder")
+            raise ConfigError("out", f"{out} holds a map of a different grid, station, settings or time law "
+                                     f"({meta.get('grid')}, {meta.get('station')}, "
+                                     f"{meta.get('time_law', 'the cubic law of version 0')}); "
+                                     f"use another --out folder")
     else:
         meta_path.write_text(json.dumps({"fingerprint": fp, "grid": grid.name, "station": config.name,
+                                         "time_law": TIME_LAW,
                                          "n_configs": len(grid), "settings": asdict(settings),
                                          "grid_axes": grid_to_meta(grid)}, indent=2,
                                         default=float))
