@@ -571,6 +571,7 @@ class Obstacle:
     mesh_file: str | None = None
     mesh_scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
     rgba: tuple[float, float, float, float] = (0.55, 0.6, 0.68, 1.0)
+    part: bool = False  # a workpiece: weld points may be drawn on its faces (weld_sampling.py)
 
 
 @dataclass(frozen=True)
@@ -629,6 +630,9 @@ def obstacle_from_section(o: Section) -> Obstacle:
     pos = o.vector("pos", 3, (0, 0, 0), lo=-500, hi=500, unit="m")
     rpy = tuple(np.radians(o.vector("rpy_deg", 3, (0, 0, 0), lo=-360, hi=360, unit="deg")))
     rgba = o.vector("rgba", 4, (0.55, 0.6, 0.68, 1.0), lo=0.0, hi=1.0)
+    part = o.boolean("part", False)
+    if part and kind != "box":
+        raise ConfigError(o.field("part"), f"weld points are drawn on the faces of box parts; {name!r} is a {kind}")
     fromto, mesh_file, scale = None, None, (1.0, 1.0, 1.0)
     if kind == "box":
         size = o.vector("half_size", 3, lo=1e-4, hi=500.0, unit="m")
@@ -648,7 +652,7 @@ def obstacle_from_section(o: Section) -> Obstacle:
         scale = o.vector("scale", 3, (1, 1, 1), lo=1e-6, hi=1e6)
         size = ()
     o.done()
-    return Obstacle(name, kind, pos, rpy, size, fromto, mesh_file, scale, rgba)
+    return Obstacle(name, kind, pos, rpy, size, fromto, mesh_file, scale, rgba, part)
 
 
 def weld_point_from_section(w: Section, robot_names: list[str]) -> WeldPoint:
