@@ -41,7 +41,9 @@ weld and is truncated after ``max_steps``.
 Observation (float32, all roughly in [-1, 1]), laid out by ``observation_structure`` (part name -> size, in
 order; the space's size is their sum): joints scaled by their limits (6), goal scaled likewise (6), joint error to
 the goal / pi (6), task progress (1), ``cable_samples`` cable points in the TCP frame divided by the cable length
-(3 each), and the measures κ/κ0, F/``tension_scale``, d/c (3).
+(3 each), and the measures κ/κ0, F/``tension_scale``, d/c (3); with ``part_welds`` (each episode draws that many
+weld points on the station's parts, :mod:`weld_sampling`) also the goal's tool position from the base /
+``POSE_SCALE`` and its approach direction (6).
 """
 
 from __future__ import annotations
@@ -68,11 +70,15 @@ from .time_law import segment_durations
 from .validation import check_choice, check_integer, check_number
 from .validity import MotionValidity
 from .weld_cycle import REWARD_TERMS, WeldCycleTask
+from .weld_sampling import WeldSampling
 
 # Observations are clipped to +-OBS_BOUND (all parts are scaled to about [-1, 1]); clearance is observed as d/c up
 # to CLEARANCE_OBS_CAP: farther than a few clearance thresholds from everything carries no information.
 OBS_BOUND = 10.0
 CLEARANCE_OBS_CAP = 5.0
+# [m] the goal tool position is observed relative to the robot's base in these units (the shipped robots reach
+# 2.55-2.7 m), so it stays within about [-1, 1]
+POSE_SCALE = 3.0
 N_JOINT_ACTIONS = 12
 STAY = 12
 TOWARD_GOAL = 13
@@ -101,6 +107,8 @@ _NUMBER_ARGS = {
     "mask_resolution_deg": (0.01, 90.0, False),
     "start_noise_deg": (0.0, 180.0, False),
     "sim_timestep": (1e-4, 0.01, False),
+    "part_welds": (0, 100, True),
+    "weld_tilt_deg": (0.0, 80.0, False),
 }
 _BOOL_ARGS = ("shuffle_welds", "goal_action", "wear_integral")
 
@@ -147,8 +155,9 @@ class DresspackEnv(gym.Env):
                  invalid_action: str = "penalize", invalid_penalty: float = 1.0, settle_time: float = 0.3,
                  cable_samples: int = 8, collision_margin: float = 0.0, mask_resolution_deg: float = 2.0,
                  goal_action: bool = False, wear_integral: bool = False, tasks: list[list[str]] | None = None,
-                 start_noise_deg: float = 0.0, sim_timestep: float | None = None,
-                 render_mode: str | None = None, render_size: tuple[int, int] = (480, 360)):
+                 start_noise_deg: float = 0.0, sim_timestep: float | None = None, part_welds: int = 0,
+                 weld_tilt_deg: float = 20.0, render_mode: str | None = None,
+                 render_size: tuple[int, int] = (480, 360)):
         self._kwargs = dict(locals())
         for k in ("self", "__class__"):
             self._kwargs.pop(k, None)
@@ -183,11 +192,14 @@ class DresspackEnv(gym.Env):
                                   n_welds=n_welds, shuffle_welds=shuffle_welds, tasks=tasks, time_weight=time_weight,
                                   wear_weight=wear_weight, goal_reward=goal_reward, progress_weight=progress_weight,
                                   invalid_penalty=invalid_penalty, wear_integral=wear_integral,
-                                  cost_variant=cost_variant)
+                                  cost_variant=cost_variant, part_welds=part_welds,
+                                  weld_sampling=WeldSampling(tilt_max=math.radians(weld_tilt_deg)))
         self.goal_action = bool(goal_action)
         self.start_noise = math.radians(start_noise_deg)
         self.observation_structure = {"joints": 6, "goal": 6, "goal_error": 6, "progress": 1,
                                       "cable_points": 3 * self.cable_samples, "measures": 3}
+        if part_welds:  # goals change every episode: the goal's tool pose too (position, approach)
+            self.observation_structure["goal_pose"] = 6
         n_obs = sum(self.observation_structure.values())
         self.observation_space = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(n_obs,), dtype=np.float32)
         self.n_actions = N_JOINT_ACTIONS + (2 if self.goal_action else 1)
@@ -366,6 +378,7 @@ class DresspackEnv(gym.Env):
     # ----------------------------------------------------------------------------- pickling
     def __getstate__(self) -> dict[str, Any]:
         return {"kwargs": self._kwargs, "sim": self.sim.get_state(), "goal_names": self.task.goal_names[:-1],
+                "episode_goals": self.task.episode_goals,
                 "goal_index": self.goal_index, "steps": self.steps, "cycle_time": self.cycle_time,
                 "needs_reset": self._needs_reset,
                 "damage": (self._damage, self._damage_rate, self._episode_states), "rng": self._np_random.bit_generator.state if self._np_random is not None else None}
@@ -373,6 +386,7 @@ class DresspackEnv(gym.Env):
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__init__(**state["kwargs"])
         self.sim.set_state(state["sim"])
+        self.task.episode_goals = dict(state.get("episode_goals", {}))
         self._setup_episode(state["goal_names"], state["goal_index"])
         self.steps, self.cycle_time = state["steps"], state["cycle_time"]
         self._needs_reset = state.get("needs_reset", False)
@@ -461,6 +475,10 @@ class DresspackEnv(gym.Env):
                          measures.max_tension / cfg.tension_scale,
                          min(measures.min_clearance / max(cfg.clearance, 1e-6), CLEARANCE_OBS_CAP)],
         }
+        if "goal_pose" in self.observation_structure:
+            goal_tcp = self.robot.kinematics.tcp_pose(self.goal)
+            base = np.asarray(self.placement.base_pos)
+            parts["goal_pose"] = np.concatenate([(goal_tcp[:3, 3] - base) / POSE_SCALE, goal_tcp[:3, 2]])
         obs = np.concatenate([parts[k] for k in self.observation_structure])
         return np.clip(obs, -OBS_BOUND, OBS_BOUND).astype(np.float32)
 

@@ -77,8 +77,13 @@ def select_weld_goals(station: Station, robot: int, collides, welds: list[str] |
             robust = " and the robustness map" if placement.robustness_map is not None else ""
             raise ConfigError(f"weld_points.{name}", f"no IK solution passes the joint restrictions{robust} "
                                                       "without colliding with the station")
-        goals[name] = free[np.argmin(np.max(np.abs(free - home), axis=1))]
+        goals[name] = closest_branch(free, home)
     return goals
+
+
+def closest_branch(configurations: np.ndarray, home: np.ndarray) -> np.ndarray:
+    """The weld goal among allowed IK branches: the one with the smallest largest joint change from Home."""
+    return configurations[np.argmin(np.max(np.abs(configurations - home), axis=1))]
 
 
 def make_task(station: Station, robot: int, collides, welds: list[str] | None = None, field: str = "welds") -> Task:

@@ -11,7 +11,8 @@ import numpy as np
 from .cost_variants import cost_function
 from .errors import ConfigError
 from .station import Station
-from .tasks import select_weld_goals
+from .tasks import closest_branch, select_weld_goals
+from .weld_sampling import SampledWeld, WeldSampler, WeldSampling
 
 # The reward's named terms, in the order they are reported (``info["reward_<term>"]``); their sum is the reward.
 REWARD_TERMS = ("time", "wear", "progress", "goal", "invalid")
@@ -32,7 +33,8 @@ class WeldCycleTask:
     def __init__(self, station: Station, robot: int, collides, step_size: float, *, welds=None, n_welds=None,
                  shuffle_welds: bool = False, tasks=None, time_weight: float = 1.0, wear_weight: float = 1.0,
                  goal_reward: float = 10.0, progress_weight: float = 1.0, invalid_penalty: float = 1.0,
-                 wear_integral: bool = False, cost_variant: str = "thesis"):
+                 wear_integral: bool = False, cost_variant: str = "thesis", part_welds: int = 0,
+                 weld_sampling: WeldSampling | None = None):
         self.home = station.config.robots[robot].home
         self.wear_config = station.config.wear_cost
         self.cost_fn = cost_function(cost_variant)
@@ -40,7 +42,18 @@ class WeldCycleTask:
         self.weights = dict(time=time_weight, wear=wear_weight, progress=progress_weight, goal=goal_reward,
                             invalid=invalid_penalty)
         self.wear_integral = bool(wear_integral)
-        self.weld_goals = select_weld_goals(station, robot, collides, welds)
+        # part_welds > 0: every episode draws that many new weld points on the station's parts (goal-conditioned)
+        self.part_welds = int(part_welds)
+        self.sampler = WeldSampler(station, robot, collides, weld_sampling or WeldSampling()) \
+            if self.part_welds else None
+        if self.part_welds and (n_welds is not None or tasks is not None or shuffle_welds):
+            raise ConfigError("part_welds", "draws each episode's welds on the parts: leave n_welds, tasks and "
+                                            "shuffle_welds out")
+        self.sampled: dict[str, SampledWeld] = {}  # this episode's drawn welds
+        self.episode_goals: dict[str, np.ndarray] = {}
+        named = [w for w in station.config.weld_points if w.robot == station.config.robots[robot].name]
+        self.weld_goals = select_weld_goals(station, robot, collides, welds) \
+            if named or not self.part_welds else {}
         if n_welds is not None and not 1 <= n_welds <= len(self.weld_goals):
             raise ConfigError("n_welds", f"must be in [1, {len(self.weld_goals)}], got {n_welds}")
         self.n_welds = n_welds
@@ -68,9 +81,16 @@ class WeldCycleTask:
         """This episode's welds: ``options["welds"]``, else one of ``tasks``, else all (a random ``n_welds``
         subset, optionally shuffled), drawn from ``rng``."""
         order = list(self.weld_goals)
+        self.sampled, self.episode_goals = {}, {}
         if "welds" in options:
             order = list(options["welds"])
             self._check_welds(order, "options.welds")
+        elif self.sampler is not None:
+            for k in range(self.part_welds):
+                drawn = self.sampler.sample(rng, f"part_{k}")
+                self.sampled[drawn.weld.name] = drawn
+                self.episode_goals[drawn.weld.name] = closest_branch(drawn.configurations, self.home)
+            order = list(self.sampled)
         elif self.tasks is not None:
             order = list(self.tasks[rng.integers(len(self.tasks))])
         else:
@@ -82,7 +102,8 @@ class WeldCycleTask:
 
     def begin(self, order: list[str], goal_index: int = 0) -> None:
         self.goal_names = list(order) + ["home"]
-        self.goals = [self.weld_goals[n] for n in order] + [self.home.copy()]
+        goals = {**self.weld_goals, **self.episode_goals}
+        self.goals = [goals[n] for n in order] + [self.home.copy()]
         self.goal_index = goal_index
 
     @property

@@ -100,3 +100,39 @@ def test_bad_input_is_named(station):
         obstacle_from_section(Section({"name": "ball", "type": "sphere", "radius": 0.2, "part": True},
                                       "obstacles[0]"))
     assert not checker.collides(station.home[0])
+
+
+# ------------------------------------------------------------------------------ goal-conditioned episodes
+def test_env_draws_new_welds_on_the_parts_each_episode():
+    import pickle
+
+    from dresspack_gym.env import DresspackEnv
+    from dresspack_gym.tasks import closest_branch
+
+    env = DresspackEnv("default", part_welds=2, max_steps=5, settle_time=0.0)
+    assert env.observation_structure["goal_pose"] == 6
+    obs, info = env.reset(seed=3)
+    assert obs.shape == env.observation_space.shape == (sum(env.observation_structure.values()),)
+    names = env.task.goal_names
+    assert names[:2] == ["part_0", "part_1"] and names[-1] == "home" and info["n_goals"] == 3
+    for name in names[:2]:
+        drawn = env.task.sampled[name]
+        goal = env.task.episode_goals[name]
+        np.testing.assert_array_equal(goal, closest_branch(drawn.configurations, env.placement.home))
+        assert env.validity.valid(goal)
+    # the observed goal pose is the drawn weld's: tool tip position and approach
+    pose = obs[-6:]
+    weld = env.task.sampled["part_0"].weld
+    np.testing.assert_allclose(pose[:3] * 3.0 + np.array(env.placement.base_pos), weld.pos, atol=1e-5)
+    np.testing.assert_allclose(pose[3:], np.array(weld.approach) / np.linalg.norm(weld.approach), atol=1e-5)
+    first = [env.task.sampled[n].weld.pos for n in names[:2]]
+    env.reset(seed=3)
+    assert [env.task.sampled[n].weld.pos for n in names[:2]] == first  # seeded
+    env.reset(seed=4)
+    assert [env.task.sampled[n].weld.pos for n in names[:2]] != first
+    env.step(int(np.flatnonzero(env.action_masks())[0]))
+    clone = pickle.loads(pickle.dumps(env))  # a drawn episode survives pickling (vectorised envs, checkpoints)
+    np.testing.assert_array_equal(clone.goal, env.goal)
+    assert clone.task.goal_names == env.task.goal_names
+    with pytest.raises(ConfigError, match="part_welds"):
+        DresspackEnv("default", part_welds=1, n_welds=2)
