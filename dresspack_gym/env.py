@@ -62,6 +62,7 @@ from .errors import ConfigError, DresspackError, EnvUsageError
 from .fatigue import fatigue_life
 from .segment_state import SegmentState
 from .loading import load_station
+from .physics_profiles import PROFILES, with_profile
 from .rendering import check_frame_size
 from .simulation import CableSimulator
 from .station import Station
@@ -135,6 +136,7 @@ def _check_arguments(kw: dict[str, Any]) -> None:
                                     or not all(isinstance(w, str) for w in kw["welds"])):
         raise ConfigError("welds", f"expected a list of weld-point names, got {kw['welds']!r}")
     check_choice("cost_variant", kw["cost_variant"], COST_VARIANTS)
+    check_choice("physics_profile", kw["physics_profile"], list(PROFILES))
     check_choice("invalid_action", kw["invalid_action"], ("penalize", "raise"))
     check_choice("render_mode", kw["render_mode"], (None, "rgb_array"))
     size = kw["render_size"]
@@ -155,18 +157,22 @@ class DresspackEnv(gym.Env):
                  invalid_action: str = "penalize", invalid_penalty: float = 1.0, settle_time: float = 0.3,
                  cable_samples: int = 8, collision_margin: float = 0.0, mask_resolution_deg: float = 2.0,
                  goal_action: bool = False, wear_integral: bool = False, tasks: list[list[str]] | None = None,
-                 start_noise_deg: float = 0.0, sim_timestep: float | None = None, part_welds: int = 0,
+                 start_noise_deg: float = 0.0, sim_timestep: float | None = None,
+                 physics_profile: str = "accurate", part_welds: int = 0,
                  weld_tilt_deg: float = 20.0, render_mode: str | None = None,
                  render_size: tuple[int, int] = (480, 360)):
         self._kwargs = dict(locals())
         for k in ("self", "__class__"):
             self._kwargs.pop(k, None)
         _check_arguments(self._kwargs)
-        if sim_timestep is not None:
+        if sim_timestep is not None or physics_profile != "accurate":
             # a station compiled from the changed config: everything derived from the timestep (the cable's
             # constraint impedances) follows it, and a caller's Station keeps its own
             config = station.config if isinstance(station, Station) else load_station(station)
-            station = Station(replace(config, simulation=replace(config.simulation, timestep=float(sim_timestep))))
+            config = with_profile(config, physics_profile)
+            if sim_timestep is not None:
+                config = replace(config, simulation=replace(config.simulation, timestep=float(sim_timestep)))
+            station = Station(config)
         self.station = station if isinstance(station, Station) else Station(load_station(station))
         if not 0 <= robot < self.station.n_robots:
             raise ConfigError("robot", f"robot index {robot} out of range for {self.station.n_robots} robot(s)")

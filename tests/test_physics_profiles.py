@@ -1,0 +1,52 @@
+"""The training physics profile ranks paths by wear as the accurate profile does (issue: learned planner)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dresspack_gym.env import DresspackEnv
+from dresspack_gym.errors import ConfigError
+from dresspack_gym.loading import load_station
+from dresspack_gym.physics_profiles import random_paths, spearman, with_profile
+from dresspack_gym.simulation import CableSimulator
+from dresspack_gym.station import Station
+from dresspack_gym.trajectory import replay
+from dresspack_gym.validity import MotionValidity
+
+
+def test_spearman_by_hand():
+    assert spearman([1, 2, 3, 4], [10, 20, 30, 40]) == pytest.approx(1.0)
+    assert spearman([1, 2, 3, 4], [4, 3, 2, 1]) == pytest.approx(-1.0)
+    assert spearman([1, 2, 3, 4, 5], [2, 1, 4, 3, 5]) == pytest.approx(1 - 6 * 4 / (5 * 24))
+
+
+def test_training_profile_ranks_fixed_weld_cycles_like_the_accurate_one():
+    config = load_station("default")
+    accurate = Station(config)
+    paths = random_paths(accurate, 0, MotionValidity(accurate, 0, 0.005), 12, seed=0)
+    costs = {}
+    for name in ("accurate", "training"):
+        station = accurate if name == "accurate" else Station(with_profile(config, name))
+        sim = CableSimulator(station)
+        costs[name] = [replay(sim, p, record_states=False).integrated_cost() for p in paths]
+    assert np.ptp(costs["accurate"]) > 0.5 * np.mean(costs["accurate"])  # the paths really differ in wear
+    assert spearman(costs["accurate"], costs["training"]) >= 0.9
+
+
+def test_profiles_are_applied_and_checked():
+    env = DresspackEnv("default", physics_profile="training")
+    assert env.station.model.opt.timestep == pytest.approx(0.008)
+    assert env.station.cables[0].n_vertices - 1 == 16
+    env = DresspackEnv("default", physics_profile="training", sim_timestep=0.004)  # an explicit step wins
+    assert env.station.model.opt.timestep == pytest.approx(0.004)
+    with pytest.raises(ConfigError, match="physics_profile: 'fast' is not one of the allowed values"):
+        DresspackEnv("default", physics_profile="fast")
+
+
+def test_bench_env_reports_every_profile_in_one_run():
+    from dresspack_gym.bench import env_benchmark
+
+    out = env_benchmark(repeats=1, env_steps=3)
+    assert set(out["profiles_env_steps_per_s"]) == {"accurate", "training"}
+    assert out["training_vs_accurate"] > 0 and np.isfinite(out["training_vs_accurate"])
