@@ -131,6 +131,14 @@ class SegmentMotion:
         _check(otg.calculate(inp, self._traj), "a segment")
         self.duration = float(self._traj.duration)
 
+    @property
+    def peak_acceleration(self) -> float:
+        """The largest |d^2 fraction / dt^2| [1/s^2] (acceleration is piecewise linear in the profile's phases, so
+        its extremes are at their boundaries)."""
+        if self.length <= 0:
+            return 0.0
+        return float(np.max(np.abs(self._traj.profiles[0][0].a))) / self.length
+
     def at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """(fraction of the segment covered, its rate [1/s]) at times ``t`` [s] (clipped to the motion)."""
         t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), 0.0, self.duration)

@@ -24,7 +24,8 @@ from .summary import by_method, by_task, fmt, json_summary, rows_to_csv
 
 HEADERS = {"cycle_time": "cycle time [s]", "max_curvature": "max κ [1/m]", "max_tension": "max F [N]",
            "min_clearance": "min d [m]", "max_twist_rate": "max twist [rad/m]", "cost": "∫C dt",
-           "damage": "damage (worst seg.)", "life_cycles": "life [cycles]", "planning_time": "plan/infer [s]"}
+           "damage": "damage (worst seg.)", "life_cycles": "life [cycles]", "reversals_per_s": "reversals [1/s]",
+           "peak_joint_acceleration": "peak q̈ [rad/s²]", "planning_time": "plan/infer [s]"}
 
 
 def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dict[str, Replay] | None = None, *,

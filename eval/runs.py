@@ -21,13 +21,14 @@ from dresspack_gym.cost_variants import cost_function
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.loading import load_station
 from dresspack_gym.simulation import CableSimulator
+from dresspack_gym.smoothness import smoothness
 from dresspack_gym.station import Station
 from dresspack_gym.tasks import Task, make_task, random_start
 from dresspack_gym.trajectory import Replay, Trajectory, replay
 from dresspack_gym.validity import PLANNER_MARGIN, MotionValidity
 
 METRICS = ("cycle_time", "max_curvature", "max_tension", "min_clearance", "max_twist_rate", "cost", "damage",
-           "life_cycles", "planning_time")
+           "life_cycles", "reversals_per_s", "peak_joint_acceleration", "planning_time")
 
 
 @dataclass(frozen=True)
@@ -130,6 +131,8 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) ->
     # next row appended to it
     (out / "results.jsonl").write_text("".join(json.dumps(r) + "\n" for r in done.values()))
     sim = CableSimulator(station)
+    limits = station.config.robots[spec.robot].robot.joint_motion_limits.at_speed(
+        station.config.simulation.speed_fraction)  # every method's motions timed by the one law
     planners: dict[tuple[str, int], object] = {}
     replays: dict[str, Replay] = {}
     todo = [(m, w, s) for w in spec.tasks for m in spec.methods for s in spec.seeds]
@@ -158,7 +161,7 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) ->
         else:
             rep = replay(sim, result.trajectory, robot=spec.robot, cost_variant=spec.cost_variant)
             replays[key] = rep
-            s = rep.summary()
+            s = {**rep.summary(), **smoothness(result.trajectory, limits)}
             row.update(success=True, error=None, planning_time=round(result.planning_time, 4),
                        waypoints=len(result.trajectory.waypoints),
                        **{k: s[k] for k in METRICS if k != "planning_time"},

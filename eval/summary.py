@@ -11,6 +11,7 @@ import numpy as np
 from .runs import METRICS
 
 JSON_KEYS = ("success_rate", "cycle_time", "max_curvature", "max_tension", "min_clearance", "cost", "damage",
+             "reversals_per_s", "peak_joint_acceleration",
              "life_cycles")
 CSV_FIELDS = ("method", "task", "seed", "success", *METRICS, "weakest_segment_m", "cost_curvature", "cost_tension",
               "cost_distance", "waypoints", "start_deg", "error")
@@ -21,7 +22,7 @@ def aggregate(rows: list[dict]) -> dict:
     ok = [r for r in rows if r["success"]]
     out = {"n_runs": len(rows), "n_success": len(ok), "success_rate": len(ok) / len(rows) if rows else 0.0}
     for m in METRICS:
-        values = np.array([r[m] for r in ok], dtype=float)
+        values = np.array([r[m] for r in ok if r.get(m) is not None], dtype=float)  # rows older than a metric lack it
         out[m] = {"mean": float(values.mean()), "std": float(values.std())} if len(values) else None
     return out
 
