@@ -128,3 +128,13 @@ def test_resuming_a_finished_run_continues_from_its_final_model(tmp_path):
     summary = train(train_config_from_dict({**SMOKE, "checkpoint_every": 10**6, "eval_every": 0,
                                             "total_timesteps": 384}), run, resume=True, progress=False)
     assert summary["timesteps"] == 384 and summary["last_session"]["steps"] == 128
+
+
+def test_goal_conditioned_training_runs_and_evaluates_on_its_own_draws(tmp_path):
+    cfg = load_train_config("goal_conditioned")
+    assert cfg.env_kwargs["part_welds"] >= 1 and cfg.eval_seed != cfg.seed
+    smoke = {**SMOKE, "name": "goal_smoke",
+             "env_kwargs": {k: v for k, v in cfg.env_kwargs.items() if k != "max_steps"} | {"max_steps": 20}}
+    summary = train(train_config_from_dict(smoke), tmp_path / "run", progress=False, command="pytest goal smoke")
+    assert summary["timesteps"] == 256
+    assert (tmp_path / "run" / "best" / "best_model.zip").is_file()  # the held-out evaluation ran
