@@ -89,7 +89,7 @@ class InvalidActionError(DresspackError, ValueError):
     """A masked or malformed action was taken with ``invalid_action="raise"``."""
 
 
-RESET_OPTIONS = ("welds", "start")
+RESET_OPTIONS = ("welds", "goals", "start")
 # Ranges of the numeric keyword arguments: (low, high, integer). Everything a trainer passes through from its
 # YAML is checked here, once, so a bad value fails at construction naming the argument, not as NaN logits later.
 _NUMBER_ARGS = {
@@ -248,6 +248,8 @@ class DresspackEnv(gym.Env):
         if unknown:
             raise ConfigError(f"options.{unknown[0]}", f"unknown reset option; allowed: {list(RESET_OPTIONS)}")
         super().reset(seed=seed)
+        if "goals" in options:
+            self._check_goals(options)
         order = self.task.sample_welds(self.np_random, options)
         if "start" in options:
             start = np.asarray(options["start"], dtype=float)
@@ -401,6 +403,20 @@ class DresspackEnv(gym.Env):
         if state["rng"] is not None:
             self._np_random = np.random.Generator(np.random.PCG64())
             self._np_random.bit_generator.state = state["rng"]
+
+    def _check_goals(self, options: dict) -> None:
+        goals = options["goals"]
+        if "welds" in options:
+            raise ConfigError("options.goals", "give either welds (names) or goals (configurations), not both")
+        if not isinstance(goals, dict) or not goals:
+            raise ConfigError("options.goals", f"expected a non-empty mapping of weld name -> 6 joint angles [rad], "
+                                               f"got {goals!r}")
+        for name, q in goals.items():
+            q = np.asarray(q, dtype=float)
+            if q.shape != (6,) or not self.validity.valid(q):
+                why = self.validity.why_invalid(q) if q.shape == (6,) else f"shape {q.shape}"
+                raise ConfigError(f"options.goals.{name}", f"must be 6 joint angles [rad] of a valid configuration: "
+                                                           f"{why}")
 
     # ----------------------------------------------------------------------------- helpers
     def describe_action(self, a: int) -> str:

@@ -78,13 +78,17 @@ class WeldCycleTask:
 
     # ------------------------------------------------------------------------------ episode
     def sample_welds(self, rng: np.random.Generator, options: dict) -> list[str]:
-        """This episode's welds: ``options["welds"]``, else one of ``tasks``, else all (a random ``n_welds``
+        """This episode's welds: ``options["welds"]`` (names), else ``options["goals"]`` (name -> configuration,
+        in order), else ``part_welds`` drawn on the parts, else one of ``tasks``, else all (a random ``n_welds``
         subset, optionally shuffled), drawn from ``rng``."""
         order = list(self.weld_goals)
         self.sampled, self.episode_goals = {}, {}
         if "welds" in options:
             order = list(options["welds"])
             self._check_welds(order, "options.welds")
+        elif "goals" in options:  # explicit goal configurations (any weld, e.g. one drawn for an evaluation)
+            self.episode_goals = {str(k): np.asarray(v, dtype=float).copy() for k, v in options["goals"].items()}
+            order = list(self.episode_goals)
         elif self.sampler is not None:
             for k in range(self.part_welds):
                 drawn = self.sampler.sample(rng, f"part_{k}")

@@ -29,6 +29,9 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
                    help="one task per argument: comma-separated weld names in visiting order "
                         "(default: the two weld pairs held out from the shipped policy's training)")
     p.add_argument("--seeds", nargs="+", type=seed, default=list(defaults.seeds))
+    p.add_argument("--drawn-tasks", type=number(0, 10_000, integer=True), default=defaults.drawn_tasks, metavar="N",
+                   help="instead of --tasks: N single welds drawn on the station's parts (weld k from --drawn-seed, k)")
+    p.add_argument("--drawn-seed", type=seed, default=defaults.drawn_seed)
     add_budget_arguments(p, defaults.iterations, defaults.evaluations, defaults.routes, defaults.time_budget)
     p.add_argument("--start-noise-deg", type=number(0, 90, unit="deg"), default=defaults.start_noise_deg,
                    help="> 0: each seed starts at a valid configuration within this many degrees of Home")
@@ -47,7 +50,8 @@ def spec_from_args(args) -> EvalSpec:
                     tasks=tuple(tuple(w for w in t.split(",") if w) for t in args.tasks), seeds=tuple(args.seeds),
                     iterations=args.iterations, evaluations=args.evaluations, routes=args.routes,
                     time_budget=args.time_budget,
-                    start_noise_deg=args.start_noise_deg, policy=args.policy, cost_variant=args.cost_variant)
+                    start_noise_deg=args.start_noise_deg, policy=args.policy, cost_variant=args.cost_variant,
+                    drawn_tasks=args.drawn_tasks, drawn_seed=args.drawn_seed)
 
 
 def evaluate_and_report(args) -> int:

@@ -23,12 +23,17 @@ from dresspack_gym.loading import load_station
 from dresspack_gym.simulation import CableSimulator
 from dresspack_gym.smoothness import smoothness
 from dresspack_gym.station import Station
-from dresspack_gym.tasks import Task, make_task, random_start
+from dresspack_gym.tasks import Task, closest_branch, make_task, random_start
 from dresspack_gym.trajectory import Replay, Trajectory, replay
 from dresspack_gym.validity import PLANNER_MARGIN, MotionValidity
+from dresspack_gym.weld_sampling import WeldSampler
 
 METRICS = ("cycle_time", "max_curvature", "max_tension", "min_clearance", "max_twist_rate", "cost", "damage",
            "life_cycles", "reversals_per_s", "peak_joint_acceleration", "planning_time")
+
+
+DRAWN = "drawn_"  # name prefix of welds drawn on the parts
+DRAWN_SEED = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -47,8 +52,16 @@ class EvalSpec:
     cost_variant: str = "thesis"  # the wear cost the wear-aware planners minimise and every replay reports
     policy: str | None = None  # run folder / model / shipped name for ppo (and the random floor's env)
     robot: int = 0
+    # > 0: the tasks are this many single welds drawn on the station's parts (weld_sampling), weld k from
+    # (drawn_seed, k): seeds of their own, apart from any training's, so every method meets welds no one trained on
+    drawn_tasks: int = 0
+    drawn_seed: int = DRAWN_SEED
 
     def __post_init__(self):
+        if self.drawn_tasks:
+            if not isinstance(self.drawn_tasks, int) or not 1 <= self.drawn_tasks <= 10_000:
+                raise ConfigError("drawn_tasks", f"must be an integer in [1, 10000], got {self.drawn_tasks!r}")
+            object.__setattr__(self, "tasks", tuple((f"{DRAWN}{k}",) for k in range(self.drawn_tasks)))
         unknown = [m for m in self.methods if m not in PLANNERS]
         if unknown or not self.methods:
             raise ConfigError("methods", f"{unknown or 'none given'}: choose from {list(PLANNERS)}")
@@ -88,8 +101,16 @@ def eval_start(station: Station, robot: int, seed: int, noise_deg: float,
 def build_tasks(station: Station, spec: EvalSpec) -> dict[tuple[tuple[str, ...], int], Task]:
     validity = MotionValidity(station, spec.robot, margin=PLANNER_MARGIN)
     tasks = {}
+    sampler = WeldSampler(station, spec.robot, validity.checker.collides) if spec.drawn_tasks else None
     for welds in spec.tasks:
-        base = make_task(station, spec.robot, validity.checker.collides, list(welds), field="tasks")
+        if sampler is not None:  # one drawn weld per task, the goal chosen as for named welds
+            k = int(welds[0][len(DRAWN):])
+            drawn = sampler.sample(np.random.default_rng([spec.drawn_seed, k]), welds[0])
+            home = station.config.robots[spec.robot].home
+            base = Task(spec.robot, home.copy(), tuple(welds), closest_branch(drawn.configurations, home)[None],
+                        home.copy())
+        else:
+            base = make_task(station, spec.robot, validity.checker.collides, list(welds), field="tasks")
         for seed in spec.seeds:
             start = eval_start(station, spec.robot, seed, spec.start_noise_deg, validity)
             tasks[(tuple(welds), seed)] = Task(base.robot, start, base.weld_names, base.goals, base.end)

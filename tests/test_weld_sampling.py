@@ -136,3 +136,39 @@ def test_env_draws_new_welds_on_the_parts_each_episode():
     assert clone.task.goal_names == env.task.goal_names
     with pytest.raises(ConfigError, match="part_welds"):
         DresspackEnv("default", part_welds=1, n_welds=2)
+
+
+def test_env_takes_explicit_goal_configurations(station):
+    from dresspack_gym.env import DresspackEnv
+
+    env = DresspackEnv("default", max_steps=3)
+    goal = env.weld_goals["sill_front"].copy()
+    env.reset(seed=0, options={"goals": {"my_weld": goal}})
+    assert env.task.goal_names == ["my_weld", "home"]
+    np.testing.assert_array_equal(env.goal, goal)
+    bad = goal.copy()
+    bad[4] = np.radians(500)
+    with pytest.raises(ConfigError, match=r"options.goals.my_weld: must be 6 joint angles"):
+        env.reset(options={"goals": {"my_weld": bad}})
+    with pytest.raises(ConfigError, match="either welds"):
+        env.reset(options={"goals": {"my_weld": goal}, "welds": ["sill_front"]})
+
+
+def test_evaluation_on_welds_drawn_from_their_own_seeds(tmp_path):
+    pytest.importorskip("ompl.base")
+    from dresspack.eval.runs import EvalSpec, build_tasks, run_evaluation
+
+    spec = EvalSpec(methods=("ompl", "ppo"), seeds=(0,), drawn_tasks=2, iterations=500)
+    assert spec.tasks == (("drawn_0",), ("drawn_1",))
+    station = Station(load_station(spec.station))
+    tasks = build_tasks(station, spec)
+    again = build_tasks(station, spec)
+    for key, task in tasks.items():
+        np.testing.assert_array_equal(task.goals, again[key].goals)  # drawn from (drawn_seed, k): reproducible
+    assert not np.allclose(tasks[(("drawn_0",), 0)].goals, tasks[(("drawn_1",), 0)].goals)
+    rows, _ = run_evaluation(spec, tmp_path / "e", progress=False)
+    assert [r["task"] for r in rows] == ["drawn_0"] * 2 + ["drawn_1"] * 2
+    ompl = [r for r in rows if r["method"] == "ompl"]
+    assert all(r["success"] for r in ompl) and all(r["reversals_per_s"] is not None for r in ompl)
+    with pytest.raises(ConfigError, match="drawn_tasks"):
+        EvalSpec(drawn_tasks=-1)
