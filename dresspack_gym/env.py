@@ -190,6 +190,7 @@ class DresspackEnv(gym.Env):
         self.max_steps = int(max_steps)
         self.invalid_action = invalid_action
         self.settle_time = float(settle_time)
+        self._stay_time = self._step_time()  # the limits never change: timed once, not on every "stay"
         self.cable_samples = int(cable_samples)
         self.render_mode = render_mode
         self.render_size = render_size
@@ -290,7 +291,7 @@ class DresspackEnv(gym.Env):
         if invalid:
             pass  # the robot stays where it is
         elif a == STAY:  # waiting costs the time of one joint step, while the cable swings/settles
-            wait = self._step_time()
+            wait = self._stay_time
             self.sim.settle(wait)
             self.sim.motion_time += wait
         else:

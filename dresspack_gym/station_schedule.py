@@ -26,9 +26,14 @@ class RobotSchedule:
     limits: time_law.JointLimits  # (6,) joint limits of the time law (velocity at the programmed speed fraction)
     weld_time: float
     _table: tuple = field(default=None, repr=False, compare=False)
+    # per leg, its segments' timed motions: built from ``legs``, kept by ``delayed`` (same legs, other start times);
+    # a copy with other legs must pass _motions=None
+    _motions: tuple = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
-        motions = [[time_law.SegmentMotion(dq, self.limits) for dq in np.diff(leg, axis=0)] for leg in self.legs]
+        motions = self._motions or tuple(tuple(time_law.SegmentMotion(dq, self.limits) for dq in np.diff(leg, axis=0))
+                                         for leg in self.legs)
+        object.__setattr__(self, "_motions", motions)
         durations = [np.array([m.duration for m in leg]) for leg in motions]
         object.__setattr__(self, "_leg_durations", np.array([float(d.sum()) for d in durations]))
         t0, d, a, b = [], [], [], []
@@ -40,7 +45,7 @@ class RobotSchedule:
             b.append(leg[1:])
         table = (np.concatenate(t0), np.concatenate(d), np.concatenate(a), np.concatenate(b))
         object.__setattr__(self, "_table", table)
-        object.__setattr__(self, "_motions", [m for leg in motions for m in leg])
+        object.__setattr__(self, "_segment_motions", [m for leg in motions for m in leg])
         object.__setattr__(self, "leg_start", np.asarray(self.leg_start, dtype=float))
 
     @staticmethod
@@ -80,7 +85,7 @@ class RobotSchedule:
         """Leg ``k`` and every later leg start ``delay`` seconds later."""
         starts = self.leg_start.copy()
         starts[k:] += delay
-        return replace(self, leg_start=starts, _table=None)
+        return replace(self, leg_start=starts, _table=None)  # same legs: their timed motions are kept
 
     def intervals(self) -> dict[str, list[tuple[float, float]]]:
         """(start, end) of each motion, weld and wait (for the Gantt chart)."""
@@ -110,7 +115,7 @@ class RobotSchedule:
         resting = ~before & ~moving
         for seg in np.unique(k[moving]):  # each segment's own timed motion, over the times that fall in it
             rows = np.flatnonzero(moving & (k == seg))
-            frac, rate = self._motions[seg].at(t[rows] - t0[seg])
+            frac, rate = self._segment_motions[seg].at(t[rows] - t0[seg])
             q[rows] = a[seg] + frac[:, None] * (b[seg] - a[seg])
             qd[rows] = rate[:, None] * (b[seg] - a[seg])
         q[resting] = b[k[resting]]

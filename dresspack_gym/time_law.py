@@ -68,7 +68,7 @@ def _scalar_limits(dq: np.ndarray, limits: JointLimits) -> tuple[np.ndarray, np.
     return np.where(np.isfinite(v), 1.0 / np.where(np.isfinite(v), v, 1.0), 0.0), v, a, j
 
 
-@lru_cache(maxsize=4)
+@lru_cache(maxsize=16)
 def _solver(n: int) -> tuple[Ruckig, InputParameter, RuckigTrajectory]:
     """A Ruckig instance for ``n`` independent scalar motions from rest to rest (kept: building one costs more
     than solving it)."""
@@ -90,13 +90,15 @@ def segment_durations(dq: np.ndarray, limits: JointLimits) -> np.ndarray:
     length, v, a, j = _scalar_limits(dq, limits)
     out = np.zeros(length.size)
     todo = np.flatnonzero(length > 0)
-    solver = _solver(BATCH)
     for start in range(0, todo.size, BATCH):
         idx = todo[start:start + BATCH]
-        otg, inp, traj = solver
-        pad = BATCH - idx.size  # padded with unit motions, so one solver size serves every call
+        # padded with unit motions up to a power of two: a few solver sizes serve every call, and a single
+        # duration (a roadmap edge, a planner's leg) does not pay for a full batch
+        size = 1 << (idx.size - 1).bit_length()
+        otg, inp, traj = _solver(size)
+        pad = size - idx.size
         inp.target_position = np.concatenate([length[idx], np.ones(pad)])
-        inp.max_velocity = np.ones(BATCH)
+        inp.max_velocity = np.ones(size)
         inp.max_acceleration = np.concatenate([a[idx] / v[idx], np.ones(pad)])
         inp.max_jerk = np.concatenate([j[idx] / v[idx], np.ones(pad)])
         _check(otg.calculate(inp, traj), f"{idx.size} segments")
@@ -107,7 +109,7 @@ def segment_durations(dq: np.ndarray, limits: JointLimits) -> np.ndarray:
 def velocity_bound(dq: np.ndarray, limits: JointLimits) -> np.ndarray:
     """A lower bound of :func:`segment_durations` (the slowest joint's time at its top speed), cheap in bulk."""
     dq = np.asarray(dq, dtype=float)
-    return np.max(np.abs(dq) / limits.velocity, axis=tuple(range(dq.ndim - np.ndim(limits.velocity), dq.ndim)))
+    return _scalar_limits(dq, limits)[0].reshape(dq.shape[:dq.ndim - np.ndim(limits.velocity)])
 
 
 def path_duration(waypoints: np.ndarray, limits: JointLimits) -> float:
@@ -125,8 +127,9 @@ class SegmentMotion:
         self.duration = 0.0
         if length <= 0:
             return
-        otg, inp, self._traj = Ruckig(1), InputParameter(1), RuckigTrajectory(1)
-        inp.current_position, inp.target_position = [0.0], [length]
+        otg, inp, _ = _solver(1)
+        self._traj = RuckigTrajectory(1)  # its own: the motion is sampled later
+        inp.target_position = [length]
         inp.max_velocity, inp.max_acceleration, inp.max_jerk = [1.0], [a / v], [j / v]
         _check(otg.calculate(inp, self._traj), "a segment")
         self.duration = float(self._traj.duration)
