@@ -50,6 +50,7 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
     blocks += [("h2", "All tasks"), ("table", _table(by_method(rows, methods)))]
     figures = {"overview": _overview_plot(by_method(rows, methods), fig_dir / "overview.png")}
     blocks.append(("img", figures["overview"], "Mean ± std over the successful runs; bar labels give success."))
+    blocks.append(("p", _settle_note(rows)))
     sim = CableSimulator(station)
     for task, per_method in by_task(rows, methods).items():
         blocks += [("h2", f"Task: home → {task} → home"), ("table", _table(per_method))]
@@ -106,6 +107,15 @@ def _intro(spec: EvalSpec, station: Station) -> str:
             "evaluations of refinement per plan"
             + (f", capped at {spec.time_budget:g} s. " if spec.time_budget is not None else ". ")
             + "Metrics are mean ± std over the successful runs; a method that failed every run shows 'failed'.")
+
+
+def _settle_note(rows: list[dict]) -> str:
+    """Which runs had a settle (at a weld or Home) that missed the equilibrium residual: flagged, never hidden."""
+    flagged = [f"{r['method']} on {r['task']} (seed {r['seed']}): {r['unconverged_stops']}"
+               for r in rows if r.get("success") and r.get("unconverged_stops")]
+    if not flagged:
+        return "Every settle at the welds and Home reached the equilibrium residual."
+    return "Settles that did not reach the equilibrium residual within their cap (stops per run): " + "; ".join(flagged)
 
 
 def _table(per_method: dict[str, dict]) -> dict:

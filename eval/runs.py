@@ -186,7 +186,8 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) ->
             row.update(success=True, error=None, planning_time=round(result.planning_time, 4),
                        waypoints=len(result.trajectory.waypoints),
                        **{k: s[k] for k in METRICS if k != "planning_time"},
-                       cost_terms=s["cost_terms"], max_cost=s["max_cost"], weakest_segment_m=s["weakest_segment_m"])
+                       cost_terms=s["cost_terms"], max_cost=s["max_cost"], weakest_segment_m=s["weakest_segment_m"],
+                       unconverged_stops=s["unconverged_stops"])  # settles that missed the residual: flagged
             np.savez(_trajectory_path(out, key), waypoints=result.trajectory.waypoints,
                      stops=np.array(result.trajectory.stops))
         with open(out / "results.jsonl", "a") as f:

@@ -13,7 +13,8 @@ from .runs import METRICS
 JSON_KEYS = ("success_rate", "cycle_time", "max_curvature", "max_tension", "min_clearance", "cost", "damage",
              "reversals_per_s", "peak_joint_acceleration",
              "life_cycles")
-CSV_FIELDS = ("method", "task", "seed", "success", *METRICS, "weakest_segment_m", "cost_curvature", "cost_tension",
+CSV_FIELDS = ("method", "task", "seed", "success", *METRICS, "weakest_segment_m", "unconverged_stops", "cost_curvature",
+              "cost_tension",
               "cost_distance", "waypoints", "start_deg", "error")
 
 

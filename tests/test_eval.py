@@ -126,3 +126,13 @@ def test_report_shows_damage_and_life_per_method(tiny_report):
     assert list((tiny_report / "figures").glob("damage_roof_rail_top*.png"))
     assert list((tiny_report / "figures").glob("damage_strip_roof_rail_top*.png"))
 
+
+
+def test_report_names_runs_whose_settles_missed_the_residual():
+    from dresspack.eval.report import _settle_note
+
+    rows = [{"method": "ompl", "task": "a", "seed": 0, "success": True, "unconverged_stops": 0},
+            {"method": "ompl-wear", "task": "a", "seed": 1, "success": True, "unconverged_stops": 2}]
+    assert _settle_note(rows) == ("Settles that did not reach the equilibrium residual within their cap (stops per "
+                                  "run): ompl-wear on a (seed 1): 2")
+    assert _settle_note(rows[:1]).startswith("Every settle")

@@ -146,3 +146,17 @@ def test_the_simulator_the_trajectory_and_the_programs_use_one_time_law():
     # a robot stating slower accelerations moves the same path more slowly
     sluggish = replace(robot, joint_acceleration_rad_s2=tuple(robot.joint_acceleration / 4))
     assert TimedPath.of(traj, sluggish, config.simulation.speed_fraction).times[-1] > expected * 1.2
+
+
+def test_quasi_static_slowing_is_a_pure_time_scaling():
+    """``slowed(f)`` (the robustness mapper's excursions) runs the full-speed profile 1/f times slower, in every
+    regime, so its accelerations shrink with f^2 (a velocity-only scaling would keep them)."""
+    rng = np.random.default_rng(5)
+    dq = rng.uniform(-2.0, 2.0, (50, 6))
+    dq[:10] *= 1e-3  # tiny moves: jerk-limited only
+    for f in (0.5, 0.25, 1 / 16):
+        np.testing.assert_allclose(segment_durations(dq, LIMITS.slowed(f)), segment_durations(dq, LIMITS) / f,
+                                   rtol=1e-9)
+        m = SegmentMotion(dq[20], LIMITS.slowed(f))
+        assert m.peak_acceleration == pytest.approx(SegmentMotion(dq[20], LIMITS).peak_acceleration * f ** 2,
+                                                    rel=1e-9)

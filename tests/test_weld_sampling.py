@@ -170,5 +170,6 @@ def test_evaluation_on_welds_drawn_from_their_own_seeds(tmp_path):
     assert [r["task"] for r in rows] == ["drawn_0"] * 2 + ["drawn_1"] * 2
     ompl = [r for r in rows if r["method"] == "ompl"]
     assert all(r["success"] for r in ompl) and all(r["reversals_per_s"] is not None for r in ompl)
+    assert all(isinstance(r["unconverged_stops"], int) for r in ompl)  # every settle's outcome is in the row
     with pytest.raises(ConfigError, match="drawn_tasks"):
         EvalSpec(drawn_tasks=-1)
