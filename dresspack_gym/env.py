@@ -10,6 +10,11 @@ change being ``joint_step`` (a straight joint-space move is what a planner's seg
 a planner's cycle time where the straight way is free). When every joint is within half a step of the
 current goal the robot finishes the move onto the goal exactly (that motion is simulated and timed too) and
 the goal is reached; the cable then settles (the robot dwells while welding, as in trajectory replay).
+With ``action_set="primitives"`` the actions are planner-like segments instead (``Discrete(2 + 12 k)`` for k
+``via_offsets_deg``): action 0 goes straight to the goal; action ``1 + 12 i + 2 j (+1)`` goes to the midpoint
+toward the goal with joint ``j`` offset by ``+(-)via_offsets_deg[i]`` (a via configuration: around an obstacle with
+j1-j3, re-orienting the wrist with j4-j6); the last action waits. A replayed episode is then a via path whose
+segments the time law times rest-to-rest, exactly like a planner's, and an episode takes a few decisions per leg.
 
 Tasks: ``welds`` (all of them, in order), or each episode ``n_welds`` of them (optionally shuffled), or one
 of the weld lists in ``tasks``; ``reset(options={"welds": [...], "start": q})`` sets both explicitly. With
@@ -65,9 +70,11 @@ from .loading import load_station
 from .physics_profiles import PROFILES, with_profile
 from .rendering import check_frame_size
 from .simulation import CableSimulator
+from .smoothness import smoothness
 from .station import Station
 from .tasks import random_start
 from .time_law import segment_durations
+from .trajectory import Trajectory
 from .validation import check_choice, check_integer, check_number
 from .validity import MotionValidity
 from .weld_cycle import REWARD_TERMS, WeldCycleTask
@@ -83,6 +90,29 @@ POSE_SCALE = 3.0
 N_JOINT_ACTIONS = 12
 STAY = 12
 TOWARD_GOAL = 13
+# The "primitives" action set: action 0 goes straight to the goal (a planner's segment), then per via offset,
+# joint and sign a via configuration (the midpoint toward the goal with that joint offset: a detour around an
+# obstacle with j1-j3, a wrist re-orientation with j4-j6), and last a wait. Every action is one straight,
+# rest-to-rest segment timed by the time law, so a replayed episode is as smooth as a planner's via path.
+ACTION_SETS = ("joint_steps", "primitives")
+TO_GOAL = 0
+# [s] with wear_integral the cost is sampled this often along a motion and integrated (trapezoid): a primitive
+# segment lasts seconds, its end state alone would miss what the cable went through on the way
+WEAR_SAMPLE_TIME = 0.05
+
+
+COST_TERMS = ("total", "curvature", "tension", "distance", "twist", "damage")
+
+
+def _cost_row(cost) -> np.ndarray:
+    """A WearCost as numbers in COST_TERMS order."""
+    return np.array([cost.total, cost.curvature, cost.tension, cost.distance, cost.twist, cost.damage])
+
+
+def _trapezoid(times: list[float], rows: list[np.ndarray]) -> np.ndarray:
+    """Per term of COST_TERMS, the integral over a step from its samples (start, on the way, end)."""
+    t, c = np.asarray(times, dtype=float), np.asarray(rows, dtype=float)
+    return np.sum(0.5 * (c[1:] + c[:-1]) * np.diff(t)[:, None], axis=0)
 
 
 class InvalidActionError(DresspackError, ValueError):
@@ -110,7 +140,9 @@ _NUMBER_ARGS = {
     "sim_timestep": (1e-4, 0.01, False),
     "part_welds": (0, 100, True),
     "weld_tilt_deg": (0.0, 80.0, False),
+    "wear_reward_cap": (1e-6, 1e12, False),
 }
+VIA_OFFSET_RANGE_DEG = (1.0, 180.0)
 _BOOL_ARGS = ("shuffle_welds", "goal_action", "wear_integral")
 
 
@@ -120,7 +152,7 @@ def _check_arguments(kw: dict[str, Any]) -> None:
         raise ConfigError("station", f"expected a station name, YAML path or Station, got {kw['station']!r}")
     for name, (lo, hi, integer) in _NUMBER_ARGS.items():
         value = kw[name]
-        if value is None and name in ("n_welds", "sim_timestep"):
+        if value is None and name in ("n_welds", "sim_timestep", "wear_reward_cap"):
             continue
         if integer:
             check_integer(value, name, lo=lo, hi=hi)
@@ -138,6 +170,15 @@ def _check_arguments(kw: dict[str, Any]) -> None:
     check_choice("cost_variant", kw["cost_variant"], COST_VARIANTS)
     check_choice("physics_profile", kw["physics_profile"], list(PROFILES))
     check_choice("invalid_action", kw["invalid_action"], ("penalize", "raise"))
+    check_choice("action_set", kw["action_set"], ACTION_SETS)
+    offsets = kw["via_offsets_deg"]
+    if isinstance(offsets, (str, bytes)) or not isinstance(offsets, (list, tuple)) or not offsets:
+        raise ConfigError("via_offsets_deg", f"expected a non-empty list of angles [deg], got {offsets!r}")
+    for i, v in enumerate(offsets):
+        check_number(v, f"via_offsets_deg[{i}]", lo=VIA_OFFSET_RANGE_DEG[0], hi=VIA_OFFSET_RANGE_DEG[1], unit="deg")
+    if kw["goal_action"] and kw["action_set"] == "primitives":
+        raise ConfigError("goal_action", "applies to action_set joint_steps only (primitives always go to the goal "
+                                         "with action 0)")
     check_choice("render_mode", kw["render_mode"], (None, "rgb_array"))
     size = kw["render_size"]
     if not isinstance(size, (list, tuple)) or len(size) != 2:
@@ -159,7 +200,9 @@ class DresspackEnv(gym.Env):
                  goal_action: bool = False, wear_integral: bool = False, tasks: list[list[str]] | None = None,
                  start_noise_deg: float = 0.0, sim_timestep: float | None = None,
                  physics_profile: str = "accurate", part_welds: int = 0,
-                 weld_tilt_deg: float = 20.0, render_mode: str | None = None,
+                 weld_tilt_deg: float = 20.0, action_set: str = "joint_steps",
+                 via_offsets_deg: tuple[float, ...] = (30.0, 60.0), wear_reward_cap: float | None = None,
+                 render_mode: str | None = None,
                  render_size: tuple[int, int] = (480, 360)):
         self._kwargs = dict(locals())
         for k in ("self", "__class__"):
@@ -190,6 +233,8 @@ class DresspackEnv(gym.Env):
         self.max_steps = int(max_steps)
         self.invalid_action = invalid_action
         self.settle_time = float(settle_time)
+        # the limits a replayed program runs at (the robot's, at the station's speed fraction), as in the evaluation
+        self._program_limits = self.placement.robot.joint_motion_limits.at_speed(self.station.config.simulation.speed_fraction)
         self._stay_time = self._step_time()  # the limits never change: timed once, not on every "stay"
         self.cable_samples = int(cable_samples)
         self.render_mode = render_mode
@@ -200,7 +245,8 @@ class DresspackEnv(gym.Env):
                                   wear_weight=wear_weight, goal_reward=goal_reward, progress_weight=progress_weight,
                                   invalid_penalty=invalid_penalty, wear_integral=wear_integral,
                                   cost_variant=cost_variant, part_welds=part_welds,
-                                  weld_sampling=WeldSampling(tilt_max=math.radians(weld_tilt_deg)))
+                                  weld_sampling=WeldSampling(tilt_max=math.radians(weld_tilt_deg)),
+                                  wear_reward_cap=wear_reward_cap)
         self.goal_action = bool(goal_action)
         self.start_noise = math.radians(start_noise_deg)
         self.observation_structure = {"joints": 6, "goal": 6, "goal_error": 6, "progress": 1,
@@ -209,12 +255,23 @@ class DresspackEnv(gym.Env):
             self.observation_structure["goal_pose"] = 6
         n_obs = sum(self.observation_structure.values())
         self.observation_space = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(n_obs,), dtype=np.float32)
-        self.n_actions = N_JOINT_ACTIONS + (2 if self.goal_action else 1)
+        self.action_set = action_set
+        if action_set == "primitives":
+            # (joint, signed offset) per via action, in action order 1..n; the wait is the last action
+            self._vias = [(j, sign * math.radians(off)) for off in via_offsets_deg for j in range(6)
+                          for sign in (1.0, -1.0)]
+            self.n_actions = 2 + len(self._vias)
+            self.stay_action = self.n_actions - 1
+        else:
+            self._vias = []
+            self.n_actions = N_JOINT_ACTIONS + (2 if self.goal_action else 1)
+            self.stay_action = STAY
         self.action_space = gym.spaces.Discrete(self.n_actions)
         self._mask_cache: tuple[bytes, np.ndarray] | None = None
         self._setup_episode(list(self.task.weld_goals))
         self._needs_reset = True  # Gymnasium's order: reset() before the first step()
         self._begin_damage(self.sim.segment_states()[self.robot_index])
+        self._cost_now = _cost_row(self.task.cost(self.sim.measures()))
 
     # ----------------------------------------------------------------------------- task
     def _setup_episode(self, order: list[str], goal_index: int = 0) -> None:
@@ -222,6 +279,7 @@ class DresspackEnv(gym.Env):
         self.steps = 0
         self.cycle_time = 0.0
         self._mask_cache = None
+        self._episode_path = [self.q]  # the configurations the episode moved through (its smoothness at the end)
 
     @property
     def weld_goals(self) -> dict[str, np.ndarray]:
@@ -270,7 +328,9 @@ class DresspackEnv(gym.Env):
         self._needs_reset = False
         measures, states = self.sim.measures_and_states()
         self._begin_damage(states[self.robot_index])
-        info = self._info(measures, self.task.cost(measures), dict.fromkeys(REWARD_TERMS, 0.0), 0.0, False)
+        cost = self.task.cost(measures)
+        self._cost_now = _cost_row(cost)  # where the first step's wear integral starts
+        info = self._info(measures, cost, dict.fromkeys(REWARD_TERMS, 0.0), 0.0, False)
         return self._observation(measures), info
 
     def step(self, action):
@@ -288,29 +348,34 @@ class DresspackEnv(gym.Env):
         settle_before = self.sim.last_settle  # the step reports only a settle it made itself
         reached = False
         moved_through: list[np.ndarray] = []
+        times, rows = [t0], [self._cost_now]  # motion times and cost terms along the step
         if invalid:
             pass  # the robot stays where it is
-        elif a == STAY:  # waiting costs the time of one joint step, while the cable swings/settles
+        elif a == self.stay_action:  # waiting costs the time of one joint step, while the cable swings/settles
             wait = self._stay_time
             self.sim.settle(wait)
             self.sim.motion_time += wait
         else:
             target = self._target(q_before, a)
-            self._move(target)
+            self._move(target, times, rows)
             moved_through.append(target)
             if self.task.near_goal(target) and self._segment_valid(target, self.goal):
-                self._move(self.goal)
+                self._move(self.goal, times, rows)
                 moved_through.append(self.goal.copy())
                 reached = True
         if reached:
             self.sim.settle()
-        elif not invalid and a != STAY and self.settle_time > 0:
+        elif not invalid and a != self.stay_action and self.settle_time > 0:
             self.sim.settle(self.settle_time)
         step_time = self.sim.motion_time - t0
         self.cycle_time += step_time
         measures, states = self.sim.measures_and_states()
         cost = self.task.cost(measures)
-        reward, terms = self._get_rew(q_before, step_time, cost, reached, invalid)
+        times.append(self.sim.motion_time)
+        rows.append(_cost_row(cost))
+        self._cost_now = rows[-1]
+        integral = _trapezoid(times, rows)
+        reward, terms = self._get_rew(q_before, step_time, cost, float(integral[0]), reached, invalid)
         if reached:
             self.task.goal_index += 1
         self.steps += 1
@@ -320,7 +385,12 @@ class DresspackEnv(gym.Env):
         self._needs_reset = terminated or truncated
         self._add_damage(step_time, states[self.robot_index])
         info = self._info(measures, cost, terms, step_time, invalid)
-        if terminated or truncated:  # the episode as one station cycle: its fatigue life (states at step ends)
+        for k, v in zip(COST_TERMS, integral):  # sampled along the motion with wear_integral, else end points only
+            info["integral_cost" if k == "total" else f"integral_cost_{k}"] = float(v)
+        self._episode_path += moved_through
+        if terminated or truncated:  # how smoothly the episode's path runs, measured as for every method
+            if len(self._episode_path) > 1:
+                info.update(smoothness(Trajectory(np.array(self._episode_path), ()), self._program_limits))  # the episode as one station cycle: its fatigue life (states at step ends)
             dp = self.placement.dresspack
             info["life_cycles"] = fatigue_life(self._episode_states, dp.fatigue,
                                                np.arange(dp.segments + 1) * dp.segment_length,
@@ -333,10 +403,10 @@ class DresspackEnv(gym.Env):
         info["equilibrium_residual"] = settle.equilibrium.force_residual if settle is not None else float("nan")
         return self._observation(measures), reward, terminated, truncated, info
 
-    def _get_rew(self, q_before: np.ndarray, step_time: float, cost, reached: bool,
+    def _get_rew(self, q_before: np.ndarray, step_time: float, cost, cost_integral: float, reached: bool,
                  invalid: bool) -> tuple[float, dict[str, float]]:
         """The reward and its named terms (the task's, see :class:`~dresspack_gym.weld_cycle.WeldCycleTask`)."""
-        return self.task.reward(q_before, self.q, step_time, cost, reached, invalid)
+        return self.task.reward(q_before, self.q, step_time, cost, cost_integral, reached, invalid)
 
     def action_masks(self) -> np.ndarray:
         """Boolean mask over the actions: True where the action is allowed (see module docstring)."""
@@ -351,7 +421,7 @@ class DresspackEnv(gym.Env):
         clearance = self.checker.min_distance(q) - self.checker.margin
         reach = self.checker.chain_reach()
         for a in range(self.n_actions):
-            if a == STAY:
+            if a == self.stay_action:
                 continue
             target = self._target(q, a)
             masks[a] = self._segment_valid(q, target, check_collision=reach @ np.abs(target - q) >= clearance)
@@ -389,16 +459,18 @@ class DresspackEnv(gym.Env):
         return {"kwargs": self._kwargs, "sim": self.sim.get_state(), "goal_names": self.task.goal_names[:-1],
                 "episode_goals": self.task.episode_goals,
                 "goal_index": self.goal_index, "steps": self.steps, "cycle_time": self.cycle_time,
-                "needs_reset": self._needs_reset,
+                "needs_reset": self._needs_reset, "episode_path": self._episode_path,
                 "damage": (self._damage, self._damage_rate, self._episode_states), "rng": self._np_random.bit_generator.state if self._np_random is not None else None}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__init__(**state["kwargs"])
         self.sim.set_state(state["sim"])
+        self._cost_now = _cost_row(self.task.cost(self.sim.measures()))
         self.task.episode_goals = dict(state.get("episode_goals", {}))
         self._setup_episode(state["goal_names"], state["goal_index"])
         self.steps, self.cycle_time = state["steps"], state["cycle_time"]
         self._needs_reset = state.get("needs_reset", False)
+        self._episode_path = list(state.get("episode_path", [self.q]))
         if "damage" in state:
             self._damage, self._damage_rate, self._episode_states = state["damage"]
         if state["rng"] is not None:
@@ -421,8 +493,13 @@ class DresspackEnv(gym.Env):
 
     # ----------------------------------------------------------------------------- helpers
     def describe_action(self, a: int) -> str:
-        if a == STAY:
+        if a == self.stay_action:
             return "stay"
+        if self.action_set == "primitives":
+            if a == TO_GOAL:
+                return "straight to the goal"
+            j, offset = self._vias[a - 1]
+            return f"via the midpoint with j{j + 1} {math.degrees(offset):+g} deg"
         if a == TOWARD_GOAL:
             return f"toward goal (<= {math.degrees(self.step_size):g} deg)"
         return f"j{a // 2 + 1} {'+' if a % 2 == 0 else '-'}{math.degrees(self.step_size):g} deg"
@@ -440,6 +517,15 @@ class DresspackEnv(gym.Env):
 
     def _target(self, q: np.ndarray, a: int) -> np.ndarray:
         target = q.copy()
+        if a == self.stay_action:
+            return target
+        if self.action_set == "primitives":
+            if a == TO_GOAL:
+                return self.goal.copy()
+            j, offset = self._vias[a - 1]
+            target = q + 0.5 * (self.goal - q)
+            target[j] += offset
+            return target
         if a == TOWARD_GOAL:
             err = self.goal - q
             return q + err * min(1.0, self.step_size / max(float(np.max(np.abs(err))), 1e-12))
@@ -474,10 +560,14 @@ class DresspackEnv(gym.Env):
         dq[self.robot_index, int(np.argmax(limits.velocity[self.robot_index]))] = self.step_size
         return float(segment_durations(dq, limits))
 
-    def _move(self, target: np.ndarray) -> None:
+    def _move(self, target: np.ndarray, times: list[float], rows: list[np.ndarray]) -> None:
+        """Move there (not settling); with wear_integral the cost terms sampled on the way join times/rows."""
         q_all = self.sim.q.copy()
         q_all[self.robot_index] = target
-        self.sim.move_to(q_all, settle=False)
+        every = WEAR_SAMPLE_TIME if self.task.wear_integral else None
+        trace = self.sim.move_to(q_all, settle=False, record_every=every)
+        times += trace.time
+        rows += [_cost_row(self.task.cost(m)) for m in trace.measures]
 
     def _observation(self, measures) -> np.ndarray:
         """The parts of ``observation_structure``, in its order, each roughly in [-1, 1]."""

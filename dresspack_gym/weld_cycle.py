@@ -24,17 +24,22 @@ class WeldCycleTask:
     Reward per step (every term in ``info``; their sum is the reward)::
 
         time     = -time_weight * step_time
-        wear     = -wear_weight * C(gamma)              (x step_time with wear_integral: sums to the integral of C)
+        wear     = -wear_weight * C(gamma)              (with wear_integral: -wear_weight * the integral of C over
+                                                        the step, sampled along the motion; the return sums it)
         progress = progress_weight * (phi(q_before) - phi(q_after)),  phi(q) = max_j |q_j - goal_j| / step_size
         goal     = goal_reward when a weld (or the final Home) is reached
         invalid  = -invalid_penalty for a masked action
+
+    With ``wear_reward_cap`` the wear term of a step is at most that large: the cost grows with the square of the
+    tension, and one step dragging the cable at kilonewtons would otherwise swamp every other reward a learner
+    sees (the evaluation always reports the uncapped integral).
     """
 
     def __init__(self, station: Station, robot: int, collides, step_size: float, *, welds=None, n_welds=None,
                  shuffle_welds: bool = False, tasks=None, time_weight: float = 1.0, wear_weight: float = 1.0,
                  goal_reward: float = 10.0, progress_weight: float = 1.0, invalid_penalty: float = 1.0,
                  wear_integral: bool = False, cost_variant: str = "thesis", part_welds: int = 0,
-                 weld_sampling: WeldSampling | None = None):
+                 weld_sampling: WeldSampling | None = None, wear_reward_cap: float | None = None):
         self.home = station.config.robots[robot].home
         self.wear_config = station.config.wear_cost
         self.cost_fn = cost_function(cost_variant)
@@ -42,6 +47,7 @@ class WeldCycleTask:
         self.weights = dict(time=time_weight, wear=wear_weight, progress=progress_weight, goal=goal_reward,
                             invalid=invalid_penalty)
         self.wear_integral = bool(wear_integral)
+        self.wear_reward_cap = None if wear_reward_cap is None else float(wear_reward_cap)
         # part_welds > 0: every episode draws that many new weld points on the station's parts (goal-conditioned)
         self.part_welds = int(part_welds)
         self.sampler = WeldSampler(station, robot, collides, weld_sampling or WeldSampling()) \
@@ -142,13 +148,15 @@ class WeldCycleTask:
         """The wear cost C(gamma) of the chosen variant, with its terms."""
         return self.cost_fn(measures, self.wear_config)
 
-    def reward(self, q_before: np.ndarray, q_after: np.ndarray, step_time: float, cost, reached: bool,
-               invalid: bool) -> tuple[float, dict[str, float]]:
+    def reward(self, q_before: np.ndarray, q_after: np.ndarray, step_time: float, cost, cost_integral: float,
+               reached: bool, invalid: bool) -> tuple[float, dict[str, float]]:
         """The step's reward and its named terms (computed before the goal index advances)."""
         w = self.weights
         terms = dict.fromkeys(REWARD_TERMS, 0.0)
         terms["time"] = -w["time"] * step_time
-        terms["wear"] = -w["wear"] * cost.total * (step_time if self.wear_integral else 1.0)
+        terms["wear"] = -w["wear"] * (cost_integral if self.wear_integral else cost.total)
+        if self.wear_reward_cap is not None:  # a step that nearly tears the cable is bad, not a billion times bad
+            terms["wear"] = max(terms["wear"], -self.wear_reward_cap)
         terms["progress"] = w["progress"] * (self.potential(q_before) - self.potential(q_after))
         terms["goal"] = w["goal"] if reached else 0.0
         terms["invalid"] = -w["invalid"] if invalid else 0.0

@@ -10,8 +10,9 @@ from tqdm.auto import tqdm
 class EpisodeMetricsCallback(BaseCallback):
     """Logs, per finished episode (averaged over the episodes of each rollout), under ``episode/``:
     success, goals reached, cycle time, the episode's max curvature / tension / twist rate / total twist /
-    clamp torque, min clearance,
-    and the time-integrated cost terms (eq. 4.10) — the numbers the evaluation reports, seen while training."""
+    clamp torque, min clearance, the smoothness of its path (reversals per second, peak joint acceleration, as the
+    evaluation measures it) and the time-integrated cost terms (eq. 4.10) — the numbers the evaluation reports,
+    seen while training."""
 
     MAX_KEYS = ("max_curvature", "max_tension", "max_twist_rate", "total_twist", "max_node_torque", "cost")
     COST_KEYS = ("cost", "cost_curvature", "cost_tension", "cost_distance", "cost_twist", "cost_damage")
@@ -31,8 +32,8 @@ class EpisodeMetricsCallback(BaseCallback):
             for k in self.MAX_KEYS:
                 acc[k] = max(acc[k], float(info[k]))
             acc["min_clearance"] = min(acc["min_clearance"], float(info["min_clearance"]))
-            for k in self.COST_KEYS:
-                acc["integral"][k] += float(info[k]) * float(info["step_time"])
+            for k in self.COST_KEYS:  # the env's integral over the step (sampled along the motion with wear_integral)
+                acc["integral"][k] += float(info[f"integral_{k}"])
             if done:
                 log = self.logger.record_mean
                 log("episode/success", float(info["is_success"]))
@@ -46,6 +47,9 @@ class EpisodeMetricsCallback(BaseCallback):
                 log("episode/damage", float(info["damage"]))  # the worst segment's, over the episode
                 if "life_cycles" in info:  # fatigue life of the episode as a station cycle (log10: spans decades)
                     log("episode/log10_life_cycles", float(np.log10(max(info["life_cycles"], 1e-12))))
+                for k in ("reversals_per_s", "peak_joint_acceleration"):  # smoothness of the episode's path
+                    if k in info:
+                        log(f"episode/{k}", float(info[k]))
                 for k, v in acc["integral"].items():
                     log(f"episode/integrated_{k}", v)
                 self._acc[i] = self._fresh()

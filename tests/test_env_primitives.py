@@ -1,0 +1,125 @@
+"""The env's planner-like action set: straight to the goal, via configurations, a wait; the wear integral sampled
+along each motion; the wear reward cap; errors."""
+
+import math
+import pickle
+
+import numpy as np
+import pytest
+
+from dresspack_gym import ConfigError
+from dresspack_gym.env import TO_GOAL, DresspackEnv, _cost_row
+
+
+FREE_WAY = {"welds": ["roof_rail_top"]}  # the straight way from Home to this weld is free
+
+
+@pytest.fixture(scope="module")
+def env():
+    e = DresspackEnv(station="default", action_set="primitives", via_offsets_deg=[30.0, 60.0], wear_integral=True,
+                     settle_time=0.0, collision_margin=0.005, physics_profile="training", max_steps=12)
+    yield e
+    e.close()
+
+
+def test_action_layout_and_targets(env):
+    assert env.n_actions == 2 + 12 * 2 and env.stay_action == env.n_actions - 1
+    env.reset(seed=0)
+    q, goal = env.q, env.goal
+    np.testing.assert_array_equal(env._target(q, TO_GOAL), goal)
+    np.testing.assert_array_equal(env._target(q, env.stay_action), q)
+    # action 1 + 12 i + 2 j (+1): the midpoint with joint j offset by +(-) via_offsets_deg[i]
+    for i, off in enumerate((30.0, 60.0)):
+        for j in range(6):
+            for sign, k in ((1.0, 0), (-1.0, 1)):
+                a = 1 + 12 * i + 2 * j + k
+                expected = q + 0.5 * (goal - q)
+                expected[j] += sign * math.radians(off)
+                np.testing.assert_allclose(env._target(q, a), expected, atol=1e-12)
+                assert f"j{j + 1} {sign * off:+g} deg" in env.describe_action(a)
+    assert env.describe_action(TO_GOAL) == "straight to the goal" and env.describe_action(env.stay_action) == "stay"
+
+
+def test_straight_to_the_goal_reaches_it_in_one_step_and_integrates_the_wear(env):
+    env.reset(seed=1, options=FREE_WAY)
+    assert env.action_masks()[TO_GOAL]
+    goal = env.goal.copy()
+    _, r, _, _, info = env.step(TO_GOAL)
+    np.testing.assert_array_equal(info["q"], goal)
+    assert info["goals_reached"] == 1 and info["reward_goal"] > 0
+    np.testing.assert_array_equal(info["moved_through"][-1], goal)
+    # the wear term is the integral of C along the motion, not C at its end times its duration: a second run of
+    # the same motion, sampled ten times more densely by the simulator itself, gives the same integral
+    clone = DresspackEnv(**{**env._kwargs})
+    clone.reset(seed=1, options=FREE_WAY)
+    q_all = clone.sim.q.copy()
+    q_all[0] = goal
+    t0, c0 = clone.sim.motion_time, clone.task.cost(clone.sim.measures()).total
+    trace = clone.sim.move_to(q_all, settle=False, record_every=0.005)
+    t = np.r_[t0, trace.time]
+    c = np.r_[c0, [clone.task.cost(m).total for m in trace.measures]]
+    dense = float(np.sum(0.5 * (c[1:] + c[:-1]) * np.diff(t)))
+    assert -info["reward_wear"] == pytest.approx(dense, rel=0.05)
+    assert info["reward_time"] == pytest.approx(-info["step_time"])
+    assert r == pytest.approx(sum(info[f"reward_{k}"] for k in ("time", "wear", "progress", "goal", "invalid")))
+
+
+def test_a_wait_at_rest_integrates_a_constant_cost():
+    e = DresspackEnv(station="default", action_set="primitives", wear_integral=True, physics_profile="training")
+    e.reset(seed=0)
+    e.sim.settle()  # at equilibrium: C stays what it is over the wait
+    e._cost_now = _cost_row(e.task.cost(e.sim.measures()))
+    _, _, _, _, info = e.step(e.stay_action)
+    assert -info["reward_wear"] == pytest.approx(info["cost"] * info["step_time"], rel=1e-3)
+
+
+def test_the_wear_reward_cap_bounds_each_step():
+    e = DresspackEnv(station="default", action_set="primitives", wear_integral=True, physics_profile="training",
+                     wear_reward_cap=1e-3)
+    e.reset(seed=2, options=FREE_WAY)
+    _, _, _, _, info = e.step(TO_GOAL)
+    assert info["cost"] > 0 and info["reward_wear"] == pytest.approx(-1e-3)
+
+
+def test_random_masked_primitives_keep_every_segment_valid(env):
+    """Every segment an allowed action drives passes the planners' continuous check (independent code path)."""
+    rng = np.random.default_rng(3)
+    env.reset(seed=3)
+    segments = 0
+    for _ in range(10):
+        q0 = env.q
+        a = int(rng.choice(np.flatnonzero(env.action_masks())))
+        _, _, term, trunc, info = env.step(a)
+        for q1 in info["moved_through"]:
+            assert env.validity.segment_valid(q0, q1), (env.describe_action(a), q0, q1)
+            q0, segments = q1, segments + 1
+        if term or trunc:
+            env.reset(seed=int(rng.integers(1000)))
+    assert segments >= 5
+
+
+def test_primitive_env_pickles_mid_episode(env):
+    env.reset(seed=4)
+    a = int(np.flatnonzero(env.action_masks())[1])
+    env.step(a)
+    clone = pickle.loads(pickle.dumps(env))
+    a = int(np.flatnonzero(env.action_masks())[0])
+    o1, r1, *_ = env.step(a)
+    o2, r2, *_ = clone.step(a)
+    np.testing.assert_array_equal(o1, o2)
+    assert r1 == r2
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    ({"action_set": "segments"}, "action_set"),
+    ({"action_set": "primitives", "via_offsets_deg": []}, "via_offsets_deg"),
+    ({"action_set": "primitives", "via_offsets_deg": "30"}, "via_offsets_deg"),
+    ({"action_set": "primitives", "via_offsets_deg": [30.0, 0.0]}, "via_offsets_deg[1]"),
+    ({"action_set": "primitives", "goal_action": True}, "goal_action"),
+    ({"wear_reward_cap": -1.0}, "wear_reward_cap"),
+    ({"wear_reward_cap": float("nan")}, "wear_reward_cap"),
+])
+def test_bad_action_set_arguments_name_the_field(kwargs, field):
+    with pytest.raises(ConfigError) as err:
+        DresspackEnv(station="default", **kwargs)
+    assert err.value.field == field
