@@ -48,7 +48,9 @@ order; the space's size is their sum): joints scaled by their limits (6), goal s
 the goal / pi (6), task progress (1), ``cable_samples`` cable points in the TCP frame divided by the cable length
 (3 each), and the measures κ/κ0, F/``tension_scale``, d/c (3); with ``part_welds`` (each episode draws that many
 weld points on the station's parts, :mod:`weld_sampling`) also the goal's tool position from the base /
-``POSE_SCALE`` and its approach direction (6).
+``POSE_SCALE`` and its approach direction (6); with ``action_set="primitives"`` also the action mask (+1 allowed,
+-1 masked, one per action): whether each candidate segment is free is what the policy sees of the geometry around
+its way, so a changed station changes what it observes.
 """
 
 from __future__ import annotations
@@ -253,6 +255,8 @@ class DresspackEnv(gym.Env):
                                       "cable_points": 3 * self.cable_samples, "measures": 3}
         if part_welds:  # goals change every episode: the goal's tool pose too (position, approach)
             self.observation_structure["goal_pose"] = 6
+        if action_set == "primitives":  # which segments are free: probes of the geometry along each candidate
+            self.observation_structure["action_masks"] = 2 + 12 * len(via_offsets_deg)
         n_obs = sum(self.observation_structure.values())
         self.observation_space = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(n_obs,), dtype=np.float32)
         self.action_set = action_set
@@ -592,6 +596,8 @@ class DresspackEnv(gym.Env):
             goal_tcp = self.robot.kinematics.tcp_pose(self.goal)
             base = np.asarray(self.placement.base_pos)
             parts["goal_pose"] = np.concatenate([(goal_tcp[:3, 3] - base) / POSE_SCALE, goal_tcp[:3, 2]])
+        if "action_masks" in self.observation_structure:
+            parts["action_masks"] = np.where(self.action_masks(), 1.0, -1.0)
         obs = np.concatenate([parts[k] for k in self.observation_structure])
         return np.clip(obs, -OBS_BOUND, OBS_BOUND).astype(np.float32)
 

@@ -123,3 +123,12 @@ def test_bad_action_set_arguments_name_the_field(kwargs, field):
     with pytest.raises(ConfigError) as err:
         DresspackEnv(station="default", **kwargs)
     assert err.value.field == field
+
+
+def test_the_observation_carries_the_action_mask(env):
+    obs, _ = env.reset(seed=5)
+    start = sum(n for k, n in env.observation_structure.items() if k != "action_masks")
+    assert list(env.observation_structure)[-1] == "action_masks"
+    np.testing.assert_array_equal(obs[start:] > 0, env.action_masks())
+    obs, *_ = env.step(int(np.flatnonzero(env.action_masks())[0]))
+    np.testing.assert_array_equal(obs[start:] > 0, env.action_masks())
