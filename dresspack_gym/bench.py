@@ -119,6 +119,11 @@ def env_benchmark(station_ref: str = "default", repeats: int = 3, env_steps: int
 
     envs = {name: DresspackEnv(station=station_ref, physics_profile=name) for name in PROFILES}
     rates = {name: _env_rate(e, repeats, env_steps) for name, e in envs.items()}  # in one run: fair ratios
+    # the goal-conditioned training setup: planner-like segments, welds drawn on the parts, training profile; a
+    # step is a whole segment, so simulated motion seconds per wall second compares the setups' work
+    primitives = DresspackEnv(station=station_ref, physics_profile="training", action_set="primitives",
+                              part_welds=1, settle_time=0.0, collision_margin=0.005)
+    prim_rate = _env_rate(primitives, repeats, max(1, env_steps // 6))
     env = envs["accurate"]
     m, d = env.station.model, env.sim.data
     best = rates["accurate"]
@@ -129,7 +134,7 @@ def env_benchmark(station_ref: str = "default", repeats: int = 3, env_steps: int
         mujoco.mj_step(m, d)
     resting = 2000 / (time.perf_counter() - t0)
     env.sim.set_state(state)
-    env_rate, raw_rate, per_step = best
+    env_rate, raw_rate, per_step, _ = best
     raw_equivalent = raw_rate / per_step
     return {
         "station": env.station.config.name,
@@ -141,12 +146,15 @@ def env_benchmark(station_ref: str = "default", repeats: int = 3, env_steps: int
         "raw_resting_steps_per_s": round(resting, 1),
         "profiles_env_steps_per_s": {k: round(v[0], 2) for k, v in rates.items()},
         "training_vs_accurate": round(rates["training"][0] / rates["accurate"][0], 2),
+        "motion_s_per_s": {**{k: round(v[3], 2) for k, v in rates.items()}, "training_primitives": round(prim_rate[3], 2)},
+        "primitives_env_steps_per_s": round(prim_rate[0], 2),
+        "primitives_vs_accurate_motion": round(prim_rate[3] / rates["accurate"][3], 2),
     }
 
 
 def _env_rate(env, repeats: int, env_steps: int):
     """The best of ``repeats`` runs of random masked steps: (env steps/s, mj_step steps/s, physics steps per env
-    step)."""
+    step, simulated motion seconds per wall second)."""
     d = env.sim.data
     rng = np.random.default_rng(0)
     timer = d.timer[mujoco.mjtTimer.mjTIMER_STEP]  # MuJoCo's own mj_step timer: nothing global is patched
@@ -155,14 +163,16 @@ def _env_rate(env, repeats: int, env_steps: int):
         env.reset(seed=rep)
         step_time, step_count = timer.duration, timer.number
         t0 = time.perf_counter()
+        motion = 0.0
         for _ in range(env_steps):
             masks = env.action_masks()
-            _, _, term, trunc, _ = env.step(int(rng.choice(np.flatnonzero(masks))))
+            _, _, term, trunc, info = env.step(int(rng.choice(np.flatnonzero(masks))))
+            motion += info["step_time"]
             if term or trunc:
                 env.reset()
         total = time.perf_counter() - t0
         n = timer.number - step_count
-        run = (env_steps / total, n / (timer.duration - step_time), n / env_steps)
+        run = (env_steps / total, n / (timer.duration - step_time), n / env_steps, motion / total)
         best = run if best is None or run[0] > best[0] else best
     return best
 

@@ -55,3 +55,5 @@ def test_bench_env_reports_every_profile_in_one_run():
     out = env_benchmark(repeats=1, env_steps=3)
     assert set(out["profiles_env_steps_per_s"]) == {"accurate", "training"}
     assert out["training_vs_accurate"] > 0 and np.isfinite(out["training_vs_accurate"])
+    assert set(out["motion_s_per_s"]) == {"accurate", "training", "training_primitives"}
+    assert out["primitives_vs_accurate_motion"] > 0 and out["primitives_env_steps_per_s"] > 0

@@ -45,3 +45,14 @@ def test_four_robot_station_every_weld_reachable_by_its_robot_and_cables_apart()
     sim = CableSimulator(station)
     assert sim.last_settle.converged
     assert all(s.normal_force.sum() == 0.0 for s in sim.segment_states())
+
+
+def test_the_held_out_variant_moves_the_car_body_and_adds_a_clamp_column():
+    base, variant = load_station("default"), load_station("default_variant")
+    moved = {o.name: o for o in variant.obstacles}
+    assert set(moved) - {o.name for o in base.obstacles} == {"clamp_column"}
+    for o in base.obstacles:
+        shift = np.asarray(moved[o.name].pos) - np.asarray(o.pos)
+        expected = (0.0, 0.0, 0.0) if o.name == "cabinet" else (0.12, -0.10, 0.0)
+        np.testing.assert_allclose(shift, expected, atol=1e-12, err_msg=o.name)
+    assert [r.robot.name for r in variant.robots] == [r.robot.name for r in base.robots]
