@@ -3,6 +3,7 @@ configurations it visits become a Trajectory that the evaluation replays exactly
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -144,12 +145,15 @@ class PolicyPlanner(Planner):
         obs, info = env.reset(seed=self.seed, options={"goals": dict(zip(task.weld_names, task.goals)),
                                                        "start": task.start})
         waypoints, stops, masked_taken = [env.q], [], 0
+        inference = 0.0  # the network alone; the rest of the planning time is the env (physics, masks)
         done = False
         while not done:
             if self.allowance.out_of_time():  # the work bound is the env's max_steps
                 raise out_of_time_error(self, f"after {env.steps} policy steps")
             masks = env.action_masks()
+            t0 = time.perf_counter()
             action = self.agent.predict(obs, masks, deterministic=mode == "argmax")
+            inference += time.perf_counter() - t0
             masked_taken += int(not masks[action])
             reached_before = info["goals_reached"]
             obs, _, terminated, truncated, info = env.step(action)
@@ -160,7 +164,8 @@ class PolicyPlanner(Planner):
         if not info["is_success"]:
             raise _EpisodeFailed(f"{info['goals_reached']}/{info['n_goals']} goals in {env.max_steps} steps")
         traj = Trajectory(np.array(waypoints), tuple(stops))
-        return traj, {"policy": str(self.policy_path), "policy_steps": env.steps, "masked_actions": masked_taken}
+        return traj, {"policy": str(self.policy_path), "policy_steps": env.steps, "masked_actions": masked_taken,
+                      "inference_s": round(inference, 5)}
 
 
 class _EpisodeFailed(Exception):

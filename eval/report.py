@@ -20,12 +20,13 @@ from dresspack_gym.station import Station
 from dresspack_gym.trajectory import Replay, replay
 
 from .runs import METRICS, EvalSpec, load_trajectory
-from .summary import by_method, by_task, fmt, json_summary, rows_to_csv
+from .summary import OPTIONAL, by_method, by_task, fmt, json_summary, rows_to_csv
 
 HEADERS = {"cycle_time": "cycle time [s]", "max_curvature": "max κ [1/m]", "max_tension": "max F [N]",
            "min_clearance": "min d [m]", "max_twist_rate": "max twist [rad/m]", "cost": "∫C dt",
            "damage": "damage (worst seg.)", "life_cycles": "life [cycles]", "reversals_per_s": "reversals [1/s]",
-           "peak_joint_acceleration": "peak q̈ [rad/s²]", "planning_time": "plan/infer [s]"}
+           "peak_joint_acceleration": "peak q̈ [rad/s²]", "planning_time": "plan/infer [s]",
+           "inference_time": "network [s]"}
 
 
 def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dict[str, Replay] | None = None, *,
@@ -119,11 +120,13 @@ def _settle_note(rows: list[dict]) -> str:
 
 
 def _table(per_method: dict[str, dict]) -> dict:
-    header = ["method", "success", *[HEADERS[m] for m in METRICS]]
+    # a learned planner's network time, apart from the env physics it also spends (planning_time holds both)
+    extra = [k for k in OPTIONAL if any(a.get(k) for a in per_method.values())]
+    header = ["method", "success", *[HEADERS[m] for m in (*METRICS, *extra)]]
     body = []
     for m, a in per_method.items():
         body.append([m, f"{a['n_success']}/{a['n_runs']} ({a['success_rate']:.0%})",
-                     *[fmt(a[k]) for k in METRICS]])
+                     *[fmt(a[k]) for k in METRICS], *[fmt(a[k]) if a[k] else "–" for k in extra]])
     return {"header": header, "rows": body}
 
 

@@ -188,6 +188,8 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) ->
                        **{k: s[k] for k in METRICS if k != "planning_time"},
                        cost_terms=s["cost_terms"], max_cost=s["max_cost"], weakest_segment_m=s["weakest_segment_m"],
                        unconverged_stops=s["unconverged_stops"])  # settles that missed the residual: flagged
+            if "inference_s" in result.info:  # a policy: the network's share of its planning time
+                row["inference_time"] = result.info["inference_s"]
             np.savez(_trajectory_path(out, key), waypoints=result.trajectory.waypoints,
                      stops=np.array(result.trajectory.stops))
         with open(out / "results.jsonl", "a") as f:

@@ -12,8 +12,10 @@ from .runs import METRICS
 
 JSON_KEYS = ("success_rate", "cycle_time", "max_curvature", "max_tension", "min_clearance", "cost", "damage",
              "reversals_per_s", "peak_joint_acceleration",
-             "life_cycles")
-CSV_FIELDS = ("method", "task", "seed", "success", *METRICS, "weakest_segment_m", "unconverged_stops", "cost_curvature",
+             "life_cycles", "planning_time", "inference_time")
+OPTIONAL = ("inference_time",)  # only a learned planner's rows carry it: the network's share of planning_time
+CSV_FIELDS = ("method", "task", "seed", "success", *METRICS, "weakest_segment_m", "unconverged_stops", *OPTIONAL,
+              "cost_curvature",
               "cost_tension",
               "cost_distance", "waypoints", "start_deg", "error")
 
@@ -22,7 +24,7 @@ def aggregate(rows: list[dict]) -> dict:
     """``{"n_runs", "n_success", "success_rate", metric: {"mean", "std"} | None}`` for a group of rows."""
     ok = [r for r in rows if r["success"]]
     out = {"n_runs": len(rows), "n_success": len(ok), "success_rate": len(ok) / len(rows) if rows else 0.0}
-    for m in METRICS:
+    for m in (*METRICS, *OPTIONAL):
         values = np.array([r[m] for r in ok if r.get(m) is not None], dtype=float)  # rows older than a metric lack it
         out[m] = {"mean": float(values.mean()), "std": float(values.std())} if len(values) else None
     return out

@@ -14,8 +14,8 @@ pytest.importorskip("sb3_contrib")
 
 from dresspack_gym.errors import ConfigError  # noqa: E402
 from dresspack.eval.compare import main  # noqa: E402
-from dresspack.eval.runs import EvalSpec  # noqa: E402
-from dresspack.eval.summary import JSON_KEYS, aggregate, fmt  # noqa: E402
+from dresspack.eval.runs import METRICS, EvalSpec  # noqa: E402
+from dresspack.eval.summary import JSON_KEYS, aggregate, by_method, fmt  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -136,3 +136,17 @@ def test_report_names_runs_whose_settles_missed_the_residual():
     assert _settle_note(rows) == ("Settles that did not reach the equilibrium residual within their cap (stops per "
                                   "run): ompl-wear on a (seed 1): 2")
     assert _settle_note(rows[:1]).startswith("Every settle")
+
+
+def test_network_time_column_only_for_a_learned_planner():
+    from dresspack.eval.report import _table
+
+    def row(method, planning, inference=None):
+        r = {"method": method, "success": True, **{m: 1.0 for m in METRICS}, "planning_time": planning}
+        return r | ({"inference_time": inference} if inference is not None else {})
+
+    rows = [row("ppo", 4.0, 0.002), row("ppo", 6.0, 0.004), row("ompl", 2.0)]
+    table = _table(by_method(rows, ["ppo", "ompl"]))
+    assert table["header"][-1] == "network [s]"
+    assert table["rows"][0][-1].startswith("0.003") and table["rows"][1][-1] == "–"
+    assert "network [s]" not in _table(by_method(rows[2:], ["ompl"]))["header"]
