@@ -1,5 +1,6 @@
-"""Robot-to-static-geometry collision queries (the robot is kinematic, so these are checks, not contacts).
-Static geometry is the station's obstacles and the station's other robots parked at Home."""
+"""Robot collision queries (the robot is kinematic, so these are checks, not contacts): against static geometry
+(the station's obstacles and its other robots parked at Home) and of the dresspack hardware it carries (clamps,
+rings) against its own links."""
 
 from __future__ import annotations
 
@@ -13,6 +14,12 @@ FLOOR_EXEMPT_LINKS = ("base", "link1", "link2")
 # [m] what a robot keeps from the other robots of the station, parked at Home: paths that keep clear of parked
 # robots can always be coordinated by waits (at worst one robot waits until the other is back Home).
 ROBOT_CLEARANCE = 0.02
+# A clamp or ring is checked against the robot's links at least this many links away from the one carrying it
+# (as MuJoCo skips parent-child contacts): the tool support on link 6 against link 4, the arm clamp on link 3
+# against links 1, 5 and 6. Without it a wrist bent to 90 deg drove the tool support, with the cable's end
+# edge it holds rigidly, into the forearm: the flex contact then reported crushing forces of tens of MN as
+# cable tension.
+HARDWARE_LINK_GAP = 2
 
 
 class RobotCollisionChecker:
@@ -37,7 +44,7 @@ class RobotCollisionChecker:
         m = self.model
         floor = m.geom("floor").id if station.config.floor else -1
         exempt = {m.body(f"{self.robot.name}/{link}").id for link in FLOOR_EXEMPT_LINKS}
-        pairs, extra = [], []
+        pairs, extra, scale = [], [], []
         others = [g for r in station.robots if r is not self.robot for g in r.geom_ids]  # parked at Home
         for g in self.robot.geom_ids:
             for o in station.obstacle_geoms:
@@ -48,15 +55,30 @@ class RobotCollisionChecker:
             for o in others:
                 pairs.append((g, o))
                 extra.append(max(0.0, ROBOT_CLEARANCE - self.margin))
+        scale = [1.0] * len(pairs)
+        node_body = f"{self.robot.name}/node_"
+        hardware = {int(g) for g in self.robot.geom_ids if m.body(int(m.geom_bodyid[g])).name.startswith(node_body)}
+        for g, link_g in zip(self.robot.geom_ids, self.robot.geom_links):
+            if int(g) not in hardware:
+                continue
+            for h, link_h in zip(self.robot.geom_ids, self.robot.geom_links):
+                if int(h) not in hardware and abs(int(link_h) - int(link_g)) >= HARDWARE_LINK_GAP:
+                    pairs.append((g, h))
+                    extra.append(0.0)
+                    # both geoms move: their gap closes at most twice as fast as a robot point moves (the bound
+                    # MotionValidity steps by), so the pair counts half its distance (keeps twice the margin)
+                    scale.append(0.5)
         self.pairs = np.array(pairs, dtype=int).reshape(-1, 2)
         # distances to other robots count ROBOT_CLEARANCE - margin less, so `margin` keeps ROBOT_CLEARANCE from them
         self.extra = np.array(extra, dtype=float)
+        self.scale = np.array(scale, dtype=float)
         self.plane = m.geom_type[self.pairs[:, 1]] == mujoco.mjtGeom.mjGEOM_PLANE if len(self.pairs) else np.zeros(0, bool)
         self.rbound = m.geom_rbound
         # Box obstacles (the station's panels and fixtures are mostly boxes, many much larger than the robot's
         # geoms): their lower bound is the distance from the robot geom's bounding sphere to the box itself, far
         # tighter than sphere to sphere, so fewer exact distance queries are needed.
-        self.box = m.geom_type[self.pairs[:, 1]] == mujoco.mjtGeom.mjGEOM_BOX if len(self.pairs) else np.zeros(0, bool)
+        self.box = ((m.geom_type[self.pairs[:, 1]] == mujoco.mjtGeom.mjGEOM_BOX) & (self.scale == 1.0)
+                    if len(self.pairs) else np.zeros(0, bool))  # obstacles and parked robots only
         self._box_g, self._box_o = self.pairs[self.box, 0], self.pairs[self.box, 1]
         self._box_size = m.geom_size[self._box_o]
         self._fromto = np.zeros(6)
@@ -73,6 +95,7 @@ class RobotCollisionChecker:
         g, o = self.pairs[:, 0], self.pairs[:, 1]
         lb = np.linalg.norm(d.geom_xpos[g] - d.geom_xpos[o], axis=1) - self.rbound[g] - self.rbound[o] - self.extra
         lb[self.plane] = -np.inf
+        lb *= self.scale
         if len(self._box_o):
             rel = d.geom_xpos[self._box_g] - d.geom_xpos[self._box_o]
             local = np.einsum("nij,ni->nj", d.geom_xmat[self._box_o].reshape(-1, 3, 3), rel)  # in the box frame
@@ -84,7 +107,8 @@ class RobotCollisionChecker:
         return g, o, lb
 
     def min_distance(self, q) -> float:
-        """Smallest robot-obstacle surface distance at configuration ``q`` (negative when penetrating)."""
+        """Smallest robot-obstacle surface distance at configuration ``q`` (negative when penetrating); a
+        hardware-to-own-link pair counts half its distance."""
         if len(self.pairs) == 0:
             return np.inf
         d = self.data
@@ -93,8 +117,9 @@ class RobotCollisionChecker:
         for k in np.argsort(lb):
             if lb[k] >= best:  # pairs are sorted by lower bound: none of the rest can be nearer
                 break
-            dist = mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]), min(best + self.extra[k], 10.0),
-                                          self._fromto) - self.extra[k]
+            dist = (mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]),
+                                           min(best / self.scale[k] + self.extra[k], 10.0), self._fromto)
+                    - self.extra[k]) * self.scale[k]
             best = min(best, dist)
         return float(best)
 
@@ -140,8 +165,9 @@ class RobotCollisionChecker:
         d = self.data
         g, o, lb = self._pose(q)
         for k in np.flatnonzero(lb < self.margin):  # pairs whose bounding spheres are farther can't touch
-            if mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]), self.margin + self.extra[k] + 1e-3,
-                                      self._fromto) - self.extra[k] < self.margin:
+            if (mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]),
+                                       self.margin / self.scale[k] + self.extra[k] + 1e-3, self._fromto)
+                    - self.extra[k]) * self.scale[k] < self.margin:
                 return True
         return False
 

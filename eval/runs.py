@@ -129,15 +129,23 @@ def load_trajectory(out: Path, row: dict) -> Trajectory | None:
     return Trajectory(data["waypoints"], tuple(int(i) for i in data["stops"]))
 
 
+def _extends(stored: dict, new: dict) -> bool:
+    """Whether ``new`` is ``stored`` or adds methods to it: the finished rows of the stored methods stay valid
+    (same tasks, seeds and settings; the policy may be set only if no stored method used it)."""
+    free = {"methods"} | ({"policy"} if not set(stored["methods"]) & set(POLICY_METHODS) else set())
+    same = all(stored.get(k) == v for k, v in new.items() if k not in free) and set(stored) == set(new)
+    return same and set(stored["methods"]) <= set(new["methods"])
+
+
 def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) -> tuple[list[dict], dict]:
     """Every method x task x seed; returns the rows (in spec order) and the replays made in this call."""
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ConfigError("out", f"{out} is an existing file: give a folder for the report")
     spec_file = out / "spec.json"
-    if spec_file.is_file() and json.loads(spec_file.read_text()) != spec.to_dict():
+    if spec_file.is_file() and not _extends(json.loads(spec_file.read_text()), spec.to_dict()):
         raise ConfigError("out", f"{out} holds an evaluation with other settings (spec.json): choose another "
-                                 "folder, or delete it to start over")
+                                 "folder, or delete it to start over (adding methods to it is allowed)")
     # every input is checked before anything is written: a failed start leaves no spec.json behind
     station = Station(load_station(spec.station))
     tasks = build_tasks(station, spec)

@@ -141,3 +141,39 @@ def test_cables_of_different_robots_rest_on_each_other():
         forces, _ = sim.node_loads(r)
         rot = [sim.data.xmat[b].reshape(3, 3) for b in station.cables[r].node_bodies]
         assert -sum((R @ f)[2] for R, f in zip(rot, forces)) == pytest.approx(expected, rel=0.02)
+
+
+def test_dresspack_hardware_is_checked_against_its_own_robots_links():
+    """A wrist bent to 90 deg (a weld drawn on the car body, q below) turns the tool support into the forearm; the
+    flex contact of the edge it holds then reported tens of MN as cable tension. Such configurations collide."""
+    import mujoco
+
+    station = Station(load_station("default"))
+    checker = RobotCollisionChecker(station, margin=0.005)
+    m, name = station.model, lambda g: m.geom(int(g)).name
+    own = {(name(a), name(b)) for (a, b), s in zip(checker.pairs, checker.scale) if s < 1.0}
+    assert {("r1/node_tool_support_geom", "r1/link4_geom4"), ("r1/node_arm_clamp_geom", "r1/link6_geom6")} <= own
+    # links next to the carrying one are not checked (joint housings touch by design), nor the hardware itself
+    assert not {("r1/node_tool_support_geom", "r1/link5_geom5"), ("r1/node_arm_clamp_geom", "r1/link4_geom4")} & own
+    assert not any("node" in b for _, b in own)
+    bent = np.radians([-58.0, 52.0, 17.0, 296.0, -94.0, 109.0])
+    assert checker.collides(bent) and not checker.collides(station.home[0])
+    checker.min_distance(bent)  # poses the robot
+    to_station = min(mujoco.mj_geomDistance(m, checker.data, int(g), int(o), 10.0, np.zeros(6))
+                     for g in station.robots[0].geom_ids for o in station.obstacle_geoms if name(o) != "floor")
+    assert to_station > 0.05  # clear of the station: only the own-link check catches it
+    # the pair counts half its surface distance (both geoms move), read against MuJoCo's exact distance
+    d = checker.data
+    support, forearm = m.geom("r1/node_tool_support_geom").id, m.geom("r1/link4_geom4").id
+    for q in (bent, station.home[0]):
+        checker.min_distance(q)
+        exact = mujoco.mj_geomDistance(m, d, support, forearm, 10.0, np.zeros(6))
+        assert checker.min_distance(q) <= 0.5 * exact + 1e-12
+    assert checker.min_distance(bent) == pytest.approx(0.5 * exact_at(checker, bent, support, forearm), abs=1e-9)
+
+
+def exact_at(checker, q, g1, g2):
+    import mujoco
+
+    checker.min_distance(q)  # poses the robot
+    return mujoco.mj_geomDistance(checker.model, checker.data, g1, g2, 10.0, np.zeros(6))

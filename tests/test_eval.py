@@ -150,3 +150,14 @@ def test_network_time_column_only_for_a_learned_planner():
     assert table["header"][-1] == "network [s]"
     assert table["rows"][0][-1].startswith("0.003") and table["rows"][1][-1] == "–"
     assert "network [s]" not in _table(by_method(rows[2:], ["ompl"]))["header"]
+
+
+def test_an_evaluation_folder_takes_added_methods_but_no_other_change():
+    from dresspack.eval.runs import _extends
+
+    base = EvalSpec(methods=("ompl",), tasks=(("roof_rail_top",),), seeds=(0,)).to_dict()
+    more = EvalSpec(methods=("ompl", "ppo"), tasks=(("roof_rail_top",),), seeds=(0,), policy="somewhere").to_dict()
+    assert _extends(base, base) and _extends(base, more)
+    assert not _extends(more, base)  # a stored method dropped
+    assert not _extends(more, more | {"policy": "elsewhere"})  # the stored ppo rows came from another policy
+    assert not _extends(base, more | {"seeds": [0, 1]}) and not _extends(base, more | {"iterations": 10})
