@@ -210,10 +210,13 @@ class DresspackEnv(gym.Env):
         for k in ("self", "__class__"):
             self._kwargs.pop(k, None)
         _check_arguments(self._kwargs)
+        geometry = station if isinstance(station, Station) else None
         if sim_timestep is not None or physics_profile != "accurate":
             # a station compiled from the changed config: everything derived from the timestep (the cable's
             # constraint impedances) follows it, and a caller's Station keeps its own
             config = station.config if isinstance(station, Station) else load_station(station)
+            if physics_profile != "accurate" and geometry is None:
+                geometry = Station(config)
             config = with_profile(config, physics_profile)
             if sim_timestep is not None:
                 config = replace(config, simulation=replace(config.simulation, timestep=float(sim_timestep)))
@@ -226,7 +229,10 @@ class DresspackEnv(gym.Env):
         self.placement = self.station.config.robots[robot]
         self.sim = CableSimulator(self.station)
         self.home_state = self.sim.get_state()
-        self.validity = MotionValidity(self.station, robot, collision_margin, mask_resolution_deg)
+        # Collision geometry is the given station's whatever the physics profile: what a motion may do must not
+        # depend on how finely its cable is simulated (a coarser profile's longer rigid clamp edges, robot hardware
+        # in the checks, would otherwise reject goals and moves the planners accept).
+        self.validity = MotionValidity(geometry or self.station, robot, collision_margin, mask_resolution_deg)
         self.checker: RobotCollisionChecker = self.validity.checker
         self.restrictions = self.placement.restrictions
         self.limits = self.placement.robot.joint_limits

@@ -49,6 +49,20 @@ def test_profiles_are_applied_and_checked():
         DresspackEnv("default", physics_profile="fast")
 
 
+def test_collision_geometry_does_not_follow_the_physics_profile():
+    """The coarse profile's clamp edges are longer (1.74/16 m vs 1.74/24 m); what a motion may do must not change:
+    the env checks collisions on the accurate station, the one the planners and the evaluation judge with."""
+    accurate = Station(load_station("default"))
+    for station in ("default", accurate):
+        env = DresspackEnv(station, physics_profile="training")
+        geometry = env.checker.station
+        assert env.station.cables[0].n_vertices - 1 == 16 and geometry.cables[0].n_vertices - 1 == 24
+    assert geometry is accurate
+    judge = MotionValidity(accurate, 0, margin=env.checker.margin)
+    qs = np.radians(np.random.default_rng(3).uniform(-120, 120, size=(200, 6)))
+    assert [env.validity.valid(q) for q in qs] == [judge.valid(q) for q in qs]
+
+
 def test_bench_env_reports_every_profile_in_one_run():
     from dresspack_gym.bench import env_benchmark
 
