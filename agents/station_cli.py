@@ -39,7 +39,11 @@ def add_station_plan_command(sub) -> None:
                    help=f"OMPL iterations per leg that is not a straight move (default {DEFAULT_ITERATIONS})")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis")
     p.add_argument("--seed", type=seed, default=0)
-    p.add_argument("--no-replay", action="store_true", help="skip running the plans in the cable simulator")
+    p.add_argument("--cable-repairs", type=number(0, 100, integer=True), default=3,
+                   help="times a plan is run in the cable simulator and the legs that jammed a cable re-routed "
+                        "before it is final (default 3)")
+    p.add_argument("--no-replay", action="store_true", help="skip running the plans in the cable simulator (and "
+                                                            "so the cable repairs)")
     p.add_argument("--out", type=output_dir, default=Path("station_plans"),
                    help="output folder (default: station_plans/): per objective a folder with plan.json, one "
                         "trajectory per robot, gantt.png, wear.png, assignment.png; summary.md compares them")
@@ -60,6 +64,7 @@ def cmd_station_plan(args) -> int:
     configs = [StationPlanConfig(objective=o, weld_time=args.weld_time, work=args.work, time_budget=args.time_budget,
                                  iterations=args.iterations, makespan_slack=args.makespan_slack, seed=args.seed,
                                  cost_variant=args.cost_variant, fixed_assignment=args.fixed_assignment,
+                                 cable_repairs=0 if args.no_replay else args.cable_repairs,
                                  welds=tuple(args.welds) if args.welds else None)
                for o in dict.fromkeys(args.objective)]
     out = args.out
@@ -71,7 +76,7 @@ def cmd_station_plan(args) -> int:
         # one planner object: settled-cable costs and planned legs are shared between the objectives
         planner = StationPlanner(station, cfg, progress=bar) if planner is None else planner.reconfigured(cfg)
         plan = planner.plan(cache=out / "option_costs.json")
-        if not args.no_replay:
+        if not args.no_replay and plan.replay is None:
             planner.replay(plan)
         folder = out / cfg.objective
         save_plan(plan, folder)
@@ -89,6 +94,9 @@ def cmd_station_plan(args) -> int:
                 if s["replay"]["jammed"]:
                     line += f" -- JAMMED cable(s) {', '.join(s['replay']['jammed'])}: pulled beyond 5 % strain " \
                             "(pinned by a robot); the wear figure is not meaningful"
+            if s["info"].get("rerouted_legs"):
+                line += (f" -- {len(s['info']['rerouted_legs'])} leg(s) re-routed after jamming a cable in "
+                         f"{s['info']['cable_replays'] - 1} replay(s)")
             if s["info"]["unconverged_cost_settles"]:
                 line += (f" -- wear estimates of {', '.join(s['info']['unconverged_cost_settles'])} come from "
                          "settles that did not reach equilibrium")

@@ -4,7 +4,9 @@ robots by waits, verify, and run the result in the cable simulator.
 Cheap estimates first, exact work on what is chosen: weld options are costed by their settled cable (one settle
 per option, cached), travel by the time law of the straight move; the solver's chosen legs are then planned by
 OMPL (collision-free), their real durations replace the estimates, and the solver runs again until every chosen
-leg is exact."""
+leg is exact. The plan is then run in the cable simulator; a leg whose motion jams its robot's cable (drags it
+around the car body or its own links beyond the jam strain) is re-routed or given up, and the station planned
+again (``cable_repairs`` times at most): a collision-free route is not yet a route the dresspack survives."""
 
 from __future__ import annotations
 
@@ -39,6 +41,10 @@ BLOCKED = 1e4  # [s] the travel time of a move OMPL found no path for: the solve
 # them likely meet): the solver charges CONFLICT_WAIT x (weld time + a typical leg) of waiting for the pair
 CONFLICT_DISTANCE = 0.15
 CONFLICT_WAIT = 1.0
+# Re-routes a leg that jammed its cable gets before it counts as blocked: OMPL with another seed (a route it had
+# not drawn), then through the robot's Home (where the dresspack is laid out to hang freely)
+REROUTES = ("ompl_reseeded", "via_home")
+RESEED = 7919  # seed offset of a re-routed leg's OMPL plan (any fixed number: another stream, deterministically)
 
 
 @dataclass(frozen=True)
@@ -58,6 +64,8 @@ class StationPlanConfig:
     cost_variant: str = "thesis"
     fixed_assignment: bool = False
     welds: tuple[str, ...] | None = None
+    # station replays whose jammed legs are re-routed before the plan is final (0: no replay inside planning)
+    cable_repairs: int = 3
 
     def __post_init__(self):
         check_choice("objective", self.objective, OBJECTIVES)
@@ -68,6 +76,7 @@ class StationPlanConfig:
         check_integer(self.costed_options, "costed_options", lo=1, hi=1000)
         check_integer(self.kept_options, "kept_options", lo=1, hi=100)
         check_integer(self.exact_rounds, "exact_rounds", lo=1, hi=100)
+        check_integer(self.cable_repairs, "cable_repairs", lo=0, hi=100)
         check_number(self.makespan_slack, "makespan_slack", lo=0.0, hi=10.0)
         check_integer(self.seed, "seed", lo=0, hi=2 ** 32 - 1)
         cost_function(self.cost_variant)
@@ -131,6 +140,10 @@ class StationPlanner:
         self._legs: dict[tuple, np.ndarray | None] = {}
         self._conflicts: dict[bytes, np.ndarray] = {}
         self._sub_sims: dict[int, CableSimulator] = {}
+        # legs re-routed after they jammed a cable, over the planned ones (per planner: one objective's replays
+        # do not change another's plan), and the re-routes each has used
+        self._rerouted: dict[tuple, np.ndarray | None] = {}
+        self._reroutes: dict[tuple, int] = {}
 
     def reconfigured(self, config: StationPlanConfig) -> StationPlanner:
         """A planner with ``config`` that keeps this one's settled-cable costs and planned legs (same station,
@@ -140,6 +153,7 @@ class StationPlanner:
             return StationPlanner(self.station, config, self.progress)
         other = copy.copy(self)  # shares the caches
         other.config = config
+        other._rerouted, other._reroutes = {}, {}
         return other
 
     # -------------------------------------------------------------------------- costs
@@ -208,7 +222,7 @@ class StationPlanner:
         node_of = {}
         for n, (r, q) in enumerate(zip(node_robot, qs)):
             node_of.setdefault((int(r), q.tobytes()), []).append(n)
-        for (r, qa, qb), leg in self._legs.items():  # planned legs are exact
+        for (r, qa, qb), leg in {**self._legs, **self._rerouted}.items():  # planned legs are exact
             for i in node_of.get((r, qa), ()):
                 for j in node_of.get((r, qb), ()):
                     travel[r, i, j] = BLOCKED if leg is None else time_law.path_duration(leg, self.limits[r])
@@ -264,6 +278,8 @@ class StationPlanner:
         """Robot ``robot``'s collision-free path from node i to node j (straight if valid, else OMPL; cached);
         None if OMPL finds none within its iterations (the solver then treats the move as blocked)."""
         key = _leg_key(robot, qs[i], qs[j])
+        if key in self._rerouted:
+            return self._rerouted[key]
         if key not in self._legs:
             planner = self.leg_planners[robot]
             task = Task(robot, qs[i], (), np.zeros((0, 6)), qs[j])
@@ -348,6 +364,10 @@ class StationPlanner:
 
     # -------------------------------------------------------------------------- plan
     def plan(self, task: StationTask | None = None, cache: Path | None = None) -> StationPlan:
+        """Plan the station; with ``cable_repairs`` > 0 the plan is replayed with its cables (``plan.replay``), a
+        leg that jammed a cable is re-routed (:data:`REROUTES`, then blocked) and the station planned again. The
+        answer is the first plan without a jam, else the one with the fewest jammed cables (flagged in its
+        replay); ``info["rerouted_legs"]`` lists what was changed."""
         cfg = self.config
         if task is None:
             task = make_station_task(self.station, lambda r: self.leg_planners[r].validity.checker.collides,
@@ -360,6 +380,25 @@ class StationPlanner:
             self.save_rates(cache)
         self.check_straight_moves(task, options)
         qs = np.vstack([task.homes, np.array([o.q for o in options]).reshape(-1, 6)])
+        best, rerouted = None, []
+        for repair in range(cfg.cable_repairs + 1):
+            plan = self._plan_legs(task, options, qs)
+            if cfg.cable_repairs == 0:
+                return plan
+            self.replay(plan)
+            plan.info.update(cable_replays=repair + 1, rerouted_legs=list(rerouted))
+            if best is None or len(plan.replay.jammed()) < len(best.replay.jammed()):
+                best = plan
+            jams = self.jammed_legs(plan, qs)
+            if not jams or repair == cfg.cable_repairs:
+                break
+            for robot, i, j in jams:
+                rerouted.append(self._reroute(robot, i, j, qs, plan))
+        return best
+
+    def _plan_legs(self, task: StationTask, options: list[WeldOption], qs: np.ndarray) -> StationPlan:
+        """Solve, plan the chosen legs, re-solve with their exact times (``exact_rounds``); coordinate; verify."""
+        cfg = self.config
         rounds, solves, candidates, bound, wear_failures = 0, 0, [], 0.0, 0
         bar = self._bar("solve, plan the chosen legs (rounds, at most)", cfg.exact_rounds)
         fastest = chosen = None
@@ -406,6 +445,61 @@ class StationPlanner:
                                  "unconverged_cost_settles": self.unconverged_options(options),
                                  "planned_legs": len(self._legs), "cost_settles": len(self._rates)})
         return plan
+
+    # -------------------------------------------------------------------------- the cables' verdict
+    def jammed_legs(self, plan: StationPlan, qs: np.ndarray) -> list[tuple[int, int, int]]:
+        """(robot, from node, to node) of the leg behind each jammed cable in ``plan.replay``: the motion under
+        way when its tension first passed the jam strain, or, if the robot stood still then (welding, waiting),
+        the motion that brought it there (the cable was wedged on the way and stays wedged)."""
+        replay = plan.replay
+        out = []
+        for r in replay.jammed():
+            first = int(np.argmax(replay.measures["tension"][:, r] > replay.jam_tension[r]))
+            t = float(replay.time[first])
+            s = plan.schedule.robot(r)
+            k = int(np.clip(np.searchsorted(s.leg_start, t, side="right") - 1, 0, len(s.legs) - 1))
+            route = plan.assignment.routes[r]
+            path = [r, *route, r]
+            out.append((r, path[k], path[k + 1]))
+        return out
+
+    def _reroute(self, robot: int, i: int, j: int, qs: np.ndarray, plan: StationPlan) -> dict:
+        """Replace the leg i -> j of ``robot`` after it jammed the cable: the next of :data:`REROUTES` that
+        applies, else mark it blocked (the solver then avoids it). Returns what was done (for the summary)."""
+        key = _leg_key(robot, qs[i], qs[j])
+        old = self._rerouted.get(key, self._legs.get(key))
+        name = plan.names[robot]
+        stop = ["Home" if n < len(plan.names) else plan.options[n - len(plan.names)].weld for n in (i, j)]
+        done = "blocked"
+        while self._reroutes.get(key, 0) < len(REROUTES):
+            how = REROUTES[self._reroutes.get(key, 0)]
+            self._reroutes[key] = self._reroutes.get(key, 0) + 1
+            leg = self._alternative(how, robot, qs[i], qs[j], old)
+            if leg is not None:
+                self._rerouted[key], done = leg, how
+                break
+        else:
+            self._rerouted[key] = None
+        return {"robot": name, "from": stop[0], "to": stop[1], "now": done}
+
+    def _alternative(self, how: str, robot: int, qa: np.ndarray, qb: np.ndarray, old) -> np.ndarray | None:
+        planner = self.leg_planners[robot]
+        home = self.station.home[robot]
+        if how == "ompl_reseeded":
+            if old is not None and len(old) == 2:  # a straight move: OMPL would return the same line
+                return None
+            planner.seed = self.config.seed + RESEED
+            try:
+                return planner.plan(Task(robot, qa, (), np.zeros((0, 6)), qb)).trajectory.waypoints
+            except PlanningError:
+                return None
+            finally:
+                planner.seed = self.config.seed
+        if np.array_equal(qa, home) or np.array_equal(qb, home):  # via_home: the leg already ends at Home
+            return None
+        if planner.validity.segment_valid(qa, home) and planner.validity.segment_valid(home, qb):
+            return np.array([qa, home, qb])
+        return None
 
     def replay(self, plan: StationPlan, record_every: float = 0.05) -> StationReplay:
         bar = self._bar("station replay (simulated s)", round(plan.schedule.makespan + record_every, 2))

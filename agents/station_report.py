@@ -31,6 +31,13 @@ def write_summary(station, plans: dict, out: Path) -> dict:
         lines.append(f"| {name} | {s['makespan']:.2f} | {s['makespan_lower_bound']:.2f} | "
                      f"{100 * s['gap_to_bound']:.1f} % | {s['total_wait']:.2f} | {v['collisions']} of {v['samples']} "
                      f"samples | {1000 * v['min_distance']:.0f} | {wear} | {s['estimate']['wear']:.4g} |")
+    for name, s in rows.items():
+        moved = s["info"].get("rerouted_legs") or []
+        if moved:
+            lines += ["", f"**{name}**: {len(moved)} leg(s) jammed a cable in the replay and were re-routed before "
+                          f"this plan ({s['info']['cable_replays']} replays): "
+                      + "; ".join(f"{m['robot']} {m['from']} -> {m['to']}: {m['now'].replace('_', ' ')}"
+                                  for m in moved)]
     lines += ["", "Per robot (welds in order):", ""]
     for name, s in rows.items():
         lines.append(f"- **{name}**: " + "; ".join(f"{r}: {', '.join(w) if w else '(stays Home)'}"

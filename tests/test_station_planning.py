@@ -312,3 +312,40 @@ def test_a_cost_settle_that_does_not_reach_equilibrium_is_reported(two_robot_sta
     settled = StationPlanner(two_robot_station, StationPlanConfig())
     settled.cost_rate(option.robot, option.q)
     assert settled.unconverged_options([option]) == []
+
+
+def test_a_leg_that_jams_its_cable_is_rerouted_then_blocked(two_robot_station):
+    """The replay's verdict reaches the plan: a jam found while robot 0 runs its second leg blames that leg; the
+    leg is re-routed (another OMPL route, or through Home), and once the re-routes are spent it is blocked for
+    the solver. Another objective's planner does not inherit the re-routes."""
+    from dresspack.agents.station_planning import BLOCKED, REROUTES
+    from dresspack_gym.station_replay import StationReplay
+
+    planner = StationPlanner(two_robot_station, StationPlanConfig(kept_options=2, costed_options=2, cable_repairs=0,
+                                                                  work=0.5))
+    plan = planner.plan()
+    assert plan.replay is None and "rerouted_legs" not in plan.info  # no repairs: planning alone, as before
+    s = plan.schedule.robot(0)
+    assert len(s.legs) >= 3
+    t = np.arange(0.0, plan.schedule.makespan, 0.05)
+    tension = np.zeros((len(t), 2))
+    mid = 0.5 * (s.leg_start[1] + s.leg_end()[1])
+    tension[t >= mid, 0] = 1e4  # robot 0's cable jams half way through leg 1 and stays jammed
+    measures = {k: np.zeros((len(t), 2)) for k in ("curvature", "clearance", "twist_rate")}
+    plan.replay = StationReplay(t, {**measures, "tension": tension}, np.ones((len(t), 2)), t[-1],
+                                np.array([70.0, 70.0]))
+    qs = np.vstack([plan.task.homes, [o.q for o in plan.options]])
+    path = [0, *plan.assignment.routes[0], 0]
+    assert planner.jammed_legs(plan, qs) == [(0, path[1], path[2])]
+    # while it stands at the weld after the leg, the leg into that weld is still the one blamed
+    tension[:] = 0.0
+    tension[t >= s.leg_end()[1] + 0.1, 0] = 1e4
+    assert planner.jammed_legs(plan, qs) == [(0, path[1], path[2])]
+
+    old = planner.leg(0, path[1], path[2], qs)
+    done = [planner._reroute(0, path[1], path[2], qs, plan)["now"] for _ in range(len(REROUTES) + 1)]
+    assert done[-1] == "blocked" and set(done[:-1]) <= {*REROUTES, "blocked"}
+    assert planner.leg(0, path[1], path[2], qs) is None
+    assert planner.problem(plan.task, plan.options).travel[0, path[1], path[2]] == BLOCKED
+    other = planner.reconfigured(replace(planner.config, objective="wear"))
+    np.testing.assert_array_equal(other.leg(0, path[1], path[2], qs), old)
