@@ -468,19 +468,16 @@ class StationPlanner:
         applies, else mark it blocked (the solver then avoids it). Returns what was done (for the summary)."""
         key = _leg_key(robot, qs[i], qs[j])
         old = self._rerouted.get(key, self._legs.get(key))
-        name = plan.names[robot]
         stop = ["Home" if n < len(plan.names) else plan.options[n - len(plan.names)].weld for n in (i, j)]
         done = "blocked"
-        while self._reroutes.get(key, 0) < len(REROUTES):
-            how = REROUTES[self._reroutes.get(key, 0)]
-            self._reroutes[key] = self._reroutes.get(key, 0) + 1
+        self._rerouted[key] = None
+        for used, how in enumerate(REROUTES[self._reroutes.get(key, 0):], start=self._reroutes.get(key, 0) + 1):
+            self._reroutes[key] = used
             leg = self._alternative(how, robot, qs[i], qs[j], old)
             if leg is not None:
                 self._rerouted[key], done = leg, how
                 break
-        else:
-            self._rerouted[key] = None
-        return {"robot": name, "from": stop[0], "to": stop[1], "now": done}
+        return {"robot": plan.names[robot], "from": stop[0], "to": stop[1], "now": done}
 
     def _alternative(self, how: str, robot: int, qa: np.ndarray, qb: np.ndarray, old) -> np.ndarray | None:
         planner = self.leg_planners[robot]
@@ -488,13 +485,13 @@ class StationPlanner:
         if how == "ompl_reseeded":
             if old is not None and len(old) == 2:  # a straight move: OMPL would return the same line
                 return None
-            planner.seed = self.config.seed + RESEED
+            seed, planner.seed = planner.seed, planner.seed + RESEED
             try:
                 return planner.plan(Task(robot, qa, (), np.zeros((0, 6)), qb)).trajectory.waypoints
             except PlanningError:
                 return None
             finally:
-                planner.seed = self.config.seed
+                planner.seed = seed
         if np.array_equal(qa, home) or np.array_equal(qb, home):  # via_home: the leg already ends at Home
             return None
         if planner.validity.segment_valid(qa, home) and planner.validity.segment_valid(home, qb):
