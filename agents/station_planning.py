@@ -450,10 +450,13 @@ class StationPlanner:
     def jammed_legs(self, plan: StationPlan, qs: np.ndarray) -> list[tuple[int, int, int]]:
         """(robot, from node, to node) of the leg behind each jammed cable in ``plan.replay``: the motion under
         way when its tension first passed the jam strain, or, if the robot stood still then (welding, waiting),
-        the motion that brought it there (the cable was wedged on the way and stays wedged)."""
+        the motion that brought it there (the cable was wedged on the way and stays wedged). A robot without
+        welds is left out: it never moves, so its cable was pinned by another robot."""
         replay = plan.replay
         out = []
         for r in replay.jammed():
+            if not plan.assignment.routes[r]:  # a robot that stays Home has no leg to re-route (another pinned it)
+                continue
             first = int(np.argmax(replay.measures["tension"][:, r] > replay.jam_tension[r]))
             t = float(replay.time[first])
             s = plan.schedule.robot(r)

@@ -3,6 +3,7 @@ coordination and its dense verification, the timed station replay, and bad stati
 
 from __future__ import annotations
 
+import copy
 import itertools
 from dataclasses import replace
 
@@ -341,6 +342,10 @@ def test_a_leg_that_jams_its_cable_is_rerouted_then_blocked(two_robot_station):
     tension[:] = 0.0
     tension[t >= s.leg_end()[1] + 0.1, 0] = 1e4
     assert planner.jammed_legs(plan, qs) == [(0, path[1], path[2])]
+    # a robot that stays Home has no leg to blame: its cable was pinned by another robot
+    idle = copy.copy(plan)
+    idle.assignment = replace(plan.assignment, routes=[[], plan.assignment.routes[1]])
+    assert planner.jammed_legs(idle, qs) == []
 
     old = planner.leg(0, path[1], path[2], qs)
     done = [planner._reroute(0, path[1], path[2], qs, plan)["now"] for _ in range(len(REROUTES) + 1)]
