@@ -63,6 +63,30 @@ def test_rerun_resumes_without_recomputing_and_survives_a_torn_line(tmp_path, st
     assert len(open(out / "results.csv").read().strip().splitlines()) == 5  # header + 4, no duplicates
 
 
+def test_rows_land_in_a_results_file_replaced_while_the_map_runs(tmp_path, station, monkeypatch):
+    """A git checkout, stash or pull replaces results.csv with a new file (new inode); rows finished afterwards must
+    land in that file, not in the replaced one (held open, they were silently lost)."""
+    import os
+
+    from dresspack_gym.robustness import runner
+
+    grid = RobustnessGrid.from_dict(TINY)
+    out = tmp_path / "map"
+    real = runner._iterate
+
+    def replaced_after_first_unit(*args):
+        for k, unit in enumerate(real(*args)):
+            yield unit
+            if k == 0:  # the first unit is written: replace the file as git does (write a copy, rename over)
+                copy = out / "results.csv.tmp"
+                copy.write_bytes((out / "results.csv").read_bytes())
+                os.replace(copy, out / "results.csv")
+
+    monkeypatch.setattr(runner, "_iterate", replaced_after_first_unit)
+    run_map(grid, station, out, FAST, backend="serial", progress=False)
+    assert set(rows(out)) == set(range(4))
+
+
 def test_row_start_gives_the_same_rows_after_an_interruption_mid_row(tmp_path, station):
     # Each configuration of a row continues from the previous one, so a resumed half row is recomputed
     # from the row start: the results equal an uninterrupted run's.

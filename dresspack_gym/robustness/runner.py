@@ -187,11 +187,14 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
         from tqdm import tqdm
 
         bar = tqdm(total=n_report, unit="config", desc=f"robustness {grid.name}", smoothing=0.05)
-    with results.open("a", newline="") as f:
-        writer = csv.writer(f)
-        if new_file:
-            writer.writerow(COLUMNS)
-        for rows in _iterate(backend, workers, config, settings, units, configs, ray_address):
+    if new_file:
+        with results.open("w", newline="") as f:
+            csv.writer(f).writerow(COLUMNS)
+    for rows in _iterate(backend, workers, config, settings, units, configs, ray_address):
+        # Opened by path for every unit (a unit takes seconds): a results file replaced while the map runs (a git
+        # checkout, stash or pull of a committed map) is appended to, not a deleted file held open since the start.
+        with results.open("a", newline="") as f:
+            writer = csv.writer(f)
             for i, r in rows:
                 v = np.degrees(configs[i])
                 dev = max(r.dev_neg, r.dev_pos)
@@ -200,8 +203,8 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
                                  int(dev < settings.threshold)])
             f.flush()
             os.fsync(f.fileno())
-            if bar is not None:
-                bar.update(len(rows))
+        if bar is not None:
+            bar.update(len(rows))
     if bar is not None:
         bar.close()
     return summarize(out, grid, settings.threshold)
