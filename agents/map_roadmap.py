@@ -25,6 +25,28 @@ def motion_time(a: np.ndarray, b: np.ndarray, limits: time_law.JointLimits) -> f
     return float(time_law.segment_durations(b - a, limits))
 
 
+def fine_wear(cost: MapStateCost, a: np.ndarray, b: np.ndarray, t: float) -> float:
+    """∫ C_map dt of the straight motion a -> b lasting t seconds, the map cost sampled every COST_STEP."""
+    steps = max(1, int(math.ceil(float(np.max(np.abs(b - a))) / COST_STEP)))
+    rates = [cost.cost(a + (b - a) * (s / steps)) for s in range(steps + 1)]
+    return t * (0.5 * (rates[0] + rates[-1]) + sum(rates[1:-1])) / steps
+
+
+def simplify_route(route: np.ndarray, objective, segment_valid) -> np.ndarray:
+    """Drop waypoints whose neighbours join directly (``segment_valid``) at no higher ``objective(p, q)`` than the
+    route between them: every waypoint is a stop."""
+    along = np.concatenate([[0.0], np.cumsum([objective(p, q) for p, q in zip(route[:-1], route[1:])])])
+    out, i = [route[0]], 0
+    while i < len(route) - 1:
+        j = len(route) - 1
+        while j > i + 1 and not (objective(route[i], route[j]) <= along[j] - along[i]
+                                 and segment_valid(route[i], route[j])):
+            j -= 1
+        out.append(route[j])
+        i = j
+    return np.array(out)
+
+
 class MapRoadmap:
     """Milestones: the map's configurations that are valid in this station (limits, restrictions, reach,
     collisions), joined to their ``neighbours`` nearest in motion time (k of PRM*: e(1 + 1/d) log n). A route
@@ -72,8 +94,9 @@ class MapRoadmap:
         near = np.argsort(t, kind="stable")[:k]
         return {int(cand[m]): float(t[m]) for m in near}
 
-    def route(self, a: np.ndarray, b: np.ndarray, weight: float) -> np.ndarray | None:
-        """The best route a -> b found on the roadmap (waypoints, ends included), or None."""
+    def route(self, a: np.ndarray, b: np.ndarray, weight: float, rng=None) -> np.ndarray | None:
+        """The best route a -> b found on the roadmap (waypoints, ends included), or None. ``rng`` is not used:
+        the roadmap's routes depend on no seed."""
         n = len(self.nodes)
         pts = {n: a, n + 1: b}
         ends = {}
@@ -132,7 +155,7 @@ class MapRoadmap:
                 if key not in fine:
                     t = motion_time(point(i), point(j), self.limits)
                     estimate = edge_cost(i, j, t)
-                    fine[key] = self._fine_wear(point(i), point(j), t)
+                    fine[key] = fine_wear(self.cost, point(i), point(j), t)
                     if edge_cost(i, j, t) > estimate + 1e-12:
                         changed = True
                         break
@@ -144,23 +167,9 @@ class MapRoadmap:
         """Drop milestones whose neighbours join directly at no higher objective (every waypoint is a stop)."""
         def objective(p, q):
             t = motion_time(p, q, self.limits)
-            return t + weight * self._fine_wear(p, q, t)
+            return t + weight * fine_wear(self.cost, p, q, t)
 
-        along = np.concatenate([[0.0], np.cumsum([objective(p, q) for p, q in zip(route[:-1], route[1:])])])
-        out, i = [route[0]], 0
-        while i < len(route) - 1:
-            j = len(route) - 1
-            while j > i + 1 and not (objective(route[i], route[j]) <= along[j] - along[i]
-                                     and self.validity.segment_valid(route[i], route[j])):
-                j -= 1
-            out.append(route[j])
-            i = j
-        return np.array(out)
-
-    def _fine_wear(self, a: np.ndarray, b: np.ndarray, t: float) -> float:
-        steps = max(1, int(math.ceil(float(np.max(np.abs(b - a))) / COST_STEP)))
-        rates = [self.cost.cost(a + (b - a) * (s / steps)) for s in range(steps + 1)]
-        return t * (0.5 * (rates[0] + rates[-1]) + sum(rates[1:-1])) / steps
+        return simplify_route(route, objective, self.validity.segment_valid)
 
     @staticmethod
     def _dijkstra(source, target, neighbours, edge_cost, retired):

@@ -19,7 +19,9 @@ ROADMAP_WEIGHTS = (0.3, 1.0, 3.0, 10.0, 30.0)
 
 class MapRoutes:
     """Up to ``n_routes`` candidates: the direct route, one roadmap route per weight (duplicates dropped), then
-    via routes. Without a roadmap (no wear map for this robot and dresspack) only the direct and via routes."""
+    via routes. Without a roadmap (no wear map for this robot and dresspack) only the direct and via routes.
+    ``roadmap`` is any global search over the map with ``route(a, b, weight, rng)``: the lazy PRM*
+    (:class:`~.map_roadmap.MapRoadmap`) or OMPL's FMT* (:class:`~.fmt_routes.FmtSearch`)."""
 
     def __init__(self, via: ViaRoutes, roadmap: MapRoadmap | None, n_routes: int,
                  weights: tuple[float, ...] = ROADMAP_WEIGHTS):
@@ -34,7 +36,7 @@ class MapRoutes:
             pass
         if self.roadmap is not None:
             for w in self.weights:
-                route = self.roadmap.route(a, b, w)
+                route = self.roadmap.route(a, b, w, rng)
                 if route is not None and not any(_same(route, r) for r in out):
                     out.append(route)
         room = self.n_routes - len(out)

@@ -18,17 +18,19 @@ from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES
 from .ompl_planner import OmplPlanner
 from .policy import PolicyPlanner, RandomMaskedPlanner
 from .thesis_local import ThesisLocalPlanner
-from .wear_global import OmplWearPlanner
+from .wear_global import OmplFmtWearPlanner, OmplWearPlanner
 
 PLANNERS: dict[str, type[Planner]] = {p.name: p for p in (
     PolicyPlanner,
     OmplPlanner,
     ThesisLocalPlanner,
     OmplWearPlanner,
+    OmplFmtWearPlanner,
     RandomMaskedPlanner,
 )}
 POLICY_METHODS = tuple(name for name, p in PLANNERS.items() if p.uses_policy)
-WEAR_AWARE = (ThesisLocalPlanner.name, OmplWearPlanner.name)  # the planners that take a cost_variant
+# the planners that take a cost_variant
+WEAR_AWARE = (ThesisLocalPlanner.name, OmplWearPlanner.name, OmplFmtWearPlanner.name)
 COLORS = {name: p.color for name, p in PLANNERS.items()}
 
 

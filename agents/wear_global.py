@@ -9,9 +9,10 @@ from dresspack_gym.map_cost import MapStateCost
 from dresspack_gym.wear_map import WearMap, load_wear_map
 
 from .composed import ComposedPlanner
+from .fmt_routes import FMT_SAMPLES, FMT_WEIGHTS, FmtSearch
 from .leg_cost import LegCost
 from .map_roadmap import MapRoadmap
-from .map_routes import MapRoutes
+from .map_routes import ROADMAP_WEIGHTS, MapRoutes
 from .refine import LocalRefiner
 from .routes import ViaRoutes
 
@@ -26,6 +27,8 @@ class OmplWearPlanner(ComposedPlanner):
     name = "ompl-wear"
     color = "#e7298a"
 
+    weights = ROADMAP_WEIGHTS  # time/wear trade-offs of the global searches over the map, one route each
+
     def __init__(self, *args, via_spread_deg: float = 90.0, n_interior: int = 3,
                  step_deg: float = 15.0, time_weight: float = 1.0, wear_weight: float = 1.0,
                  cost_variant: str = "thesis", wear_map: str | WearMap | bool | None = None, **kwargs):
@@ -37,14 +40,18 @@ class OmplWearPlanner(ComposedPlanner):
             self.wear_map = wear_map
         else:
             self.wear_map = load_wear_map(self.station.config, self.robot, wear_map)
-        roadmap = None
-        if self.wear_map is not None:  # built once, reused by every leg and plan (it depends on no seed)
-            cost = MapStateCost(self.station, self.wear_map, self.robot, cost_variant)
-            roadmap = MapRoadmap(self.wear_map, self.validity, cost, self.motion_limits)
-        self.routes = MapRoutes(via, roadmap, self.budget.routes)
+        search = None
+        if self.wear_map is not None:
+            search = self._global_search(MapStateCost(self.station, self.wear_map, self.robot, cost_variant))
+        self.routes = MapRoutes(via, search, self.budget.routes, self.weights)
         self.leg_cost = LegCost(self.station, self.robot, time_weight=time_weight, wear_weight=wear_weight,
                                 cost_variant=cost_variant)
         self.refiner = LocalRefiner(self.validity, self.leg_cost, n_interior, step_deg)
+
+    def _global_search(self, cost: MapStateCost):
+        """The search over the map: a lazy PRM* on the map's own configurations, built once and reused by every
+        leg and plan (it depends on no seed)."""
+        return MapRoadmap(self.wear_map, self.validity, cost, self.motion_limits)
 
     def _reseed(self) -> None:
         super()._reseed()
@@ -55,5 +62,32 @@ class OmplWearPlanner(ComposedPlanner):
         traj, info = super()._plan(task)
         info["wear_map"] = self.wear_map.info["key"] if self.wear_map is not None else None
         if self.routes.roadmap is not None:
-            info["roadmap_milestones"] = len(self.routes.roadmap.nodes)
+            info.update(self._search_info(self.routes.roadmap))
         return traj, info
+
+    @staticmethod
+    def _search_info(roadmap: MapRoadmap) -> dict:
+        return {"roadmap_milestones": len(roadmap.nodes)}
+
+
+class OmplFmtWearPlanner(OmplWearPlanner):
+    """``ompl-wear`` with OMPL's asymptotically optimal FMT* as the global search over the wear map (the state-cost
+    integral of time plus weighted wear, ``fmt_samples`` samples per search, the work unit) in place of the lazy
+    PRM* on the map's own configurations; the same direct, via and refined routes, ranked by the same cable
+    simulation. Without a wear map it is ``ompl-wear`` without one."""
+
+    name = "ompl-wear-fmt"
+    color = "#66a61e"
+    weights = FMT_WEIGHTS
+
+    def __init__(self, *args, fmt_samples: int = FMT_SAMPLES, fmt_radius_multiplier: float = 1.0, **kwargs):
+        self.fmt_samples, self.fmt_radius_multiplier = fmt_samples, fmt_radius_multiplier
+        super().__init__(*args, **kwargs)
+
+    def _global_search(self, cost: MapStateCost):
+        return FmtSearch(self.validity, cost, self.motion_limits, samples=self.fmt_samples,
+                         radius_multiplier=self.fmt_radius_multiplier)
+
+    @staticmethod
+    def _search_info(search: FmtSearch) -> dict:
+        return {"fmt_samples": search.samples, "fmt_motion_checks": search.motion_checks}

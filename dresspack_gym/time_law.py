@@ -14,6 +14,7 @@ large robot does, long ones never reached the programmed speed.)
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -110,6 +111,30 @@ def velocity_bound(dq: np.ndarray, limits: JointLimits) -> np.ndarray:
     """A lower bound of :func:`segment_durations` (the slowest joint's time at its top speed), cheap in bulk."""
     dq = np.asarray(dq, dtype=float)
     return _scalar_limits(dq, limits)[0].reshape(dq.shape[:dq.ndim - np.ndim(limits.velocity)])
+
+
+class AccelerationBound:
+    """A lower bound of :func:`segment_durations` for one robot's single moves, in plain Python for search loops
+    that time one pair of configurations per call (a sampling planner's edge costs: numpy and Ruckig cost more
+    per call than the whole estimate). Each joint alone, from rest to rest at its velocity and acceleration
+    limits with jerk unbounded, needs ``d/v + v/a`` (or ``2 sqrt(d/a)`` when it never reaches v); the
+    synchronised jerk-limited motion of all joints takes at least the longest of these."""
+
+    def __init__(self, limits: JointLimits):
+        if np.ndim(limits.velocity) != 1:
+            raise ValueError("AccelerationBound times one robot's moves: limits of shape (n_joints,)")
+        self._joints = [(float(v), float(a), float(v) * float(v) / float(a))
+                        for v, a in zip(limits.velocity, limits.acceleration)]
+
+    def __call__(self, a, b) -> float:
+        """Seconds (a lower bound) of the straight move between two configurations (sequences of joint angles)."""
+        t = 0.0
+        for (v, acc, ramp), x, y in zip(self._joints, a, b):
+            d = abs(y - x)
+            tj = d / v + v / acc if d > ramp else 2.0 * math.sqrt(d / acc)
+            if tj > t:
+                t = tj
+        return t
 
 
 def path_duration(waypoints: np.ndarray, limits: JointLimits) -> float:

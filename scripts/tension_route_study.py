@@ -2,6 +2,8 @@
 and on three variants (cuboid moved -10 / +10 cm along x, cuboid enlarged 20 %), for every seed?
 
     .venv/bin/python scripts/tension_route_study.py --seeds 20 --out out/tension_study [--workers 2]
+    .venv/bin/python scripts/tension_route_study.py --planner ompl-wear-fmt --seeds 5 --baseline-seeds 0 \
+        --out out/tension_study_fmt
 
 Appends one JSON line per plan to OUT/plans.jsonl (resumable: finished plans are skipped) and writes
 OUT/summary.json: per variant the best route's max tension, how many seeds came within 2x of it, cycle times,
@@ -36,17 +38,17 @@ def station_config(variant: str):
     return replace(config, obstacles=tuple(obstacles), name=f"thesis_tension_{variant}")
 
 
-def plan_one(job: tuple[str, int, bool]) -> dict:
+def plan_one(job: tuple[str, int, bool, str]) -> dict:
     from dresspack.agents.planning import plan_station
     from dresspack_gym.station import Station
 
-    variant, seed, use_map = job
+    variant, seed, use_map, planner = job
     kwargs = {} if use_map else {"wear_map": False}
     t = time.perf_counter()
-    s = plan_station(Station(station_config(variant)), "ompl-wear", seed=seed, **kwargs).summary()
+    s = plan_station(Station(station_config(variant)), planner, seed=seed, **kwargs).summary()
     if use_map and s["planner_info"].get("wear_map") is None:  # e.g. the shipped map renamed while this ran
         raise RuntimeError(f"{variant} seed {seed}: planned without a wear map; no row written")
-    return {"variant": variant, "seed": seed, "map": use_map, "max_tension": s["max_tension"],
+    return {"variant": variant, "seed": seed, "map": use_map, "planner": planner, "max_tension": s["max_tension"],
             "cycle_time": s["cycle_time"], "cost": s["cost"], "unconverged_stops": s["unconverged_stops"],
             "plan_seconds": round(time.perf_counter() - t, 2),
             "wear_map": s["planner_info"].get("wear_map")}
@@ -58,13 +60,15 @@ def main() -> None:
     ap.add_argument("--baseline-seeds", type=int, default=5)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("out/tension_study"))
+    ap.add_argument("--planner", default="ompl-wear", choices=("ompl-wear", "ompl-wear-fmt"))
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     log = args.out / "plans.jsonl"
     done = [json.loads(x) for x in log.read_text().splitlines() if x.strip()] if log.exists() else []
-    have = {(d["variant"], d["seed"], d["map"]) for d in done}
-    jobs = [(v, s, True) for v in VARIANTS for s in range(args.seeds)]
-    jobs += [(v, s, False) for v in VARIANTS[:1] for s in range(args.baseline_seeds)]
+    done = [d for d in done if d.get("planner", "ompl-wear") == args.planner]  # rows before planners were named
+    have = {(d["variant"], d["seed"], d["map"], args.planner) for d in done}
+    jobs = [(v, s, True, args.planner) for v in VARIANTS for s in range(args.seeds)]
+    jobs += [(v, s, False, args.planner) for v in VARIANTS[:1] for s in range(args.baseline_seeds)]
     jobs = [j for j in jobs if j not in have]
     with ProcessPoolExecutor(args.workers) as pool, log.open("a") as f:
         for row in pool.map(plan_one, jobs):

@@ -13,7 +13,7 @@ from dresspack_gym.map_cost import OBSTRUCTION_DEPTH, OBSTRUCTION_RATE, UNSPANNA
 from dresspack_gym.simulation import CableSimulator
 from dresspack_gym.station import Station, node_frames
 from dresspack_gym.validity import MotionValidity
-from dresspack.agents.map_roadmap import MapRoadmap, motion_time
+from dresspack.agents.map_roadmap import MapRoadmap, fine_wear, motion_time
 from dresspack_gym.robustness.algorithm import cable_only
 from dresspack_gym.wear_map import (WearMap, WearMapSettings, build_wear_map, map_key,
                                     sample_configurations)
@@ -215,7 +215,7 @@ def _objective(roadmap, route, weight):
     total = 0.0
     for a, b in zip(route[:-1], route[1:]):
         t = motion_time(a, b, roadmap.limits)
-        total += t + weight * roadmap._fine_wear(a, b, t)
+        total += t + weight * fine_wear(roadmap.cost, a, b, t)
     return total
 
 
