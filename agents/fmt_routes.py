@@ -23,7 +23,7 @@ from dresspack_gym.map_cost import MapStateCost
 from dresspack_gym.validity import MotionValidity
 
 from .map_roadmap import fine_wear, motion_time, simplify_route
-from .ompl_connect import _ompl, seed_ompl
+from .ompl_connect import _ompl, _vector, joint_space, seed_ompl
 
 # Samples per FMT* search (its work unit) and the time/wear weights searched per leg (one search each). Measured on
 # thesis_tension's crossing leg (scripts/tension_route_study.py): see the README's "Finding the low route".
@@ -85,13 +85,7 @@ class FmtSearch:
         the plan's seed and the searches before it in the plan only, never on what ran before the plan."""
         ob, og, _ = _ompl()
         seed_ompl(int(rng.integers(1, 2**31 - 1)))
-        lim = self.validity.limits
-        space = ob.RealVectorStateSpace(6)
-        bounds = ob.RealVectorBounds(6)
-        for j in range(6):
-            bounds.setLow(j, float(lim[j, 0]))
-            bounds.setHigh(j, float(lim[j, 1]))
-        space.setBounds(bounds)
+        space = joint_space(self.validity.limits)
         si = ob.SpaceInformation(space)
         validity, known = self.validity, self._valid
 
@@ -142,6 +136,3 @@ class FmtSearch:
 
         return simplify_route(route, objective, self.validity.segment_valid)
 
-
-def _vector(s) -> np.ndarray:
-    return np.array([s[0], s[1], s[2], s[3], s[4], s[5]], dtype=float)

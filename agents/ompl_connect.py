@@ -33,6 +33,18 @@ def seed_ompl(seed: int) -> None:
     ou.setLogLevel(ou.LogLevel.LOG_WARN)
 
 
+def joint_space(limits: np.ndarray):
+    """OMPL's state space of a 6-axis robot's joints within ``limits`` (6, 2) [rad]."""
+    ob, _, _ = _ompl()
+    space = ob.RealVectorStateSpace(6)
+    bounds = ob.RealVectorBounds(6)
+    for j in range(6):
+        bounds.setLow(j, float(limits[j, 0]))
+        bounds.setHigh(j, float(limits[j, 1]))
+    space.setBounds(bounds)
+    return space
+
+
 class _Counter:
     """A termination condition that stops after ``limit`` checks (one per planner iteration) or at the deadline."""
 
@@ -60,13 +72,7 @@ class OmplConnector:
         """Seed OMPL and build a fresh setup (its simplifier's generator is seeded at construction)."""
         seed_ompl(seed)
         ob, og = self.ob, self.og
-        limits = self.validity.limits
-        space = ob.RealVectorStateSpace(6)
-        bounds = ob.RealVectorBounds(6)
-        for j in range(6):
-            bounds.setLow(j, float(limits[j, 0]))
-            bounds.setHigh(j, float(limits[j, 1]))
-        space.setBounds(bounds)
+        space = joint_space(self.validity.limits)
         setup = og.SimpleSetup(space)
         validity = self.validity
         setup.setStateValidityChecker(lambda s: bool(validity.valid(_vector(s))))  # OMPL needs a bool
