@@ -61,14 +61,15 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("out/tension_study"))
     ap.add_argument("--planner", default="ompl-wear", choices=("ompl-wear", "ompl-wear-fmt"))
+    ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=VARIANTS)
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     log = args.out / "plans.jsonl"
     done = [json.loads(x) for x in log.read_text().splitlines() if x.strip()] if log.exists() else []
     done = [d for d in done if d.get("planner", "ompl-wear") == args.planner]  # rows before planners were named
     have = {(d["variant"], d["seed"], d["map"], args.planner) for d in done}
-    jobs = [(v, s, True, args.planner) for v in VARIANTS for s in range(args.seeds)]
-    jobs += [(v, s, False, args.planner) for v in VARIANTS[:1] for s in range(args.baseline_seeds)]
+    jobs = [(v, s, True, args.planner) for v in args.variants for s in range(args.seeds)]
+    jobs += [(v, s, False, args.planner) for v in args.variants[:1] for s in range(args.baseline_seeds)]
     jobs = [j for j in jobs if j not in have]
     with ProcessPoolExecutor(args.workers) as pool, log.open("a") as f:
         for row in pool.map(plan_one, jobs):
