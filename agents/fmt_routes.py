@@ -2,7 +2,7 @@
 between two configurations, on a fixed number of samples (the work unit), seeded per search.
 
 Why FMT* and how the objective is written (both measured on thesis_tension, see the README):
-- FMT* checks motions for collisions lazily (a few hundred continuous checks per search, in Python) where RRT*,
+- FMT* checks motions for collisions lazily (~700 continuous checks per search, in Python) where RRT*,
   BIT* and PRM* check every candidate edge; with a fixed sample count it is deterministic and single-threaded.
 - The objective is an ``ob.OptimizationObjective`` written here: the state-cost integral over *time*
   (trapezoid of the two ends' rates x the move's time). OMPL's own ``StateCostIntegralObjective`` integrates over
@@ -26,7 +26,8 @@ from .map_roadmap import fine_wear, motion_time, simplify_route
 from .ompl_connect import _ompl, _vector, joint_space, seed_ompl
 
 # Samples per FMT* search (its work unit) and the time/wear weights searched per leg (one search each). Measured on
-# thesis_tension's crossing leg (scripts/tension_route_study.py): see the README's "Finding the low route".
+# thesis_tension and its variants (scripts/tension_route_study.py --planner ompl-wear-fmt): see the README's
+# "OMPL's FMT* over the map".
 FMT_SAMPLES = 1000
 FMT_WEIGHTS = (1.0, 10.0)
 
@@ -125,7 +126,6 @@ class FmtSearch:
         path = pdef.getSolutionPath()
         pts = np.array([_vector(path.getState(i)) for i in range(path.getStateCount())])
         pts[0], pts[-1] = a, b
-        del checker
         return self.simplify(pts, weight)
 
     def simplify(self, route: np.ndarray, weight: float) -> np.ndarray:
