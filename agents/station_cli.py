@@ -95,8 +95,7 @@ def cmd_station_plan(args) -> int:
                     line += f" -- JAMMED cable(s) {', '.join(s['replay']['jammed'])}: pulled beyond 5 % strain " \
                             "(pinned by a robot); the wear figure is not meaningful"
             if s["info"].get("rerouted_legs"):
-                line += (f" -- {len(s['info']['rerouted_legs'])} leg(s) re-routed after jamming a cable in "
-                         f"{s['info']['cable_replays'] - 1} replay(s)")
+                line += f" -- {len(s['info']['rerouted_legs'])} leg(s) re-routed or blocked after jamming a cable"
             if s["info"]["unconverged_cost_settles"]:
                 line += (f" -- wear estimates of {', '.join(s['info']['unconverged_cost_settles'])} come from "
                          "settles that did not reach equilibrium")

@@ -2,11 +2,14 @@
 robots by waits, verify, and run the result in the cable simulator.
 
 Cheap estimates first, exact work on what is chosen: weld options are costed by their settled cable (one settle
-per option, cached), travel by the time law of the straight move; the solver's chosen legs are then planned by
-OMPL (collision-free), their real durations replace the estimates, and the solver runs again until every chosen
-leg is exact. The plan is then run in the cable simulator; a leg whose motion jams its robot's cable (drags it
-around the car body or its own links beyond the jam strain) is re-routed or given up, and the station planned
-again (``cable_repairs`` times at most): a collision-free route is not yet a route the dresspack survives."""
+per option, cached), travel by the time law of the straight move and its wear at the mean of its ends' settled
+rates; the solver's chosen legs are then planned by OMPL (collision-free) and run with their robot's cable (from
+settled at the leg's start, through the motion and the weld after it; cached); their real durations and
+integrated wear replace the estimates, and the solver runs again until every chosen leg is exact. A leg whose
+motion jams its robot's cable (drags it around the car body or its own links beyond the jam strain) is re-routed
+or given up there. The plan is then run in the cable simulator with every robot on one clock; a leg behind a jam
+found there is re-routed in the same way and the station planned again (``cable_repairs`` times at most): a
+collision-free route is not yet a route the dresspack survives."""
 
 from __future__ import annotations
 
@@ -23,7 +26,7 @@ from dresspack_gym.cost_variants import cost_function
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.simulation import CableSimulator
 from dresspack_gym.station import Station
-from dresspack_gym.station_replay import StationReplay, replay_station
+from dresspack_gym.station_replay import JAM_STRAIN, StationReplay, replay_station
 from dresspack_gym.station_schedule import RobotSchedule, StationSchedule
 from dresspack_gym.station_tasks import DEFAULT_WELD_TIME, StationTask, WeldOption, make_station_task
 from dresspack_gym.tasks import Task
@@ -36,6 +39,9 @@ from .station_solver import (DEFAULT_WORK, MAKESPAN_SLACK, OBJECTIVES, SPAN_WEIG
                              lower_bound, solve)
 
 EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estimate by more is re-solved with it
+# rounds allowed, as a multiple of exact_rounds, while no solved answer has every leg planned (legs that jam their
+# cable are blocked as they are found, so an answer can lose a leg after it was chosen)
+EXTRA_ROUNDS = 3
 BLOCKED = 1e4  # [s] the travel time of a move OMPL found no path for: the solver avoids it
 # Two robots' weld options closer than this [m] are a conflict (they cannot weld at once; their legs around
 # them likely meet): the solver charges CONFLICT_WAIT x (weld time + a typical leg) of waiting for the pair
@@ -45,6 +51,20 @@ CONFLICT_WAIT = 1.0
 # not drawn), then through the robot's Home (where the dresspack is laid out to hang freely)
 REROUTES = ("ompl_reseeded", "via_home")
 RESEED = 7919  # seed offset of a re-routed leg's OMPL plan (any fixed number: another stream, deterministically)
+# [s] sampling of the wear cost C along a simulated leg and in the station replay (the integral is over these
+# samples; one value for both, so a leg's simulated wear and its part of the replay are the same measure)
+RECORD_EVERY = 0.05
+
+
+@dataclass(frozen=True)
+class LegRun:
+    """A leg run with its robot's cable alone in the station: settled at the leg's start, then the motion and the
+    weld after it (if it ends at a weld)."""
+
+    wear: float  # integral of the wear cost C over the motion and the weld [cost x s]
+    max_tension: float  # [N]
+    jammed: bool  # the cable was pulled beyond JAM_STRAIN
+    start_settled: bool  # the settle at the start reached the equilibrium residual
 
 
 @dataclass(frozen=True)
@@ -58,7 +78,8 @@ class StationPlanConfig:
     costed_options: int = 8  # per weld and robot: IK options (nearest Home first) whose settled cable is costed
     kept_options: int = 2  # per weld and robot: options the solver chooses from (half nearest Home, half cheapest)
     iterations: int = DEFAULT_ITERATIONS  # OMPL iterations per leg
-    exact_rounds: int = 4  # solve -> plan chosen legs -> re-solve rounds
+    # solve -> plan chosen legs -> re-solve rounds; more (up to EXTRA_ROUNDS x) while no answer has every leg planned
+    exact_rounds: int = 4
     makespan_slack: float = MAKESPAN_SLACK
     seed: int = 0
     cost_variant: str = "thesis"
@@ -144,6 +165,8 @@ class StationPlanner:
         # do not change another's plan), and the re-routes each has used
         self._rerouted: dict[tuple, np.ndarray | None] = {}
         self._reroutes: dict[tuple, int] = {}
+        self._reroute_log: list[dict] = []  # what was re-routed, and why (a plan's info["rerouted_legs"])
+        self._leg_runs: dict[tuple, LegRun] = {}  # by robot, waypoints and weld time: depends on nothing else
 
     def reconfigured(self, config: StationPlanConfig) -> StationPlanner:
         """A planner with ``config`` that keeps this one's settled-cable costs and planned legs (same station,
@@ -153,7 +176,7 @@ class StationPlanner:
             return StationPlanner(self.station, config, self.progress)
         other = copy.copy(self)  # shares the caches
         other.config = config
-        other._rerouted, other._reroutes = {}, {}
+        other._rerouted, other._reroutes, other._reroute_log = {}, {}, []
         return other
 
     # -------------------------------------------------------------------------- costs
@@ -161,17 +184,44 @@ class StationPlanner:
         """The wear cost rate C of robot ``robot``'s cable settled at ``q`` (the robot alone in the station)."""
         key = (int(robot), *(float(x) for x in np.round(q, 9)))
         if key not in self._rates:
-            sim = self._sub_sims.get(robot)
-            if sim is None:
-                cfg = self.station.config
-                alone = replace(cfg, robots=(cfg.robots[robot],), weld_points=())
-                sim = self._sub_sims[robot] = CableSimulator(Station(alone))
+            sim = self._alone(robot)
             sim.reset(np.asarray(q)[None])
             if not sim.last_settle.converged:
                 self._unconverged.add(key)
             self._rates[key] = cost_function(self.config.cost_variant)(sim.measures(),
                                                                        self.station.config.wear_cost).total
         return self._rates[key]
+
+    def _alone(self, robot: int) -> CableSimulator:
+        """A simulator of the station with robot ``robot`` alone (the other robots and their cables removed)."""
+        sim = self._sub_sims.get(robot)
+        if sim is None:
+            cfg = self.station.config
+            alone = replace(cfg, robots=(cfg.robots[robot],), weld_points=())
+            sim = self._sub_sims[robot] = CableSimulator(Station(alone))
+        return sim
+
+    def leg_run(self, robot: int, leg: np.ndarray, weld_time: float) -> LegRun:
+        """Robot ``robot``'s cable run along ``leg`` (waypoints) and ``weld_time`` seconds standing at its end,
+        from settled at its start, the robot alone (cached): the leg's own wear, and whether it jams the cable."""
+        leg = np.asarray(leg, dtype=float)
+        key = (int(robot), leg.tobytes(), float(weld_time))
+        if key not in self._leg_runs:
+            sim = self._alone(robot)
+            sim.reset(leg[None, 0])
+            settled = sim.last_settle.converged
+            motion = RobotSchedule(0, (), (leg,), np.zeros(1), self.limits[robot], 0.0)
+            program = StationSchedule((motion,), leg[None, -1])
+            first = sim.cable_measures()
+            times, samples = sim.follow(program.at, motion.end_time + weld_time, record_every=RECORD_EVERY)
+            samples = [first, *samples]
+            cost_fn, wear_cost = cost_function(self.config.cost_variant), self.station.config.wear_cost
+            rate = np.array([cost_fn(m[0], wear_cost).total for m in samples])
+            tension = max(m[0].max_tension for m in samples)
+            jam = JAM_STRAIN * self.station.config.robots[robot].dresspack.tensile_stiffness
+            self._leg_runs[key] = LegRun(float(np.trapezoid(rate, [0.0, *times])), float(tension),
+                                         bool(tension > jam), bool(settled))
+        return self._leg_runs[key]
 
     def load_rates(self, path: Path) -> None:
         """Costs saved by :meth:`save_rates` (rows without their settle's verdict are recomputed)."""
@@ -222,10 +272,15 @@ class StationPlanner:
         node_of = {}
         for n, (r, q) in enumerate(zip(node_robot, qs)):
             node_of.setdefault((int(r), q.tobytes()), []).append(n)
+        simulated = np.full(travel.shape, np.nan)
+        weld_after = np.where(node_weld >= 0, task.weld_time, 0.0)
         for (r, qa, qb), leg in {**self._legs, **self._rerouted}.items():  # planned legs are exact
             for i in node_of.get((r, qa), ()):
                 for j in node_of.get((r, qb), ()):
                     travel[r, i, j] = BLOCKED if leg is None else time_law.path_duration(leg, self.limits[r])
+                    run = None if leg is None else self._leg_runs.get((r, leg.tobytes(), float(weld_after[j])))
+                    if run is not None:
+                        simulated[r, i, j] = run.wear
         rates = np.array([self.cost_rate(r, q) for r, q in zip(node_robot, qs)])
         key = qs.tobytes() + node_robot.tobytes()
         if key not in self._conflicts:
@@ -233,7 +288,7 @@ class StationPlanner:
         own = [travel[r][np.ix_(node_robot == r, node_robot == r)] for r in range(R)]
         typical_leg = float(np.median(np.concatenate([t[t > 0] for t in own if (t > 0).any()] or [[0.0]])))
         return RoutingProblem(travel, rates, node_robot, node_weld, task.weld_time, len(task.weld_names),
-                              self._conflicts[key], CONFLICT_WAIT * (task.weld_time + typical_leg))
+                              self._conflicts[key], CONFLICT_WAIT * (task.weld_time + typical_leg), simulated)
 
     def _find_conflicts(self, qs: np.ndarray, node_robot: np.ndarray) -> np.ndarray:
         """Option pairs of different robots whose robots, both at their options (the rest at Home), come within
@@ -289,16 +344,25 @@ class StationPlanner:
                 self._legs[key] = None
         return self._legs[key]
 
-    def _plan_chosen_legs(self, problem: RoutingProblem, assignment: Assignment, qs: np.ndarray) -> int:
-        """Plan every leg of the assignment; the number that took longer than estimated."""
+    def _plan_chosen_legs(self, problem: RoutingProblem, assignment: Assignment, qs: np.ndarray,
+                          stops: list[str]) -> int:
+        """Plan every leg of the assignment and run it with its robot's cable (a leg that jams the cable is
+        re-routed or blocked); the number that took longer, or (objectives with wear) wore more, than estimated."""
         changed = 0
         for r, route in enumerate(assignment.routes):
             path = [r, *route, r]
+            wear = problem.leg_wear(r)
             for a, b in zip(path[:-1], path[1:]):
                 estimate = problem.travel[r, a, b]
                 leg = self.leg(r, a, b, qs)
+                weld = problem.weld_time if problem.node_weld[b] >= 0 else 0.0
+                if leg is not None and self.leg_run(r, leg, weld).jammed:
+                    self._reroute(r, a, b, qs, stops, "jammed its cable alone", weld)
+                    leg = self.leg(r, a, b, qs)
                 real = BLOCKED if leg is None else time_law.path_duration(leg, self.limits[r])
                 changed += real > estimate * (1 + EXACT_TOLERANCE) + 1e-6
+                if leg is not None and self.config.objective != "time":
+                    changed += self.leg_run(r, leg, weld).wear > wear[a, b] * (1 + EXACT_TOLERANCE) + 1e-6
         return changed
 
     @staticmethod
@@ -336,7 +400,7 @@ class StationPlanner:
         exact = [a for a in exact if a.estimate["makespan"] < BLOCKED]
         if not exact:
             raise PlanningError(f"no assignment found whose every leg OMPL could plan within {cfg.iterations} "
-                                f"iterations in {cfg.exact_rounds} rounds (raise --iterations)")
+                                f"iterations in {EXTRA_ROUNDS * cfg.exact_rounds} rounds (raise --iterations)")
         scored = []
         bar = self._bar("coordinating the candidate plans", len(exact))
         for a in exact:
@@ -367,7 +431,8 @@ class StationPlanner:
         """Plan the station; with ``cable_repairs`` > 0 the plan is replayed with its cables (``plan.replay``), a
         leg that jammed a cable is re-routed (:data:`REROUTES`, then blocked) and the station planned again. The
         answer is the first plan without a jam, else the one with the fewest jammed cables (flagged in its
-        replay); ``info["rerouted_legs"]`` lists what was changed."""
+        replay); ``info["rerouted_legs"]`` lists what was changed (legs that jammed their cable alone are
+        re-routed while planning, with or without repairs)."""
         cfg = self.config
         if task is None:
             task = make_station_task(self.station, lambda r: self.leg_planners[r].validity.checker.collides,
@@ -380,23 +445,26 @@ class StationPlanner:
             self.save_rates(cache)
         self.check_straight_moves(task, options)
         qs = np.vstack([task.homes, np.array([o.q for o in options]).reshape(-1, 6)])
-        best, rerouted = None, []
+        stops = ["Home"] * task.n_robots + [o.weld for o in options]
+        best = None
         for repair in range(cfg.cable_repairs + 1):
-            plan = self._plan_legs(task, options, qs)
+            plan = self._plan_legs(task, options, qs, stops)
             if cfg.cable_repairs == 0:
                 return plan
             self.replay(plan)
-            plan.info.update(cable_replays=repair + 1, rerouted_legs=list(rerouted))
+            plan.info.update(cable_replays=repair + 1)
             if best is None or len(plan.replay.jammed()) < len(best.replay.jammed()):
                 best = plan
             jams = self.jammed_legs(plan, qs)
             if not jams or repair == cfg.cable_repairs:
                 break
             for robot, i, j in jams:
-                rerouted.append(self._reroute(robot, i, j, qs, plan))
+                self._reroute(robot, i, j, qs, stops, "jammed a cable in the station replay",
+                              task.weld_time if j >= task.n_robots else 0.0)
         return best
 
-    def _plan_legs(self, task: StationTask, options: list[WeldOption], qs: np.ndarray) -> StationPlan:
+    def _plan_legs(self, task: StationTask, options: list[WeldOption], qs: np.ndarray,
+                   stops: list[str]) -> StationPlan:
         """Solve, plan the chosen legs, re-solve with their exact times (``exact_rounds``); coordinate; verify."""
         cfg = self.config
         rounds, solves, candidates, bound, wear_failures = 0, 0, [], 0.0, 0
@@ -426,11 +494,16 @@ class StationPlanner:
                                wear_weight=weight, start=previous)
                 solves += 1
             rounds += 1
-            changed = sum(self._plan_chosen_legs(problem, a, qs) for a in {id(fastest): fastest,
-                                                                          id(chosen): chosen}.values())
+            changed = sum(self._plan_chosen_legs(problem, a, qs, stops) for a in {id(fastest): fastest,
+                                                                                 id(chosen): chosen}.values())
             candidates += [fastest, chosen]  # every leg of both is planned now: exactly evaluable
             bar.update(1)
-            if changed == 0 or rounds >= cfg.exact_rounds:
+            done = changed == 0 or rounds >= cfg.exact_rounds
+            if done and rounds < EXTRA_ROUNDS * cfg.exact_rounds and not any(
+                    all(self.leg(r, a, b, qs) is not None for r, route in enumerate(c.routes)
+                        for a, b in zip([r, *route], [*route, r])) for c in candidates):
+                done = False  # every answer so far lost a leg to a jam: solve again without it
+            if done:
                 break
         bar.close()
         problem = self.problem(task, options)
@@ -443,7 +516,10 @@ class StationPlanner:
                                  "conflict_pairs": len(problem.conflicts), "candidates": len(candidates),
                                  "wear_solves_without_answer": wear_failures,
                                  "unconverged_cost_settles": self.unconverged_options(options),
-                                 "planned_legs": len(self._legs), "cost_settles": len(self._rates)})
+                                 "planned_legs": len(self._legs), "cost_settles": len(self._rates),
+                                 "simulated_legs": len(self._leg_runs),
+                                 "unsettled_leg_starts": sum(not r.start_settled for r in self._leg_runs.values()),
+                                 "rerouted_legs": list(self._reroute_log)})
         return plan
 
     # -------------------------------------------------------------------------- the cables' verdict
@@ -466,21 +542,25 @@ class StationPlanner:
             out.append((r, path[k], path[k + 1]))
         return out
 
-    def _reroute(self, robot: int, i: int, j: int, qs: np.ndarray, plan: StationPlan) -> dict:
+    def _reroute(self, robot: int, i: int, j: int, qs: np.ndarray, stops: list[str], why: str,
+                 weld_time: float) -> dict:
         """Replace the leg i -> j of ``robot`` after it jammed the cable: the next of :data:`REROUTES` that
-        applies, else mark it blocked (the solver then avoids it). Returns what was done (for the summary)."""
+        applies and does not jam the cable itself (run alone), else mark it blocked (the solver then avoids it).
+        ``stops`` names every node (the summary's words); ``weld_time`` is the weld at j (0 at a Home). Returns what was done, also logged for the plan."""
         key = _leg_key(robot, qs[i], qs[j])
         old = self._rerouted.get(key, self._legs.get(key))
-        stop = ["Home" if n < len(plan.names) else plan.options[n - len(plan.names)].weld for n in (i, j)]
         done = "blocked"
         self._rerouted[key] = None
         for used, how in enumerate(REROUTES[self._reroutes.get(key, 0):], start=self._reroutes.get(key, 0) + 1):
             self._reroutes[key] = used
             leg = self._alternative(how, robot, qs[i], qs[j], old)
-            if leg is not None:
+            if leg is not None and not self.leg_run(robot, leg, weld_time).jammed:
                 self._rerouted[key], done = leg, how
                 break
-        return {"robot": plan.names[robot], "from": stop[0], "to": stop[1], "now": done}
+        entry = {"robot": self.station.config.robots[robot].name, "from": stops[i], "to": stops[j], "now": done,
+                 "why": why}
+        self._reroute_log.append(entry)
+        return entry
 
     def _alternative(self, how: str, robot: int, qa: np.ndarray, qb: np.ndarray, old) -> np.ndarray | None:
         planner = self.leg_planners[robot]
@@ -501,7 +581,7 @@ class StationPlanner:
             return np.array([qa, home, qb])
         return None
 
-    def replay(self, plan: StationPlan, record_every: float = 0.05) -> StationReplay:
+    def replay(self, plan: StationPlan, record_every: float = RECORD_EVERY) -> StationReplay:
         bar = self._bar("station replay (simulated s)", round(plan.schedule.makespan + record_every, 2))
         last = [0.0]
 

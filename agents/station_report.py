@@ -34,9 +34,10 @@ def write_summary(station, plans: dict, out: Path) -> dict:
     for name, s in rows.items():
         moved = s["info"].get("rerouted_legs") or []
         if moved:
-            lines += ["", f"**{name}**: {len(moved)} leg(s) jammed a cable in the replay and were re-routed before "
-                          f"this plan ({s['info']['cable_replays']} replays): "
-                      + "; ".join(f"{m['robot']} {m['from']} -> {m['to']}: {m['now'].replace('_', ' ')}"
+            replays = s["info"].get("cable_replays")
+            lines += ["", f"**{name}**: {len(moved)} leg(s) jammed a cable and were re-routed or blocked before this "
+                          f"plan" + (f" ({replays} station replays)" if replays else "") + ": "
+                      + "; ".join(f"{m['robot']} {m['from']} -> {m['to']} ({m['why']}): {m['now'].replace('_', ' ')}"
                                   for m in moved)]
     lines += ["", "Per robot (welds in order):", ""]
     for name, s in rows.items():

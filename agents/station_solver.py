@@ -40,18 +40,26 @@ class RoutingProblem:
     # the wait [s] such a pair is expected to cost: the solver charges it half to each robot's route
     conflicts: np.ndarray | None = None  # (K, 2) node pairs
     conflict_wait: float = 0.0
+    # (R, N, N) robot r's integrated wear cost of the move i -> j and the weld at j as simulated (its cable from
+    # settled at i, through the motion and the weld); NaN where not simulated (the estimate stands in)
+    simulated_wear: np.ndarray | None = None
 
     @property
     def n_robots(self) -> int:
         return self.travel.shape[0]
 
     def leg_wear(self, r: int) -> np.ndarray:
-        """Wear estimate of robot r's move i -> j and the weld at j: the motion at the mean of the two
-        configurations' settled cost rates, then the weld at j's (the path-independent part of 4.10)."""
+        """Wear of robot r's move i -> j and the weld at j: as simulated where it was (``simulated_wear``), else
+        estimated: the motion at the mean of the two configurations' settled cost rates, then the weld at j's
+        (the path-independent part of 4.10)."""
         c = self.cost_rate
         wear = self.travel[r] * 0.5 * (c[:, None] + c[None, :])
         weld = np.where(self.node_weld >= 0, self.weld_time * c, 0.0)
-        return wear + weld[None, :]
+        estimate = wear + weld[None, :]
+        if self.simulated_wear is None:
+            return estimate
+        simulated = self.simulated_wear[r]
+        return np.where(np.isfinite(simulated), simulated, estimate)
 
     def leg_time(self, r: int) -> np.ndarray:
         """Robot r's motion i -> j plus the weld at j [s]."""

@@ -325,7 +325,7 @@ def test_a_leg_that_jams_its_cable_is_rerouted_then_blocked(two_robot_station):
     planner = StationPlanner(two_robot_station, StationPlanConfig(kept_options=2, costed_options=2, cable_repairs=0,
                                                                   work=0.5))
     plan = planner.plan()
-    assert plan.replay is None and "rerouted_legs" not in plan.info  # no repairs: planning alone, as before
+    assert plan.replay is None and "cable_replays" not in plan.info  # no repairs: planning alone, as before
     s = plan.schedule.robot(0)
     assert len(s.legs) >= 3
     t = np.arange(0.0, plan.schedule.makespan, 0.05)
@@ -348,9 +348,69 @@ def test_a_leg_that_jams_its_cable_is_rerouted_then_blocked(two_robot_station):
     assert planner.jammed_legs(idle, qs) == []
 
     old = planner.leg(0, path[1], path[2], qs)
-    done = [planner._reroute(0, path[1], path[2], qs, plan)["now"] for _ in range(len(REROUTES) + 1)]
+    stops = ["Home"] * 2 + [o.weld for o in plan.options]
+    done = [planner._reroute(0, path[1], path[2], qs, stops, "test", 1.0)["now"] for _ in range(len(REROUTES) + 1)]
     assert done[-1] == "blocked" and set(done[:-1]) <= {*REROUTES, "blocked"}
     assert planner.leg(0, path[1], path[2], qs) is None
     assert planner.problem(plan.task, plan.options).travel[0, path[1], path[2]] == BLOCKED
     other = planner.reconfigured(replace(planner.config, objective="wear"))
     np.testing.assert_array_equal(other.leg(0, path[1], path[2], qs), old)
+
+
+def test_the_solver_reads_a_simulated_leg_wear_where_there_is_one():
+    """Without a simulation the leg's wear is the estimate (motion at the mean settled rate, then the weld); a
+    simulated value replaces it for that leg only."""
+    p = random_problem(3)
+    estimate = p.leg_wear(0)
+    c = p.cost_rate
+    i, j = 0, int(np.flatnonzero(p.node_robot == 0)[1])
+    assert estimate[i, j] == pytest.approx(p.travel[0, i, j] * 0.5 * (c[i] + c[j]) + p.weld_time * c[j])
+    simulated = np.full(p.travel.shape, np.nan)
+    simulated[0, i, j] = 123.0
+    q = replace(p, simulated_wear=simulated)
+    wear = q.leg_wear(0)
+    assert wear[i, j] == 123.0
+    wear[i, j] = estimate[i, j]
+    np.testing.assert_array_equal(wear, estimate)
+    np.testing.assert_array_equal(q.leg_wear(1), p.leg_wear(1))
+
+
+def test_a_simulated_leg_standing_still_wears_at_its_settled_rate(two_robot_station):
+    """A leg that does not move, run for 2 s: its cable stays settled, so its wear is the settled cost rate
+    times 2 s (the same settle, the same cost function); a real leg's wear is that of its samples."""
+    planner = StationPlanner(two_robot_station, StationPlanConfig())
+    task = make_station_task(two_robot_station, lambda r: None, ["r1_sill_1"])
+    q = task.options["r1_sill_1"][0].q
+    rate = planner.cost_rate(0, q)
+    still = planner.leg_run(0, np.array([q, q]), 2.0)
+    assert still.start_settled and not still.jammed
+    assert still.wear == pytest.approx(2.0 * rate, rel=2e-3)
+    moved = planner.leg_run(0, np.array([two_robot_station.home[0], q]), 1.0)
+    assert moved.wear > 0 and moved.max_tension > 0
+    assert planner.leg_run(0, np.array([two_robot_station.home[0], q]), 1.0) is moved  # cached
+
+
+def test_a_leg_that_jams_its_cable_alone_is_rerouted_while_planning(two_robot_station, monkeypatch):
+    """The cable run of every chosen leg reaches the plan without a station replay: a leg whose run jams the
+    cable is re-routed or blocked, logged with its reason, and the plan no longer uses it."""
+    from dresspack.agents.station_planning import LegRun
+
+    config = StationPlanConfig(kept_options=2, costed_options=2, cable_repairs=0, work=0.5)
+    first = StationPlanner(two_robot_station, config).plan()
+    bad = first.schedule.robot(0).legs[0]
+    planner = StationPlanner(two_robot_station, config)
+    real = planner.leg_run
+
+    def run(robot, leg, weld_time):
+        out = real(robot, leg, weld_time)
+        if robot == 0 and np.array_equal(leg, bad):
+            return LegRun(out.wear, 1e6, True, out.start_settled)
+        return out
+
+    monkeypatch.setattr(planner, "leg_run", run)
+    plan = planner.plan()
+    moved = plan.info["rerouted_legs"]
+    assert moved and moved[0]["robot"] == "r1" and moved[0]["from"] == "Home"
+    assert moved[0]["why"] == "jammed its cable alone"
+    assert not any(np.array_equal(leg, bad) for leg in plan.schedule.robot(0).legs)
+    assert plan.info["simulated_legs"] > 0
