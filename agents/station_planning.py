@@ -393,7 +393,7 @@ class StationPlanner:
         """The best of the solved assignments once their legs are planned and their robots coordinated: the
         solver saw straight-move times (lower bounds of planned legs) and only a guess of the waits, so a later
         round's answer, or the wear objective's, can turn out the worse one. Wear counts the waits at the
-        waiting robot's stop. Returns (assignment, coordinated schedule, coordination info)."""
+        waiting robot's stop and the cables hanging at Home until the coordinated makespan. Returns (assignment, coordinated schedule, coordination info)."""
         cfg = self.config
         unique = list({tuple(map(tuple, a.routes)): a for a in candidates}.values())
         exact = [Assignment(a.routes, {**a.estimate, **problem.evaluate(a.routes)}, a.objective) for a in unique]
@@ -408,8 +408,11 @@ class StationPlanner:
             stops = {r: [r, *route] for r, route in enumerate(a.routes)}
             wait_wear = sum(w * problem.cost_rate[stops[s.robot][k]] for s in schedule.robots
                             for k, w in enumerate(s.waits()))
+            ends = {s.robot: s.end_time for s in schedule.robots}
+            idle = problem.idle_wear([ends[r] for r in range(len(a.routes))], schedule.makespan)
             a.estimate.update(coordinated_makespan=schedule.makespan, waits=schedule.total_wait(),
-                              wear_with_waits=a.estimate["wear"] + float(wait_wear), resolved=info["resolved"])
+                              wear_with_waits=a.estimate["wear"] - a.estimate["idle_wear"] + float(wait_wear) + idle,
+                              resolved=info["resolved"])
             scored.append((a, schedule, info))
             bar.update(1)
         bar.close()

@@ -17,7 +17,7 @@ from dresspack_gym.validation import check_choice
 
 OBJECTIVES = ("time", "wear", "balanced")
 TIME_SCALE = 1000  # integer costs: milliseconds
-WEAR_SCALE = 1000  # integer costs: 1/1000 of the wear cost's unit x s
+WEAR_SCALE = 100_000  # integer costs: 1e-5 of the wear cost's unit x s (fine enough for a Home rate per ms)
 SPAN_WEIGHT = 100  # makespan against the sum of route times in the time objective (min-max first)
 DEFAULT_WORK = 10.0  # CP-SAT deterministic seconds per solve (the solver's work budget, machine-independent)
 HINT_SOLUTIONS = 20  # routing local-search solutions behind CP-SAT's first assignment
@@ -72,14 +72,22 @@ class RoutingProblem:
         taken = {n for route in routes for n in route}
         return int(sum(a in taken and b in taken for a, b in self.conflicts))
 
+    def idle_wear(self, ends, makespan: float) -> float:
+        """Wear of the cables of robots done before the station's cycle ends, hanging at Home until it does (what
+        a station replay over the makespan counts): robot r's Home rate x (makespan - its end)."""
+        return float(sum(self.cost_rate[r] * (makespan - end) for r, end in enumerate(ends)))
+
     def evaluate(self, routes: list[list[int]]) -> dict:
-        """Makespan [s], summed time [s] and wear estimate of routes (node lists without the Homes)."""
+        """Makespan [s], summed time [s] and wear of routes (node lists without the Homes); ``wear`` counts the
+        cables of robots done early hanging at Home until the makespan (``idle_wear``)."""
         ends, wear = [], 0.0
         for r, route in enumerate(routes):
             path = [r, *route, r]
             t, w = self.leg_time(r), self.leg_wear(r)
             ends.append(sum(t[a, b] for a, b in zip(path[:-1], path[1:])))
             wear += sum(w[a, b] for a, b in zip(path[:-1], path[1:]))
+        idle = self.idle_wear(ends, max(ends))
+        wear += idle
         charged = list(ends)  # with the solver's charge for conflicting pairs (what its makespan cap sees)
         if self.conflicts is not None and self.conflict_wait > 0:
             owner = {n: r for r, route in enumerate(routes) for n in route}
@@ -87,7 +95,7 @@ class RoutingProblem:
                 if a in owner and b in owner:
                     charged[owner[a]] += 0.5 * self.conflict_wait
                     charged[owner[b]] += 0.5 * self.conflict_wait
-        return {"makespan": float(max(ends)), "time": float(sum(ends)), "wear": float(wear),
+        return {"makespan": float(max(ends)), "time": float(sum(ends)), "wear": float(wear), "idle_wear": idle,
                 "robot_times": [float(e) for e in ends], "conflicts": self.conflicts_taken(routes),
                 "charged_makespan": float(max(charged))}
 
@@ -130,7 +138,7 @@ def solve(problem: RoutingProblem, objective: str = "time", *, work: float = DEF
             arc_cost.append(np.rint(t + wear_weight * problem.leg_wear(r) * TIME_SCALE).astype(np.int64))
     span = SPAN_WEIGHT if objective != "wear" else 0
     hint = start if start is not None else _routing_first(problem, arc_cost, span, cap, horizon)
-    routes, status = _cp_sat(problem, arc_cost, span, cap, hint, work, seed, time_limit)
+    routes, status = _cp_sat(problem, arc_cost, span, cap, hint, work, seed, time_limit, objective)
     if status and objective == "time" and (problem.conflicts is None or problem.conflict_wait == 0):
         # every route's summed time is at most the makespan, so objective <= (span + R) x makespan (not with
         # conflict charges: they are guesses of waits, not times a plan must take)
@@ -192,7 +200,7 @@ def _routing_first(problem: RoutingProblem, arc_cost, span: int, cap: int, horiz
 
 
 def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: float, seed: int,
-            time_limit: float | None) -> tuple[list[list[int]] | None, dict]:
+            time_limit: float | None, objective: str = "time") -> tuple[list[list[int]] | None, dict]:
     """The exact model: per robot a circuit through its Home and the options it takes (the others skipped by
     self-loops); each weld's options taken exactly once; route times within the cap; the objective with the
     makespan weighted by ``span`` (min-max first)."""
@@ -250,6 +258,13 @@ def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: 
         route_time.append(rt)
     makespan = m.new_int_var(0, cap, "makespan")
     m.add_max_equality(makespan, route_time)
+    if objective == "wear":
+        # a robot done early hangs its cable at Home until the station's cycle ends: that wear counts too (as in the
+        # station replay), at its Home's rate per millisecond of the wait. (The balanced objective weighs the
+        # makespan itself, which already pulls the robots' ends together.)
+        for r in range(R):
+            per_ms = problem.cost_rate[r] * WEAR_SCALE / TIME_SCALE
+            cost_terms.append(int(np.rint(per_ms)) * (makespan - route_time[r]))
     m.minimize(span * makespan + sum(cost_terms))
     if hint is not None:
         used = {(r, a, b) for r, route in enumerate(hint) for a, b in zip([r, *route], [*route, r])}

@@ -414,3 +414,49 @@ def test_a_leg_that_jams_its_cable_alone_is_rerouted_while_planning(two_robot_st
     assert moved[0]["why"] == "jammed its cable alone"
     assert not any(np.array_equal(leg, bad) for leg in plan.schedule.robot(0).legs)
     assert plan.info["simulated_legs"] > 0
+
+
+def brute_force_wear(p: RoutingProblem, cap: float) -> float:
+    """The least wear within a makespan cap by enumeration, counting the cables of robots done early hanging at
+    Home until the makespan (every weld to every robot, every order, every option)."""
+    R = p.n_robots
+    best = np.inf
+    for owner in itertools.product(range(R), repeat=p.n_welds):
+        per_robot = []
+        for r in range(R):
+            welds = [w for w in range(p.n_welds) if owner[w] == r]
+            opts = [np.flatnonzero((p.node_weld == w) & (p.node_robot == r)) for w in welds]
+            if any(len(o) == 0 for o in opts):
+                per_robot = None
+                break
+            t, w = p.leg_time(r), p.leg_wear(r)
+            routes = [(0.0, 0.0)] if not welds else []
+            for perm in itertools.permutations(range(len(welds))):
+                for choice in itertools.product(*[opts[k] for k in perm]):
+                    path = [r, *choice, r]
+                    legs = list(zip(path[:-1], path[1:]))
+                    routes.append((sum(t[a, b] for a, b in legs), sum(w[a, b] for a, b in legs)))
+            per_robot.append(routes)
+        if per_robot is None:
+            continue
+        for combo in itertools.product(*per_robot):
+            ends = [c[0] for c in combo]
+            if max(ends) <= cap:
+                best = min(best, sum(c[1] for c in combo) + p.idle_wear(ends, max(ends)))
+    return float(best)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_wear_objective_is_optimal_against_brute_force_with_the_cables_waiting_at_home(seed):
+    """The wear objective minimises what a station replay measures: the routes' wear plus the cables of robots
+    done early hanging at Home until the makespan (Home rates made large so that this term matters)."""
+    p = random_problem(seed, robots=2, welds=4)
+    rates = np.random.default_rng(seed).uniform(1, 10, len(p.node_robot))
+    rates[:2] = 40.0
+    p = replace(p, cost_rate=rates)
+    cap = 1.1 * solve(p, "time", work=10).estimate["makespan"]
+    w = solve(p, "wear", work=10, makespan_cap=cap)
+    assert w.estimate["optimal"]
+    assert w.estimate["wear"] == pytest.approx(brute_force_wear(p, cap), rel=2e-3)
+    ends = w.estimate["robot_times"]
+    assert w.estimate["idle_wear"] == pytest.approx(sum(rates[r] * (max(ends) - e) for r, e in enumerate(ends)))
