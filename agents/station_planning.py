@@ -449,9 +449,19 @@ class StationPlanner:
         self.check_straight_moves(task, options)
         qs = np.vstack([task.homes, np.array([o.q for o in options]).reshape(-1, 6)])
         stops = ["Home"] * task.n_robots + [o.weld for o in options]
+        given = []
+        if cfg.objective != "time":
+            # the time objective's answer, planned first with its own repairs, is a candidate of the others: a
+            # wear-aware plan is then never worse on its own measure than the time plan it is compared with,
+            # whatever its own rounds found (its legs, re-routes included, become this plan's)
+            timed = self.reconfigured(replace(cfg, objective="time"))
+            given = [timed.plan(task).assignment]
+            self._rerouted.update(timed._rerouted)
+            self._reroutes.update(timed._reroutes)
+            self._reroute_log += [{**e, "why": e["why"] + " (planning the time objective)"} for e in timed._reroute_log]
         best = None
         for repair in range(cfg.cable_repairs + 1):
-            plan = self._plan_legs(task, options, qs, stops)
+            plan = self._plan_legs(task, options, qs, stops, given)
             if cfg.cable_repairs == 0:
                 return plan
             self.replay(plan)
@@ -466,11 +476,12 @@ class StationPlanner:
                               task.weld_time if j >= task.n_robots else 0.0)
         return best
 
-    def _plan_legs(self, task: StationTask, options: list[WeldOption], qs: np.ndarray,
-                   stops: list[str]) -> StationPlan:
-        """Solve, plan the chosen legs, re-solve with their exact times (``exact_rounds``); coordinate; verify."""
+    def _plan_legs(self, task: StationTask, options: list[WeldOption], qs: np.ndarray, stops: list[str],
+                   given: list[Assignment] = ()) -> StationPlan:
+        """Solve, plan the chosen legs, re-solve with their exact times (``exact_rounds``); coordinate; verify.
+        ``given``: answers found elsewhere whose legs are planned, candidates beside this objective's."""
         cfg = self.config
-        rounds, solves, candidates, bound, wear_failures = 0, 0, [], 0.0, 0
+        rounds, solves, candidates, bound, wear_failures = 0, 0, list(given), 0.0, 0
         bar = self._bar("solve, plan the chosen legs (rounds, at most)", cfg.exact_rounds)
         fastest = chosen = None
         while True:
