@@ -23,27 +23,32 @@ from dresspack_gym.station_tasks import make_station_task
 from dresspack_gym.time_law import JointLimits, segment_durations
 
 
+def robot_routes(p: RoutingProblem, r: int, welds: list[int]) -> list[tuple[float, float]] | None:
+    """(time, wear) of every route of robot r through ``welds`` (every order, every option); None if r cannot
+    reach one of them."""
+    opts = [np.flatnonzero((p.node_weld == w) & (p.node_robot == r)) for w in welds]
+    if any(len(o) == 0 for o in opts):
+        return None
+    t, wear = p.leg_time(r), p.leg_wear(r)
+    out = [] if welds else [(0.0, 0.0)]
+    for perm in itertools.permutations(range(len(welds))):
+        for choice in itertools.product(*[opts[k] for k in perm]):
+            legs = list(zip([r, *choice], [*choice, r]))
+            out.append((sum(t[a, b] for a, b in legs), sum(wear[a, b] for a, b in legs)))
+    return out
+
+
+def assignments(p: RoutingProblem):
+    """Per assignment of every weld to a robot that reaches it: each robot's routes (robot_routes)."""
+    for owner in itertools.product(range(p.n_robots), repeat=p.n_welds):
+        per_robot = [robot_routes(p, r, [w for w in range(p.n_welds) if owner[w] == r]) for r in range(p.n_robots)]
+        if all(x is not None for x in per_robot):
+            yield per_robot
+
+
 def brute_force_makespan(p: RoutingProblem) -> float:
     """The optimal makespan by enumeration: every weld to every robot, every order, every option."""
-    R = p.n_robots
-    best = np.inf
-    for owner in itertools.product(range(R), repeat=p.n_welds):
-        ends = []
-        for r in range(R):
-            welds = [w for w in range(p.n_welds) if owner[w] == r]
-            opts = [np.flatnonzero((p.node_weld == w) & (p.node_robot == r)) for w in welds]
-            if any(len(o) == 0 for o in opts):
-                ends = [np.inf]
-                break
-            t = p.leg_time(r)
-            robot_best = 0.0 if not welds else np.inf
-            for perm in itertools.permutations(range(len(welds))):
-                for choice in itertools.product(*[opts[k] for k in perm]):
-                    path = [r, *choice, r]
-                    robot_best = min(robot_best, sum(t[a, b] for a, b in zip(path[:-1], path[1:])))
-            ends.append(robot_best)
-        best = min(best, max(ends))
-    return float(best)
+    return float(min(max(min(t for t, _ in routes) for routes in per_robot) for per_robot in assignments(p)))
 
 
 def random_problem(seed: int, robots: int = 3, welds: int = 5, branches: int = 2) -> RoutingProblem:
@@ -422,26 +427,8 @@ def test_a_leg_that_jams_its_cable_alone_is_rerouted_while_planning(two_robot_st
 def brute_force_wear(p: RoutingProblem, cap: float) -> float:
     """The least wear within a makespan cap by enumeration, counting the cables of robots done early hanging at
     Home until the makespan (every weld to every robot, every order, every option)."""
-    R = p.n_robots
     best = np.inf
-    for owner in itertools.product(range(R), repeat=p.n_welds):
-        per_robot = []
-        for r in range(R):
-            welds = [w for w in range(p.n_welds) if owner[w] == r]
-            opts = [np.flatnonzero((p.node_weld == w) & (p.node_robot == r)) for w in welds]
-            if any(len(o) == 0 for o in opts):
-                per_robot = None
-                break
-            t, w = p.leg_time(r), p.leg_wear(r)
-            routes = [(0.0, 0.0)] if not welds else []
-            for perm in itertools.permutations(range(len(welds))):
-                for choice in itertools.product(*[opts[k] for k in perm]):
-                    path = [r, *choice, r]
-                    legs = list(zip(path[:-1], path[1:]))
-                    routes.append((sum(t[a, b] for a, b in legs), sum(w[a, b] for a, b in legs)))
-            per_robot.append(routes)
-        if per_robot is None:
-            continue
+    for per_robot in assignments(p):
         for combo in itertools.product(*per_robot):
             ends = [c[0] for c in combo]
             if max(ends) <= cap:
