@@ -167,6 +167,10 @@ class StationPlanner:
         self._reroutes: dict[tuple, int] = {}
         self._reroute_log: list[dict] = []  # what was re-routed, and why (a plan's info["rerouted_legs"])
         self._leg_runs: dict[tuple, LegRun] = {}  # by robot, waypoints and weld time: depends on nothing else
+        # the legs this planner has asked for: the solver treats only these as exact. The caches above may hold
+        # more (a reconfigured planner shares them), and using those would make a plan depend on what was
+        # planned before it
+        self._known: set[tuple] = set()
 
     def reconfigured(self, config: StationPlanConfig) -> StationPlanner:
         """A planner with ``config`` that keeps this one's settled-cable costs and planned legs (same station,
@@ -176,7 +180,7 @@ class StationPlanner:
             return StationPlanner(self.station, config, self.progress)
         other = copy.copy(self)  # shares the caches
         other.config = config
-        other._rerouted, other._reroutes, other._reroute_log = {}, {}, []
+        other._rerouted, other._reroutes, other._reroute_log, other._known = {}, {}, [], set()
         return other
 
     # -------------------------------------------------------------------------- costs
@@ -274,7 +278,8 @@ class StationPlanner:
             node_of.setdefault((int(r), q.tobytes()), []).append(n)
         simulated = np.full(travel.shape, np.nan)
         weld_after = np.where(node_weld >= 0, task.weld_time, 0.0)
-        for (r, qa, qb), leg in {**self._legs, **self._rerouted}.items():  # planned legs are exact
+        planned = {k: self._legs[k] for k in self._known if k in self._legs}
+        for (r, qa, qb), leg in {**planned, **self._rerouted}.items():  # planned legs are exact
             for i in node_of.get((r, qa), ()):
                 for j in node_of.get((r, qb), ()):
                     travel[r, i, j] = BLOCKED if leg is None else time_law.path_duration(leg, self.limits[r])
@@ -320,12 +325,20 @@ class StationPlanner:
         weld_of = [None] * R + [o.weld for o in options]
         own = [np.flatnonzero(robot_of == r) for r in range(R)]
         pairs = [(r, i, j) for r in range(R) for i in own[r] for j in own[r]
-                 if i != j and (weld_of[i] is None or weld_of[i] != weld_of[j])
-                 and _leg_key(r, qs[i], qs[j]) not in self._legs]
-        bar = self._bar("checking straight moves", len(pairs))
+                 if i != j and (weld_of[i] is None or weld_of[i] != weld_of[j])]
+        todo = []
         for r, i, j in pairs:
+            key = _leg_key(r, qs[i], qs[j])
+            if key not in self._legs:
+                todo.append((r, i, j))
+            elif self._legs[key] is not None and len(self._legs[key]) == 2:  # checked before: a valid straight move
+                self._known.add(key)
+        bar = self._bar("checking straight moves", len(todo))
+        for r, i, j in todo:
             if self.leg_planners[r].validity.segment_valid(qs[i], qs[j]):
-                self._legs[_leg_key(r, qs[i], qs[j])] = np.array([qs[i], qs[j]])
+                key = _leg_key(r, qs[i], qs[j])
+                self._legs[key] = np.array([qs[i], qs[j]])
+                self._known.add(key)
             bar.update(1)
         bar.close()
 
@@ -335,6 +348,7 @@ class StationPlanner:
         key = _leg_key(robot, qs[i], qs[j])
         if key in self._rerouted:
             return self._rerouted[key]
+        self._known.add(key)
         if key not in self._legs:
             planner = self.leg_planners[robot]
             task = Task(robot, qs[i], (), np.zeros((0, 6)), qs[j])
@@ -456,6 +470,7 @@ class StationPlanner:
             # whatever its own rounds found (its legs, re-routes included, become this plan's)
             timed = self.reconfigured(replace(cfg, objective="time"))
             given = [timed.plan(task).assignment]
+            self._known |= timed._known
             self._rerouted.update(timed._rerouted)
             self._reroutes.update(timed._reroutes)
             self._reroute_log += [{**e, "why": e["why"] + " (planning the time objective)"} for e in timed._reroute_log]
@@ -530,7 +545,7 @@ class StationPlanner:
                                  "conflict_pairs": len(problem.conflicts), "candidates": len(candidates),
                                  "wear_solves_without_answer": wear_failures,
                                  "unconverged_cost_settles": self.unconverged_options(options),
-                                 "planned_legs": len(self._legs), "cost_settles": len(self._rates),
+                                 "planned_legs": len(self._known), "cost_settles": len(self._rates),
                                  "simulated_legs": len(self._leg_runs),
                                  "unsettled_leg_starts": sum(not r.start_settled for r in self._leg_runs.values()),
                                  "rerouted_legs": list(self._reroute_log)})

@@ -450,3 +450,17 @@ def test_wear_objective_is_optimal_against_brute_force_with_the_cables_waiting_a
     assert w.estimate["wear"] == pytest.approx(brute_force_wear(p, cap), rel=2e-3)
     ends = w.estimate["robot_times"]
     assert w.estimate["idle_wear"] == pytest.approx(sum(rates[r] * (max(ends) - e) for r, e in enumerate(ends)))
+
+
+def test_an_objective_plans_the_same_whatever_was_planned_before_it(two_robot_station):
+    """``dresspack station-plan`` plans its objectives with one planner (the legs are reused): the wear plan after
+    a time plan equals the wear plan of a fresh planner, and the time plan inside it equals the time plan."""
+    config = StationPlanConfig(kept_options=2, costed_options=2, cable_repairs=0, work=0.5)
+    first = StationPlanner(two_robot_station, config)
+    timed = first.plan()
+    after = first.reconfigured(replace(config, objective="wear")).plan()
+    fresh = StationPlanner(two_robot_station, replace(config, objective="wear")).plan()
+    assert after.assignment.routes == fresh.assignment.routes
+    assert after.schedule.makespan == fresh.schedule.makespan
+    assert after.assignment.estimate["wear_with_waits"] == fresh.assignment.estimate["wear_with_waits"]
+    assert after.assignment.estimate["wear_with_waits"] <= timed.assignment.estimate["wear_with_waits"] + 1e-9
