@@ -139,6 +139,8 @@ class StationPlan:
         }
         if self.replay is not None:
             s["replay"] = self.replay.summary(self.names)
+            split = self.replay.wear_split(self.schedule)
+            s["replay"]["wear_split"] = {self.names[i]: v for i, v in split.items()}
         return s
 
 
@@ -245,6 +247,14 @@ class StationPlanner:
         """The welds among ``options`` whose option's cost comes from a settle that did not reach equilibrium."""
         return sorted({o.weld for o in options
                        if (int(o.robot), *(float(x) for x in np.round(o.q, 9))) in self._unconverged})
+
+    def cheapest_weld_wear(self, task: StationTask) -> float:
+        """Σ over the welds of weld time x the lowest settled cost rate among its costed options: what the welding
+        alone would wear with every weld at its cheapest option (a reference for a plan's welding wear)."""
+        n = self.config.costed_options
+        return float(sum(task.weld_time * min(self.cost_rate(r, o.q) for r in task.candidates(w)
+                                              for o in [o for o in task.options[w] if o.robot == r][:n])
+                         for w in task.weld_names))
 
     def _choose_options(self, task: StationTask) -> list[WeldOption]:
         """Per weld and robot, the options the solver sees: the nearest Home and the cheapest of those costed."""
@@ -545,6 +555,7 @@ class StationPlanner:
                                  "conflict_pairs": len(problem.conflicts), "candidates": len(candidates),
                                  "wear_solves_without_answer": wear_failures,
                                  "unconverged_cost_settles": self.unconverged_options(options),
+                                 "cheapest_weld_wear": self.cheapest_weld_wear(task),
                                  "planned_legs": len(self._known), "cost_settles": len(self._rates),
                                  "simulated_legs": len(self._leg_runs),
                                  "unsettled_leg_starts": sum(not r.start_settled for r in self._leg_runs.values()),

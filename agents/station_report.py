@@ -39,6 +39,21 @@ def write_summary(station, plans: dict, out: Path) -> dict:
                           f"plan" + (f" ({replays} station replays)" if replays else "") + ": "
                       + "; ".join(f"{m['robot']} {m['from']} -> {m['to']} ({m['why']}): {m['now'].replace('_', ' ')}"
                                   for m in moved)]
+    split = {name: s["replay"]["wear_split"] for name, s in rows.items() if "wear_split" in s.get("replay", {})}
+    if split:
+        phases = list(next(iter(next(iter(split.values())).values()))["by_phase"])
+        terms = [t for t in next(iter(next(iter(split.values())).values()))["by_term"]
+                 if any(r["by_term"][t] for per in split.values() for r in per.values())]
+        lines += ["", ("Where the replayed wear ∫C dt accrues, all robots (by what each robot was doing, and by the "
+                       "cost's terms); *cheapest welding* is every weld at its cheapest costed option:"), "",
+                  "| objective | " + " | ".join(phases) + " | cheapest welding | " + " | ".join(terms) + " |",
+                  "|---|" + "---|" * (len(phases) + 1 + len(terms))]
+        for name, per in split.items():
+            by_phase = [sum(r["by_phase"][p] for r in per.values()) for p in phases]
+            by_term = [sum(r["by_term"][t] for r in per.values()) for t in terms]
+            cheapest = rows[name]["info"].get("cheapest_weld_wear", float("nan"))
+            lines.append(f"| {name} | " + " | ".join(f"{x:.4g}" for x in by_phase) + f" | {cheapest:.4g} | "
+                         + " | ".join(f"{x:.4g}" for x in by_term) + " |")
     lines += ["", "Per robot (welds in order):", ""]
     for name, s in rows.items():
         lines.append(f"- **{name}**: " + "; ".join(f"{r}: {', '.join(w) if w else '(stays Home)'}"

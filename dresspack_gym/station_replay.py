@@ -11,7 +11,7 @@ import numpy as np
 
 from .cost_variants import cost_function
 from .simulation import CableSimulator, Equilibrium
-from .station_schedule import StationSchedule
+from .station_schedule import PHASES, StationSchedule
 
 # A cable whose tension exceeds this strain x EA is flagged jammed: no copper conductor survives 5 % strain, so
 # such a state is a cable pinned by a robot (kinematic, unstoppable), not a wear figure to compare
@@ -31,6 +31,7 @@ class StationReplay:
     makespan: float
     jam_tension: np.ndarray | None = None  # (n_robots,) [N] tension above which a cable is flagged jammed
     start: Equilibrium | None = None  # the settle at Home the cycle starts from (its residual)
+    terms: dict[str, np.ndarray] | None = None  # the cost's terms (WearCost.terms) -> (N, n_robots); sum = cost
 
     def jammed(self) -> list[int]:
         """Robots whose cable was ever pulled beyond JAM_STRAIN (pinned by a robot)."""
@@ -41,6 +42,26 @@ class StationReplay:
     def integrated_cost(self) -> np.ndarray:
         """Per robot, the integral of C over the cycle [cost x s]."""
         return np.trapezoid(self.cost, self.time, axis=0) if len(self.time) > 1 else np.zeros(self.cost.shape[1])
+
+    def wear_split(self, schedule: StationSchedule) -> dict:
+        """Per robot index, the integrated cost split by what the robot did (``by_phase``: :data:`PHASES`, from
+        ``schedule``) and by the cost's terms (``by_term``, when recorded). Each sampling interval counts whole
+        to the phase at its midpoint, so either split sums to :meth:`integrated_cost` (the same trapezoids)."""
+        dt = np.diff(self.time)
+        mid = self.time[:-1] + dt / 2
+
+        def pieces(c):  # (N-1, n_robots): each interval's trapezoid
+            return 0.5 * (c[1:] + c[:-1]) * dt[:, None]
+
+        cost = pieces(self.cost)
+        terms = {k: pieces(v).sum(axis=0) for k, v in (self.terms or {}).items()}
+        out = {}
+        for i in range(self.cost.shape[1]):
+            s = schedule.robot(i)
+            phase = s.phase_at(mid) if s is not None else np.full(len(mid), PHASES.index("done"))
+            out[i] = {"by_phase": {p: float(cost[phase == k, i].sum()) for k, p in enumerate(PHASES)},
+                      "by_term": {k: float(v[i]) for k, v in terms.items()}}
+        return out
 
     def summary(self, names: list[str]) -> dict:
         per = self.integrated_cost()
@@ -72,6 +93,8 @@ def replay_station(sim: CableSimulator, schedule: StationSchedule, *, record_eve
     times += t
     samples += s
     measures = {k: np.array([[getattr(m, f) for m in per] for per in samples]) for k, f in MEASURE_FIELDS.items()}
-    cost = np.array([[cost_fn(m, cfg).total for m in per] for per in samples])
+    costs = [[cost_fn(m, cfg) for m in per] for per in samples]
+    cost = np.array([[c.total for c in per] for per in costs])
+    terms = {k: np.array([[c.terms()[k] for c in per] for per in costs]) for k in costs[0][0].terms()}
     jam = np.array([JAM_STRAIN * r.dresspack.tensile_stiffness for r in sim.station.config.robots])
-    return StationReplay(np.array(times), measures, cost, schedule.makespan, jam, start)
+    return StationReplay(np.array(times), measures, cost, schedule.makespan, jam, start, terms)

@@ -12,6 +12,10 @@ import numpy as np
 from . import time_law
 from .trajectory import Trajectory
 
+# what a robot does at a time of the station clock (RobotSchedule.phase_at indexes this); "done" is standing at
+# Home after its last leg, until the station's makespan
+PHASES = ("moving", "welding", "waiting", "done")
+
 
 @dataclass(frozen=True)
 class RobotSchedule:
@@ -97,6 +101,17 @@ class RobotSchedule:
             out["motion"].append((float(self.leg_start[k]), float(ends[k])))
             if k < len(self.welds):
                 out["weld"].append((float(ends[k]), float(ends[k] + self.weld_time)))
+        return out
+
+    def phase_at(self, t) -> np.ndarray:
+        """(N,) indices into :data:`PHASES` of what the robot does at times ``t`` (N,): moving, welding, waiting
+        (stood at its last stop before a leg) or done (Home again)."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        out = np.full(len(t), PHASES.index("waiting"))
+        for name, phase in (("motion", "moving"), ("weld", "welding")):
+            for a, b in self.intervals()[name]:
+                out[(t >= a) & (t < b)] = PHASES.index(phase)
+        out[t >= self.end_time] = PHASES.index("done")
         return out
 
     # --------------------------------------------------------------------------- where

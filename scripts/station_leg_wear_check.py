@@ -4,7 +4,9 @@ the station replay (every robot and cable on one clock): how far the solver's pe
     .venv/bin/python scripts/station_leg_wear_check.py station_plans/time --station side_framing_4r
 
 Reads a plan folder written by ``dresspack station-plan`` (plan.json and one trajectory per robot), replays it, runs
-every leg alone and prints per leg both integrals and their difference; ``--out`` writes them as JSON."""
+every leg alone and prints per leg both integrals and their difference; ``--out`` writes them as JSON. It first
+prints where the replayed wear accrues (by what each robot was doing, and by the cost's terms); ``--split-only``
+stops there."""
 
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ def main() -> None:
     ap.add_argument("plan", type=Path, help="a plan folder (plan.json, <robot>.npz)")
     ap.add_argument("--station", default="side_framing_4r")
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--split-only", action="store_true", help="print the wear split and skip the per-leg runs")
     args = ap.parse_args()
 
     station = Station(load_station(args.station))
@@ -48,6 +51,13 @@ def main() -> None:
     holder = _Plan()
     holder.schedule = schedule
     replay = planner.replay(holder, record_every=RECORD_EVERY)
+    split = replay.wear_split(schedule)
+    print(f"replayed ∫C dt {replay.integrated_cost().sum():.1f}, makespan {schedule.makespan:.2f} s")
+    for by in ("by_phase", "by_term"):
+        total = {k: sum(v[by][k] for v in split.values()) for k in split[0][by]}
+        print(f"  {by.replace('_', ' ')}: " + ", ".join(f"{k} {v:.1f}" for k, v in total.items()))
+    if args.split_only:
+        return
     rows = []
     for s in robots:
         name = station.config.robots[s.robot].name

@@ -18,7 +18,8 @@ from dresspack_gym.errors import ConfigError
 from dresspack_gym.loading import load_station
 from dresspack_gym.simulation import CableSimulator
 from dresspack_gym.station import Station
-from dresspack_gym.station_schedule import RobotSchedule, StationSchedule
+from dresspack_gym.station_replay import StationReplay
+from dresspack_gym.station_schedule import PHASES, RobotSchedule, StationSchedule
 from dresspack_gym.station_tasks import make_station_task
 from dresspack_gym.time_law import JointLimits, segment_durations
 
@@ -134,6 +135,38 @@ def test_schedule_timing_follows_the_time_law_with_welds_and_waits():
     assert late.waits().tolist() == pytest.approx([0.0, 3.0, 0.0])
     assert late.end_time == pytest.approx(s.end_time + 3.0)
     assert late.intervals()["wait"] == [pytest.approx((d[0] + 2.0, d[0] + 5.0))]
+    # what the robot does, read off the same timing: moving, welding, waiting (the delay), done once Home
+    t = [d[0] / 2, d[0] + 1.0, d[0] + 3.0, d[0] + 5.0 + d[1] / 2, late.end_time + 1.0]
+    assert [PHASES[k] for k in late.phase_at(t)] == ["moving", "welding", "waiting", "moving", "done"]
+
+
+def test_the_wear_split_gives_each_phase_its_time_at_its_rate():
+    """A replay whose cost is constant per phase: each phase's share is its rate x its duration, and the shares
+    (and the terms) sum to the integrated cost."""
+    limits = JointLimits(np.full(6, 1.0), np.full(6, 4.0), np.full(6, 40.0))
+    home, a = np.zeros(6), np.full(6, 0.3)
+    s = RobotSchedule.as_soon_as_possible(0, ["w1"], [np.array([home, a]), np.array([a, home])], limits, 2.0)
+    s = s.delayed(1, 1.5)  # 1.5 s waiting at the weld after welding
+    makespan = s.end_time + 3.0  # another robot finishes later: 3 s done at Home
+    t = np.linspace(0.0, makespan, 4001)
+    rate = {"moving": 10.0, "welding": 4.0, "waiting": 7.0, "done": 1.0}
+    phase = np.array([PHASES[k] for k in s.phase_at(t)])
+    cost = np.array([rate[p] for p in phase])[:, None]
+    stay = StationSchedule((s, RobotSchedule.as_soon_as_possible(1, [], [np.array([home, home])], limits, 2.0)),
+                           np.zeros((2, 6)))
+    rep = StationReplay(t, {}, np.hstack([cost, np.full_like(cost, 2.0)]), makespan,
+                        terms={"curvature": np.hstack([cost, np.full_like(cost, 2.0)]) * 0.25,
+                               "distance": np.hstack([cost, np.full_like(cost, 2.0)]) * 0.75})
+    split = rep.wear_split(stay)
+    moving = float(np.sum(s.leg_durations()))
+    expected = {"moving": 10.0 * moving, "welding": 4.0 * 2.0, "waiting": 7.0 * 1.5, "done": 1.0 * 3.0}
+    for p, v in expected.items():  # within one sample interval's worth of rate at each of the 6 phase changes
+        assert split[0]["by_phase"][p] == pytest.approx(v, abs=6 * 10.0 * (t[1] - t[0]))
+    assert sum(split[0]["by_phase"].values()) == pytest.approx(rep.integrated_cost()[0], rel=1e-12)
+    assert split[1]["by_phase"] == pytest.approx({"moving": 0.0, "welding": 0.0, "waiting": 0.0,
+                                                  "done": 2.0 * makespan})
+    assert sum(split[0]["by_term"].values()) == pytest.approx(rep.integrated_cost()[0], rel=1e-12)
+    assert split[0]["by_term"]["distance"] == pytest.approx(3 * split[0]["by_term"]["curvature"])
 
 
 def _both_to_one_weld(station: Station) -> StationSchedule:
@@ -277,6 +310,13 @@ def test_station_plan_command_writes_plans_pictures_and_a_comparison(tmp_path, c
     # the slack, which the time plan meets)
     assert wear["estimate"]["wear_with_waits"] <= summary["time"]["estimate"]["wear_with_waits"] + 1e-6
     assert "summary.md" in text
+    for s in summary.values():  # the replayed wear, split by phase and by the cost's terms, adds up
+        split = s["replay"]["wear_split"]
+        assert sum(sum(r["by_phase"].values()) for r in split.values()) == pytest.approx(s["replay"]["cost"])
+        assert sum(sum(r["by_term"].values()) for r in split.values()) == pytest.approx(s["replay"]["cost"])
+        welding = sum(r["by_phase"]["welding"] for r in split.values())
+        assert welding >= 0.9 * s["info"]["cheapest_weld_wear"]  # the cables move a little while welding
+    assert "Where the replayed wear" in (out / "summary.md").read_text()
 
 
 def test_station_plan_command_names_a_weld_no_robot_can_reach(tmp_path, capsys):
@@ -293,7 +333,7 @@ def test_station_plan_command_names_a_weld_no_robot_can_reach(tmp_path, capsys):
 
 def test_a_cable_pulled_beyond_the_jam_strain_is_flagged():
     """The flag is EA x 5 % per cable: a 1e7 N tension (a cable pinned by a robot) is flagged, 100 N is not."""
-    from dresspack_gym.station_replay import JAM_STRAIN, StationReplay
+    from dresspack_gym.station_replay import JAM_STRAIN
 
     ea = np.array([2.0e5, 2.0e5])
     tension = np.array([[10.0, 20.0], [100.0, 1e7], [50.0, 30.0]])
@@ -328,7 +368,6 @@ def test_a_leg_that_jams_its_cable_is_rerouted_then_blocked(two_robot_station):
     leg is re-routed (another OMPL route, or through Home), and once the re-routes are spent it is blocked for
     the solver. Another objective's planner does not inherit the re-routes."""
     from dresspack.agents.station_planning import BLOCKED, REROUTES
-    from dresspack_gym.station_replay import StationReplay
 
     planner = StationPlanner(two_robot_station, StationPlanConfig(kept_options=2, costed_options=2, cable_repairs=0,
                                                                   work=0.5))
