@@ -251,16 +251,19 @@ class StationPlanner:
     def cheapest_weld_wear(self, task: StationTask) -> float:
         """Σ over the welds of weld time x the lowest settled cost rate among its costed options: what the welding
         alone would wear with every weld at its cheapest option (a reference for a plan's welding wear)."""
-        n = self.config.costed_options
         return float(sum(task.weld_time * min(self.cost_rate(r, o.q) for r in task.candidates(w)
-                                              for o in [o for o in task.options[w] if o.robot == r][:n])
+                                              for o in self._costed(task, w, r))
                          for w in task.weld_names))
+
+    def _costed(self, task: StationTask, weld: str, robot: int) -> list[WeldOption]:
+        """The options of ``weld`` by ``robot`` whose settled cable is costed: the first ``costed_options``
+        (nearest Home first)."""
+        return [o for o in task.options[weld] if o.robot == robot][:self.config.costed_options]
 
     def _choose_options(self, task: StationTask) -> list[WeldOption]:
         """Per weld and robot, the options the solver sees: the nearest Home and the cheapest of those costed."""
         cfg = self.config
-        jobs = [(w, r, [o for o in task.options[w] if o.robot == r][:cfg.costed_options])
-                for w in task.weld_names for r in task.candidates(w)]
+        jobs = [(w, r, self._costed(task, w, r)) for w in task.weld_names for r in task.candidates(w)]
         bar = self._bar("costing weld options (settled cable)", sum(len(j[2]) for j in jobs))
         kept = []
         for w, r, opts in jobs:
@@ -417,7 +420,8 @@ class StationPlanner:
         """The best of the solved assignments once their legs are planned and their robots coordinated: the
         solver saw straight-move times (lower bounds of planned legs) and only a guess of the waits, so a later
         round's answer, or the wear objective's, can turn out the worse one. Wear counts the waits at the
-        waiting robot's stop and the cables hanging at Home until the coordinated makespan. Returns (assignment, coordinated schedule, coordination info)."""
+        waiting robot's stop and the cables hanging at Home until the coordinated makespan. Returns (assignment,
+        coordinated schedule, coordination info)."""
         cfg = self.config
         unique = list({tuple(map(tuple, a.routes)): a for a in candidates}.values())
         exact = [Assignment(a.routes, {**a.estimate, **problem.evaluate(a.routes)}, a.objective) for a in unique]
@@ -586,7 +590,8 @@ class StationPlanner:
                  weld_time: float) -> dict:
         """Replace the leg i -> j of ``robot`` after it jammed the cable: the next of :data:`REROUTES` that
         applies and does not jam the cable itself (run alone), else mark it blocked (the solver then avoids it).
-        ``stops`` names every node (the summary's words); ``weld_time`` is the weld at j (0 at a Home). Returns what was done, also logged for the plan."""
+        ``stops`` names every node (the summary's words); ``weld_time`` is the weld at j (0 at a Home). Returns
+        what was done, also logged for the plan."""
         key = _leg_key(robot, qs[i], qs[j])
         old = self._rerouted.get(key, self._legs.get(key))
         done = "blocked"

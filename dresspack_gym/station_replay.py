@@ -95,6 +95,7 @@ def replay_station(sim: CableSimulator, schedule: StationSchedule, *, record_eve
     measures = {k: np.array([[getattr(m, f) for m in per] for per in samples]) for k, f in MEASURE_FIELDS.items()}
     costs = [[cost_fn(m, cfg) for m in per] for per in samples]
     cost = np.array([[c.total for c in per] for per in costs])
-    terms = {k: np.array([[c.terms()[k] for c in per] for per in costs]) for k in costs[0][0].terms()}
+    by_term = [[c.terms() for c in per] for per in costs]
+    terms = {k: np.array([[t[k] for t in per] for per in by_term]) for k in by_term[0][0]}
     jam = np.array([JAM_STRAIN * r.dresspack.tensile_stiffness for r in sim.station.config.robots])
     return StationReplay(np.array(times), measures, cost, schedule.makespan, jam, start, terms)

@@ -108,8 +108,9 @@ class RobotSchedule:
         (stood at its last stop before a leg) or done (Home again)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         out = np.full(len(t), PHASES.index("waiting"))
+        intervals = self.intervals()
         for name, phase in (("motion", "moving"), ("weld", "welding")):
-            for a, b in self.intervals()[name]:
+            for a, b in intervals[name]:
                 out[(t >= a) & (t < b)] = PHASES.index(phase)
         out[t >= self.end_time] = PHASES.index("done")
         return out

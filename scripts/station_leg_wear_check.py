@@ -59,16 +59,18 @@ def main() -> None:
     if args.split_only:
         return
     rows = []
+    # the replay's samples do not fall on the legs' ends: its running integral per robot, interpolated there
+    running = np.vstack([np.zeros(replay.cost.shape[1]),
+                         np.cumsum(0.5 * (replay.cost[1:] + replay.cost[:-1]) * np.diff(replay.time)[:, None],
+                                   axis=0)])
     for s in robots:
         name = station.config.robots[s.robot].name
         for k, leg in enumerate(s.legs):
             weld = weld_time if k < len(s.welds) else 0.0
             run = planner.leg_run(s.robot, leg, weld)
             start, end = s.leg_start[k], s.leg_start[k] + s.leg_durations()[k] + weld
-            # the replay's samples do not fall on the leg's ends: its running integral, interpolated there
-            c = replay.cost[:, s.robot]
-            running = np.concatenate([[0.0], np.cumsum(0.5 * (c[1:] + c[:-1]) * np.diff(replay.time))])
-            part = float(np.interp(end, replay.time, running) - np.interp(start, replay.time, running))
+            own = running[:, s.robot]
+            part = float(np.interp(end, replay.time, own) - np.interp(start, replay.time, own))
             rows.append({"robot": name, "leg": k, "vias": len(leg) - 2, "alone": run.wear, "replay": part,
                          "difference": run.wear / part - 1.0 if part > 0 else None,
                          "max_tension_alone": run.max_tension})
