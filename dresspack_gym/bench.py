@@ -106,6 +106,38 @@ def restrictions_benchmark(station_ref: str = "default", repeats: int = 3, batch
     }
 
 
+def collision_benchmark(station_ref: str = "default", repeats: int = 3, n_configs: int = 2000) -> dict:
+    """Cost of one robot's clearance queries (what every planner's motion check calls), as ratios to posing the
+    robot (MuJoCo kinematics of the whole model) measured in the same run; configurations near Home, where
+    planners spend their queries."""
+    import mujoco
+
+    from .collision import RobotCollisionChecker
+    from .loading import load_station
+    from .station import Station
+
+    station = Station(load_station(station_ref))
+    checker = RobotCollisionChecker(station, 0, margin=0.01)
+    qs = station.home[0] + np.random.default_rng(0).uniform(-0.5, 0.5, size=(n_configs, 6))
+    calls = {"kinematics": lambda q: mujoco.mj_kinematics(checker.model, checker.data),
+             "pose_and_bounds": checker._pose, "min_distance": checker.min_distance, "collides": checker.collides}
+    best = {}
+    for _ in range(repeats):
+        for name, call in calls.items():
+            t0 = time.perf_counter()
+            for q in qs:
+                call(q)
+            best[name] = min(best.get(name, np.inf), (time.perf_counter() - t0) / n_configs)
+    base = best["kinematics"]
+    return {
+        "station": station.config.name,
+        "pairs": int(len(checker.pairs)),
+        "kinematics_us": round(best["kinematics"] * 1e6, 2),
+        **{f"{k}_vs_kinematics": round(v / base, 2) for k, v in best.items() if k != "kinematics"},
+        "collides_fraction": round(float(np.mean([checker.collides(q) for q in qs])), 4),
+    }
+
+
 def env_benchmark(station_ref: str = "default", repeats: int = 3, env_steps: int = 60) -> dict:
     """Env steps/s vs raw mj_step of the same model and the same physics steps, in one run.
 

@@ -336,10 +336,11 @@ def cmd_animate(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from .bench import env_benchmark, physics_benchmark, restrictions_benchmark, robustness_benchmark
+    from .bench import (collision_benchmark, env_benchmark, physics_benchmark, restrictions_benchmark,
+                        robustness_benchmark)
 
     bench = {"physics": physics_benchmark, "restrictions": restrictions_benchmark, "env": env_benchmark,
-             "robustness": robustness_benchmark}[args.what]
+             "robustness": robustness_benchmark, "collision": collision_benchmark}[args.what]
     result = bench(args.station, **({} if args.repeats is None else {"repeats": args.repeats}))
     if args.json:
         print(json.dumps(result, indent=2))
@@ -495,7 +496,8 @@ def build_parser(extensions=None) -> argparse.ArgumentParser:
     an.add_argument("--height", type=number(16, OFFSCREEN_HEIGHT, integer=True, unit="px"), default=360)
     an.set_defaults(func=cmd_animate)
     b = sub.add_parser("bench", help="benchmarks")
-    b.add_argument("what", choices=["physics", "restrictions", "env", "robustness"], help="which benchmark")
+    b.add_argument("what", choices=["physics", "restrictions", "env", "robustness", "collision"],
+                   help="which benchmark")
     b.add_argument("--station", default="default")
     b.add_argument("--repeats", type=number(1, 1000, integer=True), default=None, help="repetitions (best is reported)")
     b.add_argument("--json", action="store_true")

@@ -79,49 +79,84 @@ class RobotCollisionChecker:
         # tighter than sphere to sphere, so fewer exact distance queries are needed.
         self.box = ((m.geom_type[self.pairs[:, 1]] == mujoco.mjtGeom.mjGEOM_BOX) & (self.scale == 1.0)
                     if len(self.pairs) else np.zeros(0, bool))  # obstacles and parked robots only
-        self._box_g, self._box_o = self.pairs[self.box, 0], self.pairs[self.box, 1]
-        self._box_size = m.geom_size[self._box_o]
         self._fromto = np.zeros(6)
+        # each pair's (geom, geom, extra, scale) as Python numbers, for the exact queries' loop
+        self._pair_rows = [(int(g), int(o), float(e), float(c))
+                           for (g, o), e, c in zip(self.pairs, self.extra, self.scale)]
+        self._freeze_static_geometry()
         # Robot geoms each joint moves: joint j moves the bodies of link j+1 .. link6.
         links = self.robot.geom_links
         self.joint_ids = [m.joint(f"{self.robot.name}/j{j + 1}").id for j in range(6)]
         self.moved_geoms = [self.robot.geom_ids[links >= j + 1] for j in range(6)]
+
+    def _freeze_static_geometry(self) -> None:
+        """Precompute what every query shares: only this robot's few geoms move (the obstacles and the other
+        robots, parked at Home, never do), so the static positions, box frames and per-pair radius sums are
+        fixed, and a query computes every (robot geom, geom) distance in one dense array and picks the pairs
+        from it (gathering per pair from the whole model's arrays was most of a query's time)."""
+        m, d = self.model, self.data
+        own = np.asarray(self.robot.geom_ids, dtype=int)
+        local = {int(g): i for i, g in enumerate(own)}
+        static = np.array(sorted({int(o) for o in self.pairs[:, 1] if int(o) not in local}), dtype=int)
+        row = {**local, **{int(o): len(own) + i for i, o in enumerate(static)}}  # rows of [own geoms; static]
+        self._own_geoms = own
+        self._static_pos = d.geom_xpos[static].copy()
+        width = len(own) + len(static)
+        self._pair_cell = np.array([local[int(g)] * width + row[int(o)] for g, o in self.pairs], dtype=int)
+        g, o = self.pairs[:, 0], self.pairs[:, 1]
+        self._radii = self.rbound[g] + self.rbound[o] + self.extra
+        boxes, box_of_pair = np.unique(self.pairs[self.box, 1], return_inverse=True)
+        self._box_centre = d.geom_xpos[boxes].copy()
+        self._box_frame = d.geom_xmat[boxes].reshape(-1, 3, 3).copy()
+        self._box_half = m.geom_size[boxes]
+        self._box_cell = box_of_pair.reshape(-1) * len(own) + np.array([local[int(x)] for x in g[self.box]], dtype=int)
+        self._box_radii = self.rbound[g[self.box]] + self.extra[self.box]
 
     def _pose(self, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pose the robot at ``q``; (robot geoms, obstacles, bounding-sphere lower bound) per pair."""
         d = self.data
         d.qpos[self.robot.qpos] = q
         mujoco.mj_kinematics(self.model, d)
-        g, o = self.pairs[:, 0], self.pairs[:, 1]
-        lb = np.linalg.norm(d.geom_xpos[g] - d.geom_xpos[o], axis=1) - self.rbound[g] - self.rbound[o] - self.extra
+        own = d.geom_xpos[self._own_geoms]
+        gap = own[:, None, :] - np.concatenate([own, self._static_pos])[None, :, :]
+        lb = np.sqrt(np.einsum("abk,abk->ab", gap, gap)).ravel().take(self._pair_cell) - self._radii
         lb[self.plane] = -np.inf
         lb *= self.scale
-        if len(self._box_o):
-            rel = d.geom_xpos[self._box_g] - d.geom_xpos[self._box_o]
-            local = np.einsum("nij,ni->nj", d.geom_xmat[self._box_o].reshape(-1, 3, 3), rel)  # in the box frame
-            outside = np.maximum(np.abs(local) - self._box_size, 0.0)
-            box_lb = np.linalg.norm(outside, axis=1) - self.rbound[self._box_g] - self.extra[self.box]
+        if len(self._box_cell):
+            local = np.matmul(own[None] - self._box_centre[:, None], self._box_frame)  # each geom in each box frame
+            outside = np.maximum(np.abs(local) - self._box_half[:, None], 0.0)
+            box_lb = np.sqrt(np.einsum("bgk,bgk->bg", outside, outside)).ravel().take(self._box_cell) - self._box_radii
             # only a positive gap bounds the distance; where the sphere reaches into the box, the exact query
             # decides (a penetration depth can be deeper than any such bound)
             lb[self.box] = np.where(box_lb > 0.0, box_lb, -np.inf)
-        return g, o, lb
+        return self.pairs[:, 0], self.pairs[:, 1], lb
 
     def min_distance(self, q) -> float:
         """Smallest robot-obstacle surface distance at configuration ``q`` (negative when penetrating); a
         hardware-to-own-link pair counts half its distance."""
         if len(self.pairs) == 0:
             return np.inf
-        d = self.data
-        g, o, lb = self._pose(q)
-        best = np.inf
-        for k in np.argsort(lb):
-            if lb[k] >= best:  # pairs are sorted by lower bound: none of the rest can be nearer
+        lb = self._pose(q)[2]
+        first = int(lb.argmin())
+        best = self._pair_distance(first, np.inf)
+        # only pairs whose bound is below the nearest pair's distance can be nearer: usually a few of the
+        # hundreds, so they alone are sorted (and read as Python numbers: the loop is per exact query)
+        rest = np.flatnonzero(lb < best)
+        rest = rest[np.argsort(lb[rest])]
+        for k, bound in zip(rest.tolist(), lb[rest].tolist()):
+            if bound >= best:  # pairs are sorted by lower bound: none of the rest can be nearer
                 break
-            dist = (mujoco.mj_geomDistance(self.model, d, int(g[k]), int(o[k]),
-                                           min(best / self.scale[k] + self.extra[k], 10.0), self._fromto)
-                    - self.extra[k]) * self.scale[k]
-            best = min(best, dist)
+            if k != first:
+                best = min(best, self._pair_distance(k, best))
         return float(best)
+
+    def _pair_distance(self, k: int, cap: float) -> float:
+        """Pair k's exact distance (as :meth:`min_distance` counts it), or at least ``cap`` when farther. The cap
+        passed to MuJoCo is never negative: below zero it no longer bounds a penetration depth but cuts it short
+        (a query capped by an earlier pair's penetration returned a shallower depth than the pair's own)."""
+        g, o, extra, scale = self._pair_rows[k]
+        return (mujoco.mj_geomDistance(self.model, self.data, g, o, min(max(cap, 0.0) / scale + extra, 10.0),
+                                       self._fromto) - extra) * scale
 
     def joint_reach(self) -> np.ndarray:
         """For each joint, the largest distance of a robot geom surface it moves from its axis [m].

@@ -67,3 +67,12 @@ def test_bench_restrictions_json(capsys):
     assert main(["bench", "restrictions", "--json", "--repeats", "1"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert 0 < out["batched_us_per_config"] < out["single_call_us"]
+
+
+def test_bench_collision_json(capsys):
+    assert main(["bench", "collision", "--json", "--repeats", "1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    # a query poses the robot (one kinematics pass) and then does more: its cost is a ratio above 1
+    assert out["pairs"] > 0 and out["kinematics_us"] > 0
+    assert 1.0 < out["pose_and_bounds_vs_kinematics"] < out["min_distance_vs_kinematics"]
+    assert 0.0 < out["collides_fraction"] < 1.0
