@@ -173,6 +173,10 @@ class StationPlanner:
         # more (a reconfigured planner shares them), and using those would make a plan depend on what was
         # planned before it
         self._known: set[tuple] = set()
+        # finished time plans by (config, task): the wear and balanced objectives take the time objective's
+        # answer as a candidate, and the command has usually just planned it with the same settings (a plan
+        # depends only on these, so the answer and the legs it asked for are reused, not planned again)
+        self._time_answers: dict[tuple, tuple] = {}
 
     def reconfigured(self, config: StationPlanConfig) -> StationPlanner:
         """A planner with ``config`` that keeps this one's settled-cable costs and planned legs (same station,
@@ -284,8 +288,7 @@ class StationPlanner:
         node_robot = np.concatenate([np.arange(R), [o.robot for o in options]]).astype(int)
         index = {w: k for k, w in enumerate(task.weld_names)}
         node_weld = np.concatenate([np.full(R, -1), [index[o.weld] for o in options]]).astype(int)
-        travel = np.stack([time_law.segment_durations(qs[None, :, :] - qs[:, None, :], self.limits[r])
-                           for r in range(R)])
+        travel = self.straight_times(qs)
         node_of = {}
         for n, (r, q) in enumerate(zip(node_robot, qs)):
             node_of.setdefault((int(r), q.tobytes()), []).append(n)
@@ -392,11 +395,19 @@ class StationPlanner:
                     changed += self.leg_run(r, leg, weld).wear > wear[a, b] * (1 + EXACT_TOLERANCE) + 1e-6
         return changed
 
+    def straight_times(self, qs: np.ndarray) -> np.ndarray:
+        """(R, N, N) [s] each robot's straight-move time between the nodes ``qs``: a lower bound of any motion
+        between them (for the shipped robots' proportional limits the synchronised straight move takes exactly
+        its slowest joint's minimum time, and no path is shorter for that joint)."""
+        return np.stack([time_law.segment_durations(qs[None, :, :] - qs[:, None, :], self.limits[r])
+                         for r in range(len(self.limits))])
+
     @staticmethod
-    def _bound(problem: RoutingProblem, solver_bound: float) -> dict:
-        """Makespan lower bounds: the analytic ones (station_solver.lower_bound) and the solver's (``solver``:
-        from the first round's CP-SAT bound, where every leg time was a straight-move lower bound)."""
-        b = lower_bound(problem)
+    def _bound(problem: RoutingProblem, straight: np.ndarray, solver_bound: float) -> dict:
+        """Makespan lower bounds of any plan over these options: the analytic ones (station_solver.lower_bound)
+        on the straight-move times (not the planned legs' times: a planned path is one way, not the fastest),
+        and the solver's (``solver``: CP-SAT's bound, from rounds whose every leg time was a straight move)."""
+        b = lower_bound(replace(problem, travel=straight))
         b["solver"] = solver_bound
         b["bound"] = max(b["bound"], solver_bound)
         return b
@@ -482,17 +493,20 @@ class StationPlanner:
             # the time objective's answer, planned first with its own repairs, is a candidate of the others: a
             # wear-aware plan is then never worse on its own measure than the time plan it is compared with,
             # whatever its own rounds found (its legs, re-routes included, become this plan's)
-            timed = self.reconfigured(replace(cfg, objective="time"))
-            given = [timed.plan(task).assignment]
-            self._known |= timed._known
-            self._rerouted.update(timed._rerouted)
-            self._reroutes.update(timed._reroutes)
-            self._reroute_log += [{**e, "why": e["why"] + " (planning the time objective)"} for e in timed._reroute_log]
+            key = (replace(cfg, objective="time"), _task_key(task))
+            if key not in self._time_answers:
+                self.reconfigured(key[0]).plan(task)
+            answer, known, rerouted, reroutes, log = self._time_answers[key]
+            given = [answer]
+            self._known |= known
+            self._rerouted.update(rerouted)
+            self._reroutes.update(reroutes)
+            self._reroute_log += [{**e, "why": e["why"] + " (planning the time objective)"} for e in log]
         best = None
         for repair in range(cfg.cable_repairs + 1):
             plan = self._plan_legs(task, options, qs, stops, given)
             if cfg.cable_repairs == 0:
-                return plan
+                return self._finished(plan, task)
             self.replay(plan)
             plan.info.update(cable_replays=repair + 1)
             if best is None or len(plan.replay.jammed()) < len(best.replay.jammed()):
@@ -503,7 +517,15 @@ class StationPlanner:
             for robot, i, j in jams:
                 self._reroute(robot, i, j, qs, stops, "jammed a cable in the station replay",
                               task.weld_time if j >= task.n_robots else 0.0)
-        return best
+        return self._finished(best, task)
+
+    def _finished(self, plan: StationPlan, task: StationTask) -> StationPlan:
+        """``plan``, with a time plan's answer and the legs behind it kept for the other objectives."""
+        if self.config.objective == "time":
+            self._time_answers[(self.config, _task_key(task))] = (
+                plan.assignment, set(self._known), dict(self._rerouted), dict(self._reroutes),
+                [dict(e) for e in self._reroute_log])
+        return plan
 
     def _plan_legs(self, task: StationTask, options: list[WeldOption], qs: np.ndarray, stops: list[str],
                    given: list[Assignment] = ()) -> StationPlan:
@@ -513,13 +535,15 @@ class StationPlanner:
         rounds, solves, candidates, bound, wear_failures = 0, 0, list(given), 0.0, 0
         bar = self._bar("solve, plan the chosen legs (rounds, at most)", cfg.exact_rounds)
         fastest = chosen = None
+        straight = self.straight_times(qs)
         while True:
             problem = self.problem(task, options)
             # later rounds start from the previous answer (still feasible: only leg times changed)
             fastest = solve(problem, "time", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
                             start=fastest.routes if fastest is not None else None)
             solves += 1
-            bound = max(bound, fastest.estimate.get("makespan_bound", 0.0))
+            if np.array_equal(problem.travel, straight):  # a bound of any plan only while no leg is a planned path
+                bound = max(bound, fastest.estimate.get("makespan_bound", 0.0))
             previous = chosen.routes if chosen is not None and chosen is not fastest else None
             chosen = fastest
             if cfg.objective == "wear":
@@ -554,7 +578,7 @@ class StationPlanner:
         assignment, schedule, coordination = self._best(problem, candidates, task, options, qs, pairs)
         verification = verify(self.station, schedule, pairs=pairs)
         plan = StationPlan(task, [r.name for r in self.station.config.robots], options, assignment, schedule,
-                           coordination, verification, self._bound(problem, bound), cfg,
+                           coordination, verification, self._bound(problem, straight, bound), cfg,
                            info={"rounds": rounds, "solves": solves, "nodes": len(qs),
                                  "conflict_pairs": len(problem.conflicts), "candidates": len(candidates),
                                  "wear_solves_without_answer": wear_failures,
@@ -644,6 +668,13 @@ class StationPlanner:
         if self.progress is None:
             return _NoBar()
         return self.progress(label, total)
+
+
+def _task_key(task: StationTask) -> tuple:
+    """What a station task is, as a dictionary key: its welds, weld time, Homes and every option."""
+    return (task.weld_names, float(task.weld_time), np.asarray(task.homes, dtype=float).tobytes(),
+            tuple((o.weld, int(o.robot), np.asarray(o.q, dtype=float).tobytes())
+                  for w in task.weld_names for o in task.options[w]))
 
 
 def _leg_key(robot: int, qa: np.ndarray, qb: np.ndarray) -> tuple:

@@ -491,15 +491,24 @@ def test_wear_objective_is_optimal_against_brute_force_with_the_cables_waiting_a
     assert w.estimate["idle_wear"] == pytest.approx(sum(rates[r] * (max(ends) - e) for r, e in enumerate(ends)))
 
 
-def test_an_objective_plans_the_same_whatever_was_planned_before_it(two_robot_station):
+def test_an_objective_plans_the_same_whatever_was_planned_before_it(two_robot_station, monkeypatch):
     """``dresspack station-plan`` plans its objectives with one planner (the legs are reused): the wear plan after
-    a time plan equals the wear plan of a fresh planner, and the time plan inside it equals the time plan."""
+    a time plan equals the wear plan of a fresh planner, and the time plan inside it equals the time plan (which
+    the planner reuses instead of planning it again)."""
     config = StationPlanConfig(kept_options=2, costed_options=2, cable_repairs=0, work=0.5)
     first = StationPlanner(two_robot_station, config)
     timed = first.plan()
+    solved = []
+    original = StationPlanner._plan_legs
+    monkeypatch.setattr(StationPlanner, "_plan_legs",
+                        lambda self, *a, **k: solved.append(self.config.objective) or original(self, *a, **k))
     after = first.reconfigured(replace(config, objective="wear")).plan()
+    assert solved == ["wear"]  # the time candidate is the time plan above, not planned again
     fresh = StationPlanner(two_robot_station, replace(config, objective="wear")).plan()
+    assert solved == ["wear", "time", "wear"]
     assert after.assignment.routes == fresh.assignment.routes
     assert after.schedule.makespan == fresh.schedule.makespan
     assert after.assignment.estimate["wear_with_waits"] == fresh.assignment.estimate["wear_with_waits"]
     assert after.assignment.estimate["wear_with_waits"] <= timed.assignment.estimate["wear_with_waits"] + 1e-9
+    # the makespan bound is one of the options, not of the legs an objective happened to plan: the same for both
+    assert after.bound == timed.bound and timed.bound["bound"] <= timed.schedule.makespan
