@@ -10,7 +10,7 @@ from dresspack_gym.cli_args import number, output_dir, seed
 from dresspack_gym.cost_variants import COST_VARIANTS
 
 from .budget import DEFAULT_ITERATIONS, MAX_WORK
-from .station_solver import DEFAULT_WORK, OBJECTIVES
+from .station_solver import BLOCKED_ESTIMATES, DEFAULT_WORK, OBJECTIVES
 
 WORK = number(1, MAX_WORK, integer=True)
 
@@ -37,6 +37,9 @@ def add_station_plan_command(sub) -> None:
                    help="optional wall-time cap per solve [s]; a solve stopped by it depends on machine load")
     p.add_argument("--iterations", type=WORK, default=DEFAULT_ITERATIONS,
                    help=f"OMPL iterations per leg that is not a straight move (default {DEFAULT_ITERATIONS})")
+    p.add_argument("--blocked-estimate", choices=list(BLOCKED_ESTIMATES), default="straight",
+                   help="the solver's time for a move it has not planned yet (blocked as a straight move): its "
+                        "straight-move time (default) or that x the median slow-down of the detours planned so far")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis")
     p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--cable-repairs", type=number(0, 100, integer=True), default=3,
@@ -65,6 +68,7 @@ def cmd_station_plan(args) -> int:
                                  iterations=args.iterations, makespan_slack=args.makespan_slack, seed=args.seed,
                                  cost_variant=args.cost_variant, fixed_assignment=args.fixed_assignment,
                                  cable_repairs=0 if args.no_replay else args.cable_repairs,
+                                 blocked_estimate=args.blocked_estimate,
                                  welds=tuple(args.welds) if args.welds else None)
                for o in dict.fromkeys(args.objective)]
     out = args.out

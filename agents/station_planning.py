@@ -35,8 +35,8 @@ from dresspack_gym.validation import check_choice, check_integer, check_number
 from .base import PlanningError
 from .budget import DEFAULT_ITERATIONS
 from .ompl_planner import OmplPlanner
-from .station_solver import (DEFAULT_WORK, MAKESPAN_SLACK, OBJECTIVES, SPAN_WEIGHT, Assignment, RoutingProblem,
-                             lower_bound, solve)
+from .station_solver import (BLOCKED_ESTIMATES, DEFAULT_WORK, MAKESPAN_SLACK, OBJECTIVES, SPAN_WEIGHT, Assignment,
+                             RoutingProblem, lower_bound, solve)
 
 EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estimate by more is re-solved with it
 # rounds allowed, as a multiple of exact_rounds, while no solved answer has every leg planned (legs that jam their
@@ -87,9 +87,13 @@ class StationPlanConfig:
     welds: tuple[str, ...] | None = None
     # station replays whose jammed legs are re-routed before the plan is final (0: no replay inside planning)
     cable_repairs: int = 3
+    # the solver's time for a move not planned yet (blocked as a straight move): "straight", its straight-move
+    # time (a lower bound), or "planned_ratio", that time x the median slow-down of the detours planned so far
+    blocked_estimate: str = "straight"
 
     def __post_init__(self):
         check_choice("objective", self.objective, OBJECTIVES)
+        check_choice("blocked_estimate", self.blocked_estimate, BLOCKED_ESTIMATES)
         check_number(self.weld_time, "weld_time", lo=0.0, hi=600.0, unit="s")
         check_number(self.work, "work", lo=0.0, lo_open=True, hi=1e6)
         if self.time_budget is not None:
@@ -295,13 +299,23 @@ class StationPlanner:
         simulated = np.full(travel.shape, np.nan)
         weld_after = np.where(node_weld >= 0, task.weld_time, 0.0)
         planned = {k: self._legs[k] for k in self._known if k in self._legs}
+        exact, detour = np.zeros(travel.shape, bool), np.zeros(travel.shape, bool)
         for (r, qa, qb), leg in {**planned, **self._rerouted}.items():  # planned legs are exact
             for i in node_of.get((r, qa), ()):
                 for j in node_of.get((r, qb), ()):
+                    exact[r, i, j], detour[r, i, j] = True, leg is not None and len(leg) > 2
                     travel[r, i, j] = BLOCKED if leg is None else time_law.path_duration(leg, self.limits[r])
                     run = None if leg is None else self._leg_runs.get((r, leg.tobytes(), float(weld_after[j])))
                     if run is not None:
                         simulated[r, i, j] = run.wear
+        if self.config.blocked_estimate == "planned_ratio" and detour.any():
+            # every unplanned move is blocked (the valid straight ones are planned legs already): estimate it
+            # as its straight move slowed like the detours planned so far, not at the straight move's time
+            straight = self.straight_times(qs)
+            ratio = float(np.median(travel[detour] / np.maximum(straight[detour], 1e-9)))
+            own = node_robot[None, :, None] == node_robot[None, None, :]
+            own = own & (node_robot[None, :, None] == np.arange(R)[:, None, None])
+            travel = np.where(own & ~exact, travel * max(ratio, 1.0), travel)
         rates = np.array([self.cost_rate(r, q) for r, q in zip(node_robot, qs)])
         key = qs.tobytes() + node_robot.tobytes()
         if key not in self._conflicts:

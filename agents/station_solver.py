@@ -15,6 +15,8 @@ import numpy as np
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.validation import check_choice
 
+# how a move not planned yet is timed for the solver (StationPlanConfig.blocked_estimate)
+BLOCKED_ESTIMATES = ("straight", "planned_ratio")
 OBJECTIVES = ("time", "wear", "balanced")
 TIME_SCALE = 1000  # integer costs: milliseconds
 WEAR_SCALE = 100_000  # integer costs: 1e-5 of the wear cost's unit x s (fine enough for a Home rate per ms)

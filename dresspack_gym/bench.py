@@ -131,7 +131,7 @@ def collision_benchmark(station_ref: str = "default", repeats: int = 3, n_config
     base = best["kinematics"]
     return {
         "station": station.config.name,
-        "pairs": int(len(checker.pairs)),
+        "pairs": len(checker.pairs),
         "kinematics_us": round(best["kinematics"] * 1e6, 2),
         **{f"{k}_vs_kinematics": round(v / base, 2) for k, v in best.items() if k != "kinematics"},
         "collides_fraction": round(float(np.mean([checker.collides(q) for q in qs])), 4),

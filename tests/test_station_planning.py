@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from dresspack.agents.station_planning import StationPlanConfig, StationPlanner
+from dresspack.agents.station_planning import StationPlanConfig, StationPlanner, _leg_key
 from dresspack.agents.station_solver import RoutingProblem, lower_bound, solve
 from dresspack_gym.config import StationConfig
 from dresspack_gym.coordination import RobotPairDistance, coordinate, verify
@@ -21,6 +21,7 @@ from dresspack_gym.station import Station
 from dresspack_gym.station_replay import StationReplay
 from dresspack_gym.station_schedule import PHASES, RobotSchedule, StationSchedule
 from dresspack_gym.station_tasks import make_station_task
+from dresspack_gym import time_law
 from dresspack_gym.time_law import JointLimits, segment_durations
 
 
@@ -512,3 +513,40 @@ def test_an_objective_plans_the_same_whatever_was_planned_before_it(two_robot_st
     assert after.assignment.estimate["wear_with_waits"] <= timed.assignment.estimate["wear_with_waits"] + 1e-9
     # the makespan bound is one of the options, not of the legs an objective happened to plan: the same for both
     assert after.bound == timed.bound and timed.bound["bound"] <= timed.schedule.makespan
+
+
+def test_planned_ratio_times_unplanned_moves_like_the_detours_planned_so_far(two_robot_station):
+    """``blocked_estimate="planned_ratio"``: a move that is neither a valid straight move nor planned is timed
+    as its straight move slowed by the median of the planned detours' slow-downs; planned legs keep their exact
+    times, and the default keeps the straight-move time (a lower bound)."""
+    planner = StationPlanner(two_robot_station, StationPlanConfig(kept_options=2, costed_options=2))
+    task = make_station_task(two_robot_station, lambda r: planner.leg_planners[r].validity.checker.collides)
+    options = planner._choose_options(task)
+    planner.check_straight_moves(task, options)
+    qs = np.vstack([task.homes, [o.q for o in options]])
+    straight = planner.straight_times(qs)
+    base = planner.problem(task, options).travel
+    node_robot = np.concatenate([[0, 1], [o.robot for o in options]])
+    own = [(r, i, j) for r in range(2) for i, j in itertools.permutations(range(len(qs)), 2)
+           if node_robot[i] == r == node_robot[j]]
+    blocked = [(r, i, j) for r, i, j in own if _leg_key(r, qs[i], qs[j]) not in planner._known]
+    assert len(blocked) >= 2
+    np.testing.assert_array_equal(base, straight)  # nothing planned but straight moves: all straight times
+    (r, i, j), rest = blocked[0], blocked[1:]
+    detour = np.array([qs[i], 0.5 * (qs[i] + qs[j]) + 0.2, qs[j]])  # a planned leg by a via point
+    key = _leg_key(r, qs[i], qs[j])
+    planner._legs[key] = detour
+    planner._known.add(key)
+    exact = time_law.path_duration(detour, planner.limits[r])
+    ratio = exact / straight[r, i, j]
+    assert ratio > 1.0
+    default = planner.problem(task, options).travel
+    assert default[r, i, j] == exact and all(default[x] == straight[x] for x in rest)
+    scaled = planner.reconfigured(replace(planner.config, blocked_estimate="planned_ratio"))
+    scaled._known = set(planner._known)
+    travel = scaled.problem(task, options).travel
+    assert travel[r, i, j] == exact
+    for x in rest:
+        assert travel[x] == pytest.approx(straight[x] * ratio, rel=1e-12)
+    valid = [x for x in own if x not in blocked]
+    assert valid and all(travel[x] == straight[x] for x in valid)  # valid straight moves are exact already
