@@ -37,9 +37,10 @@ def add_station_plan_command(sub) -> None:
                    help="optional wall-time cap per solve [s]; a solve stopped by it depends on machine load")
     p.add_argument("--iterations", type=WORK, default=DEFAULT_ITERATIONS,
                    help=f"OMPL iterations per leg that is not a straight move (default {DEFAULT_ITERATIONS})")
-    p.add_argument("--blocked-estimate", choices=list(BLOCKED_ESTIMATES), default="straight",
+    p.add_argument("--blocked-estimate", choices=list(BLOCKED_ESTIMATES), default="planned_ratio",
                    help="the solver's time for a move it has not planned yet (blocked as a straight move): its "
-                        "straight-move time (default) or that x the median slow-down of the detours planned so far")
+                        "straight-move time x the median slow-down of the detours planned so far (planned_ratio, "
+                        "default) or the straight-move time alone (straight, a lower bound)")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis")
     p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--cable-repairs", type=number(0, 100, integer=True), default=3,

@@ -516,10 +516,11 @@ def test_an_objective_plans_the_same_whatever_was_planned_before_it(two_robot_st
 
 
 def test_planned_ratio_times_unplanned_moves_like_the_detours_planned_so_far(two_robot_station):
-    """``blocked_estimate="planned_ratio"``: a move that is neither a valid straight move nor planned is timed
-    as its straight move slowed by the median of the planned detours' slow-downs; planned legs keep their exact
-    times, and the default keeps the straight-move time (a lower bound)."""
-    planner = StationPlanner(two_robot_station, StationPlanConfig(kept_options=2, costed_options=2))
+    """``blocked_estimate="planned_ratio"`` (the default): a move that is neither a valid straight move nor
+    planned is timed as its straight move slowed by the median of the planned detours' slow-downs; planned legs
+    keep their exact times, and ``"straight"`` keeps the straight-move time (a lower bound)."""
+    planner = StationPlanner(two_robot_station, StationPlanConfig(kept_options=2, costed_options=2,
+                                                                  blocked_estimate="straight"))
     task = make_station_task(two_robot_station, lambda r: planner.leg_planners[r].validity.checker.collides)
     options = planner._choose_options(task)
     planner.check_straight_moves(task, options)
@@ -540,8 +541,8 @@ def test_planned_ratio_times_unplanned_moves_like_the_detours_planned_so_far(two
     exact = time_law.path_duration(detour, planner.limits[r])
     ratio = exact / straight[r, i, j]
     assert ratio > 1.0
-    default = planner.problem(task, options).travel
-    assert default[r, i, j] == exact and all(default[x] == straight[x] for x in rest)
+    lower = planner.problem(task, options).travel
+    assert lower[r, i, j] == exact and all(lower[x] == straight[x] for x in rest)
     scaled = planner.reconfigured(replace(planner.config, blocked_estimate="planned_ratio"))
     scaled._known = set(planner._known)
     travel = scaled.problem(task, options).travel
