@@ -294,7 +294,8 @@ class StationPlanner:
         node_robot = np.concatenate([np.arange(R), [o.robot for o in options]]).astype(int)
         index = {w: k for k, w in enumerate(task.weld_names)}
         node_weld = np.concatenate([np.full(R, -1), [index[o.weld] for o in options]]).astype(int)
-        travel = self.straight_times(qs)
+        straight = self.straight_times(qs)
+        travel = straight.copy()
         node_of = {}
         for n, (r, q) in enumerate(zip(node_robot, qs)):
             node_of.setdefault((int(r), q.tobytes()), []).append(n)
@@ -313,10 +314,9 @@ class StationPlanner:
         if self.config.blocked_estimate == "planned_ratio" and detour.any():
             # every unplanned move is blocked (the valid straight ones are planned legs already): estimate it
             # as its straight move slowed like the detours planned so far, not at the straight move's time
-            straight = self.straight_times(qs)
             ratio = float(np.median(travel[detour] / np.maximum(straight[detour], 1e-9)))
-            own = node_robot[None, :, None] == node_robot[None, None, :]
-            own = own & (node_robot[None, :, None] == np.arange(R)[:, None, None])
+            mine = node_robot[None, :] == np.arange(R)[:, None]  # (R, N): robot r's Home and options
+            own = mine[:, :, None] & mine[:, None, :]
             travel = np.where(own & ~exact, travel * max(ratio, 1.0), travel)
         rates = np.array([self.cost_rate(r, q) for r, q in zip(node_robot, qs)])
         key = qs.tobytes() + node_robot.tobytes()
