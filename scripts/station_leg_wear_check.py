@@ -67,18 +67,13 @@ def main() -> None:
     if args.split_only:
         return
     rows = []
-    # the replay's samples do not fall on the legs' ends: its running integral per robot, interpolated there
-    running = np.vstack([np.zeros(replay.cost.shape[1]),
-                         np.cumsum(0.5 * (replay.cost[1:] + replay.cost[:-1]) * np.diff(replay.time)[:, None],
-                                   axis=0)])
+    running = _running_integral(replay.time, replay.cost)
     for s in robots:
         name = station.config.robots[s.robot].name
         for k, leg in enumerate(s.legs):
-            weld = weld_time if k < len(s.welds) else 0.0
+            start, end, weld = _leg_window(s, k)
             run = planner.leg_run(s.robot, leg, weld)
-            start, end = s.leg_start[k], s.leg_start[k] + s.leg_durations()[k] + weld
-            own = running[:, s.robot]
-            part = float(np.interp(end, replay.time, own) - np.interp(start, replay.time, own))
+            part = _between(replay.time, running[:, s.robot], start, end)
             rows.append({"robot": name, "leg": k, "vias": len(leg) - 2, "alone": run.wear, "replay": part,
                          "difference": run.wear / part - 1.0 if part > 0 else None,
                          "max_tension_alone": run.max_tension})
@@ -91,6 +86,27 @@ def main() -> None:
           f"over 1 %: {int((diffs > 0.01).sum())}")
     if args.out is not None:
         args.out.write_text(json.dumps(rows, indent=1))
+
+
+def _leg_window(schedule, k: int) -> tuple[float, float, float]:
+    """Leg ``k``'s part of its robot's cycle: (start, end) [s] of its motion and the weld after it, and that weld's
+    time (none after the last leg, into Home)."""
+    weld = schedule.weld_time if k < len(schedule.welds) else 0.0
+    start = float(schedule.leg_start[k])
+    return start, start + schedule.leg_durations()[k] + weld, weld
+
+
+def _running_integral(t: np.ndarray, rate: np.ndarray) -> np.ndarray:
+    """The trapezoid integral of ``rate`` (samples along axis 0 at times ``t``) from ``t[0]`` to each sample."""
+    rate = np.asarray(rate, dtype=float)
+    dt = np.diff(t).reshape(-1, *([1] * (rate.ndim - 1)))
+    return np.concatenate([np.zeros((1, *rate.shape[1:])), np.cumsum(0.5 * (rate[1:] + rate[:-1]) * dt, axis=0)])
+
+
+def _between(t: np.ndarray, running: np.ndarray, start: float, end: float) -> float:
+    """The integral from ``start`` to ``end``: samples do not fall on a leg's ends, so the running integral is
+    interpolated there."""
+    return float(np.interp(end, t, running) - np.interp(start, t, running))
 
 
 def explain_in_path_order(planner, station, robots, rows) -> None:
@@ -114,11 +130,10 @@ def explain_in_path_order(planner, station, robots, rows) -> None:
         times, samples = sim.follow(program.at, alone.end_time, record_every=RECORD_EVERY)
         t = np.array([0.0, *times])
         rate = np.array([cost_fn(m[0], weights).total for m in [first, *samples]])
-        running = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(t))])
+        running = _running_integral(t, rate)
         for k, row in enumerate(own):
-            start = s.leg_start[k]
-            end = start + s.leg_durations()[k] + (s.weld_time if k < len(s.welds) else 0.0)
-            row["alone_in_path_order"] = float(np.interp(end, t, running) - np.interp(start, t, running))
+            start, end, _ = _leg_window(s, k)
+            row["alone_in_path_order"] = _between(t, running, start, end)
             line = (f"{name} leg {k:2d}: alone from settled {row['alone']:8.1f}, alone in path order "
                     f"{row['alone_in_path_order']:8.1f}, in the replay {row['replay']:8.1f}")
             if row["difference"] is not None and abs(row["difference"]) > 0.01:
