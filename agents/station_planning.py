@@ -35,8 +35,8 @@ from dresspack_gym.validation import check_choice, check_integer, check_number
 from .base import PlanningError
 from .budget import DEFAULT_ITERATIONS
 from .ompl_planner import OmplPlanner
-from .station_solver import (BLOCKED_ESTIMATES, DEFAULT_WORK, MAKESPAN_SLACK, OBJECTIVES, SPAN_WEIGHT, Assignment,
-                             RoutingProblem, lower_bound, solve)
+from .station_solver import (BLOCKED_ESTIMATES, DEFAULT_WORK, INTERLOCKS, MAKESPAN_SLACK, OBJECTIVES, SPAN_WEIGHT,
+                             Assignment, RoutingProblem, lower_bound, solve)
 
 EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estimate by more is re-solved with it
 # rounds allowed, as a multiple of exact_rounds, while no solved answer has every leg planned (legs that jam their
@@ -44,7 +44,8 @@ EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estima
 EXTRA_ROUNDS = 3
 BLOCKED = 1e4  # [s] the travel time of a move OMPL found no path for: the solver avoids it
 # Two robots' weld options closer than this [m] are a conflict (they cannot weld at once; their legs around
-# them likely meet): the solver charges CONFLICT_WAIT x (weld time + a typical leg) of waiting for the pair
+# them likely meet): the solver starts two such welds at least CONFLICT_WAIT x (weld time + a typical leg)
+# apart, time for the first robot to weld and leave before the second arrives (an interlock zone)
 CONFLICT_DISTANCE = 0.15
 CONFLICT_WAIT = 1.0
 # Re-routes a leg that jammed its cable gets before it counts as blocked: OMPL with another seed (a route it had
@@ -551,13 +552,20 @@ class StationPlanner:
         rounds, solves, candidates, bound, wear_failures = 0, 0, list(given), 0.0, 0
         bar = self._bar("solve, plan the chosen legs (rounds, at most)", cfg.exact_rounds)
         fastest = chosen = None
+        answers = {}  # the previous round's fastest answer per interlock model
         straight = self.straight_times(qs)
         while True:
             problem = self.problem(task, options)
-            # later rounds start from the previous answer (still feasible: only leg times changed)
-            fastest = solve(problem, "time", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
-                            start=fastest.routes if fastest is not None else None)
-            solves += 1
+            # the fastest answer two ways: conflicting welds scheduled apart, or charged a wait and so avoided
+            # (whose answers' legs cross less); both are candidates, and the coordination of their planned legs
+            # decides. Later rounds start from the previous answer (still feasible: only leg times changed)
+            for model in INTERLOCKS:
+                previous_answer = answers.get(model)
+                answers[model] = solve(problem, "time", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
+                                       start=previous_answer.routes if previous_answer is not None else None,
+                                       interlocks=model)
+                solves += 1
+            fastest = min(answers.values(), key=lambda a: (a.estimate["timed_makespan"], a.estimate["time"]))
             if np.array_equal(problem.travel, straight):  # a bound of any plan only while no leg is a planned path
                 bound = max(bound, fastest.estimate.get("makespan_bound", 0.0))
             previous = chosen.routes if chosen is not None and chosen is not fastest else None
@@ -569,7 +577,7 @@ class StationPlanner:
                 # Started from the fastest answer, which is within the cap by construction: never infeasible
                 try:
                     chosen = solve(problem, "wear", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
-                                   makespan_cap=fastest.estimate["charged_makespan"] * (1 + cfg.makespan_slack),
+                                   makespan_cap=fastest.estimate["timed_makespan"] * (1 + cfg.makespan_slack),
                                    start=fastest.routes)
                 except ConfigError:  # the budget ran out before CP-SAT took the start: keep the fastest
                     wear_failures += 1
@@ -580,9 +588,9 @@ class StationPlanner:
                                wear_weight=weight, start=previous)
                 solves += 1
             rounds += 1
-            changed = sum(self._plan_chosen_legs(problem, a, qs, stops) for a in {id(fastest): fastest,
-                                                                                 id(chosen): chosen}.values())
-            candidates += [fastest, chosen]  # every leg of both is planned now: exactly evaluable
+            solved = {id(a): a for a in [*answers.values(), chosen]}.values()
+            changed = sum(self._plan_chosen_legs(problem, a, qs, stops) for a in solved)
+            candidates += solved  # every leg of each is planned now: exactly evaluable
             bar.update(1)
             done = changed == 0 or rounds >= cfg.exact_rounds
             if done and rounds < EXTRA_ROUNDS * cfg.exact_rounds and not any(

@@ -23,7 +23,12 @@ WEAR_SCALE = 100_000  # integer costs: 1e-5 of the wear cost's unit x s (fine en
 SPAN_WEIGHT = 100  # makespan against the sum of route times in the time objective (min-max first)
 DEFAULT_WORK = 10.0  # CP-SAT deterministic seconds per solve (the solver's work budget, machine-independent)
 HINT_SOLUTIONS = 20  # routing local-search solutions behind CP-SAT's first assignment
+HINT_BRANCHES = 100_000  # ... or at most this many search branches (work units; ~150 find 20 solutions)
 MAKESPAN_SLACK = 0.10  # wear objective: makespan allowed above the time-optimal plan's (as a fraction)
+# How the solver sees two conflicting welds both taken: "timed" schedules them conflict_wait apart (the wait is
+# in the makespan); "charged" adds conflict_wait to the two routes whatever the timing, which steers answers away
+# from conflicting pairs altogether (and so from legs that cross), at the price of a makespan that over-counts
+INTERLOCKS = ("timed", "charged")
 
 
 @dataclass(frozen=True)
@@ -39,7 +44,9 @@ class RoutingProblem:
     weld_time: float
     n_welds: int
     # option pairs of different robots that cannot be welded at the same time (the robots would touch), and
-    # the wait [s] such a pair is expected to cost: the solver charges it half to each robot's route
+    # the least time [s] between the starts of their welds when both are taken: the first robot welds and
+    # leaves before the second arrives (an interlock zone). The solver schedules such welds apart in time, so
+    # the waits they need are in its makespan, and the wear objective charges the wait at the cables' rates.
     conflicts: np.ndarray | None = None  # (K, 2) node pairs
     conflict_wait: float = 0.0
     # (R, N, N) robot r's integrated wear cost of the move i -> j and the weld at j as simulated (its cable from
@@ -67,13 +74,6 @@ class RoutingProblem:
         """Robot r's motion i -> j plus the weld at j [s]."""
         return self.travel[r] + np.where(self.node_weld >= 0, self.weld_time, 0.0)[None, :]
 
-    def conflicts_taken(self, routes: list[list[int]]) -> int:
-        """How many conflicting option pairs ``routes`` take."""
-        if self.conflicts is None:
-            return 0
-        taken = {n for route in routes for n in route}
-        return int(sum(a in taken and b in taken for a, b in self.conflicts))
-
     def idle_wear(self, ends, makespan: float) -> float:
         """Wear of the cables of robots done before the station's cycle ends, hanging at Home until it does (what
         a station replay over the makespan counts): robot r's Home rate x (makespan - its end)."""
@@ -82,24 +82,80 @@ class RoutingProblem:
     def evaluate(self, routes: list[list[int]]) -> dict:
         """Makespan [s], summed time [s] and wear of routes (node lists without the Homes); ``wear`` counts the
         cables of robots done early hanging at Home until the makespan (``idle_wear``)."""
-        ends, wear = [], 0.0
+        ends, wear = self.route_ends(routes), 0.0
         for r, route in enumerate(routes):
             path = [r, *route, r]
-            t, w = self.leg_time(r), self.leg_wear(r)
-            ends.append(sum(t[a, b] for a, b in zip(path[:-1], path[1:])))
+            w = self.leg_wear(r)
             wear += sum(w[a, b] for a, b in zip(path[:-1], path[1:]))
         idle = self.idle_wear(ends, max(ends))
         wear += idle
-        charged = list(ends)  # with the solver's charge for conflicting pairs (what its makespan cap sees)
-        if self.conflicts is not None and self.conflict_wait > 0:
-            owner = {n: r for r, route in enumerate(routes) for n in route}
-            for a, b in self.conflicts:
-                if a in owner and b in owner:
-                    charged[owner[a]] += 0.5 * self.conflict_wait
-                    charged[owner[b]] += 0.5 * self.conflict_wait
         return {"makespan": float(max(ends)), "time": float(sum(ends)), "wear": float(wear), "idle_wear": idle,
-                "robot_times": [float(e) for e in ends], "conflicts": self.conflicts_taken(routes),
-                "charged_makespan": float(max(charged))}
+                "robot_times": [float(e) for e in ends], "conflicts": len(self.taken_conflicts(routes)),
+                "timed_makespan": self.timed_makespan(routes)}
+
+    def taken_conflicts(self, routes: list[list[int]]) -> list[tuple[int, int]]:
+        """The conflicting option pairs that ``routes`` both take."""
+        if self.conflicts is None:
+            return []
+        taken = {n for route in routes for n in route}
+        return [(int(a), int(b)) for a, b in self.conflicts if a in taken and b in taken]
+
+    def timed_makespan(self, routes: list[list[int]]) -> float:
+        """The makespan [s] of ``routes`` when conflicting welds keep ``conflict_wait`` between their starts (the
+        robots wait where they are): the earliest such schedule (``timed_schedule``)."""
+        return self.timed_schedule(routes)[0]
+
+    def timed_schedule(self, routes: list[list[int]]) -> tuple[float, dict, list[int], dict]:
+        """A schedule of ``routes`` of the least makespan whose conflicting welds keep ``conflict_wait`` between
+        their starts, in the solver's integer milliseconds: (makespan [s], each option's weld end [ms], each
+        robot's return Home [ms], for each taken conflicting pair whether its first option goes first). CP-SAT
+        chooses which weld of each pair goes first (exact unless very many pairs: then the best order found)."""
+        from ortools.sat.python import cp_model
+
+        pairs = self.taken_conflicts(routes) if self.conflict_wait > 0 else []
+        m = cp_model.CpModel()
+        horizon = int(np.rint((sum(self.route_ends(routes)) + len(pairs) * self.conflict_wait)
+                              * TIME_SCALE)) + 1
+        end, rets = {}, []
+        for r, route in enumerate(routes):
+            t = np.rint(self.leg_time(r) * TIME_SCALE).astype(np.int64)
+            prev, prev_end = r, 0
+            for n in route:
+                end[n] = m.new_int_var(0, horizon, f"e{n}")
+                m.add(end[n] >= prev_end + int(t[prev, n]))
+                prev, prev_end = n, end[n]
+            ret = m.new_int_var(0, horizon, f"ret{r}")
+            m.add(ret >= prev_end + int(t[prev, r]))
+            rets.append(ret)
+        gap = int(np.rint(self.conflict_wait * TIME_SCALE))
+        first = {}
+        for a, b in pairs:
+            first[(a, b)] = a_first = m.new_bool_var(f"first{a}_{b}")
+            m.add(end[b] >= end[a] + gap).only_enforce_if(a_first)
+            m.add(end[a] >= end[b] + gap).only_enforce_if(a_first.Not())
+        makespan = m.new_int_var(0, horizon, "makespan")
+        m.add_max_equality(makespan, rets)
+        m.minimize(makespan)
+        solver = cp_model.CpSolver()
+        solver.parameters.num_workers = 1  # deterministic
+        solver.parameters.max_deterministic_time = DEFAULT_WORK
+        status = solver.solve(m)
+        if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):  # every order is feasible: cannot happen
+            raise RuntimeError(f"timing {len(pairs)} conflicting weld pairs: CP-SAT status {solver.status_name(status)}")
+        if not pairs:  # no conflict taken: the routes as they are (not rounded to milliseconds)
+            return (max(self.route_ends(routes)), {n: solver.value(e) for n, e in end.items()},
+                    [solver.value(x) for x in rets], {})
+        return (solver.value(makespan) / TIME_SCALE, {n: solver.value(e) for n, e in end.items()},
+                [solver.value(x) for x in rets], {k: bool(solver.value(x)) for k, x in first.items()})
+
+    def route_ends(self, routes: list[list[int]]) -> list[float]:
+        """Each robot's end [s]: its legs and welds without waits."""
+        ends = []
+        for r, route in enumerate(routes):
+            path = [r, *route, r]
+            t = self.leg_time(r)
+            ends.append(float(sum(t[a, b] for a, b in zip(path[:-1], path[1:]))))
+        return ends
 
 
 @dataclass(frozen=True)
@@ -113,7 +169,8 @@ class Assignment:
 
 def solve(problem: RoutingProblem, objective: str = "time", *, work: float = DEFAULT_WORK,
           makespan_cap: float | None = None, wear_weight: float | None = None, seed: int = 0,
-          time_limit: float | None = None, start: list[list[int]] | None = None) -> Assignment:
+          time_limit: float | None = None, start: list[list[int]] | None = None,
+          interlocks: str = "timed") -> Assignment:
     """Assign and order the welds. ``time``: minimise the makespan, then the summed time; ``wear``: minimise
     the wear estimate with every route within ``makespan_cap`` [s]; ``balanced``: time plus ``wear_weight`` x
     wear (both in seconds), makespan first.
@@ -124,6 +181,7 @@ def solve(problem: RoutingProblem, objective: str = "time", *, work: float = DEF
     optional wall-clock cap on top). ``start``: routes to start from instead (e.g. the previous round's answer).
     The estimate says whether the answer is proven optimal and carries CP-SAT's bound on the makespan."""
     check_choice("objective", objective, OBJECTIVES)
+    check_choice("interlocks", interlocks, INTERLOCKS)
     if objective == "balanced" and wear_weight is None:
         raise ConfigError("wear_weight", "the balanced objective needs a wear weight (seconds per unit of wear)")
     R = problem.n_robots
@@ -140,7 +198,7 @@ def solve(problem: RoutingProblem, objective: str = "time", *, work: float = DEF
             arc_cost.append(np.rint(t + wear_weight * problem.leg_wear(r) * TIME_SCALE).astype(np.int64))
     span = SPAN_WEIGHT if objective != "wear" else 0
     hint = start if start is not None else _routing_first(problem, arc_cost, span, cap, horizon)
-    routes, status = _cp_sat(problem, arc_cost, span, cap, hint, work, seed, time_limit, objective)
+    routes, status = _cp_sat(problem, arc_cost, span, cap, hint, work, seed, time_limit, objective, interlocks)
     if status and objective == "time" and (problem.conflicts is None or problem.conflict_wait == 0):
         # every route's summed time is at most the makespan, so objective <= (span + R) x makespan (not with
         # conflict charges: they are guesses of waits, not times a plan must take)
@@ -187,6 +245,9 @@ def _routing_first(problem: RoutingProblem, arc_cost, span: int, cap: int, horiz
         setattr(ops, name, optional_boolean_pb2.BOOL_TRUE)
     params.solution_limit = HINT_SOLUTIONS
     params.lns_time_limit.seconds = 3600  # sub-searches end on their own, never on the clock (determinism)
+    # a problem with few solutions may never give guided local search HINT_SOLUTIONS of them (two welds: it
+    # searched for ever): a limit on its search branches, a work count, ends it the same way on any machine
+    routing.AddSearchMonitor(routing.solver().BranchesLimit(HINT_BRANCHES))
     solution = routing.SolveWithParameters(params)
     if solution is None:
         return None
@@ -202,16 +263,20 @@ def _routing_first(problem: RoutingProblem, arc_cost, span: int, cap: int, horiz
 
 
 def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: float, seed: int,
-            time_limit: float | None, objective: str = "time") -> tuple[list[list[int]] | None, dict]:
+            time_limit: float | None, objective: str = "time",
+            interlocks: str = "timed") -> tuple[list[list[int]] | None, dict]:
     """The exact model: per robot a circuit through its Home and the options it takes (the others skipped by
-    self-loops); each weld's options taken exactly once; route times within the cap; the objective with the
-    makespan weighted by ``span`` (min-max first)."""
+    self-loops); each weld's options taken exactly once; each taken weld's end time follows its route's arcs,
+    and two conflicting welds that are both taken start ``conflict_wait`` apart (either first), so the robots'
+    waits for each other are in the makespan (``interlocks="charged"``: each route is charged half of
+    ``conflict_wait`` per pair instead); route ends within the cap; the objective with the makespan weighted by
+    ``span`` (min-max first)."""
     from ortools.sat.python import cp_model
 
     R = problem.n_robots
     m = cp_model.CpModel()
     taken = {}
-    arcs_of, route_time, cost_terms = [], [], []
+    arcs_of, busy, cost_terms = [], [], []  # busy: each route's legs and welds [ms], without waits
     for r in range(R):
         nodes = [r] + [int(n) for n in np.flatnonzero((problem.node_robot == r) & (problem.node_weld >= 0))]
         local = {n: k for k, n in enumerate(nodes)}
@@ -234,45 +299,79 @@ def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: 
                 times.append(int(t[a, b]) * x)
                 costs.append(int(arc_cost[r][a, b]) * x)
         m.add_circuit(arcs)
-        route_time.append(times)
+        busy.append(sum(times))
         cost_terms += costs
         arcs_of.append(lits)
     for w in range(problem.n_welds):
         m.add_exactly_one([taken[(int(problem.node_robot[n]), int(n))] for n in np.flatnonzero(problem.node_weld == w)])
-    if problem.conflicts is not None and problem.conflict_wait > 0:
-        half = int(np.rint(0.5 * problem.conflict_wait * TIME_SCALE))
-        for a, b in problem.conflicts:
-            ra, rb = int(problem.node_robot[a]), int(problem.node_robot[b])
-            both = m.new_bool_var(f"conflict_{a}_{b}")
-            m.add_bool_or([taken[(ra, int(a))].Not(), taken[(rb, int(b))].Not(), both])
-            route_time[ra].append(half * both)
-            route_time[rb].append(half * both)
-            if span == 0:  # the wear objective: the waiting cables' cost
-                rate = 0.5 * (problem.cost_rate[a] + problem.cost_rate[b])
-                cost_terms.append(int(np.rint(problem.conflict_wait * rate * WEAR_SCALE)) * both)
-            else:
-                cost_terms.append(2 * half * both)
-    times_of = route_time
-    route_time = []
-    for r, times in enumerate(times_of):
-        rt = m.new_int_var(0, cap, f"time{r}")
-        m.add(rt == sum(times))
-        route_time.append(rt)
+    ends, rets, firsts = [], [], {}  # rets: when each robot is back Home, waits included
+    conflicts = problem.conflicts if problem.conflicts is not None and problem.conflict_wait > 0 else []
+    if interlocks == "timed":
+        # when each taken option's weld ends [ms]: following the circuit's arcs, so a conflicting pair can be
+        # scheduled apart (the later robot waits) and its wait is in the makespan
+        for r, lits in enumerate(arcs_of):
+            t = np.rint(problem.leg_time(r) * TIME_SCALE).astype(np.int64)
+            own = {n for ab in lits for n in ab if n != r}
+            end = {n: m.new_int_var(0, cap, f"e{n}") for n in own}
+            ret = m.new_int_var(0, cap, f"ret{r}")
+            for (a, b), x in lits.items():
+                after = 0 if a == r else end[a]
+                m.add((ret if b == r else end[b]) >= after + int(t[a, b])).only_enforce_if(x)
+            ends.append(end)
+            m.add(ret >= busy[r])  # implied by the arcs; stated for the solver's bounds
+            rets.append(ret)
+    charges = [[] for _ in range(R)]
+    gap = int(np.rint(problem.conflict_wait * TIME_SCALE))
+    half = int(np.rint(0.5 * problem.conflict_wait * TIME_SCALE))
+    for a, b in conflicts:
+        ra, rb = int(problem.node_robot[a]), int(problem.node_robot[b])
+        both = [taken[(ra, int(a))], taken[(rb, int(b))]]
+        if interlocks == "timed":
+            firsts[(int(a), int(b))] = a_first = m.new_bool_var(f"first_{a}_{b}")
+            m.add(ends[rb][int(b)] >= ends[ra][int(a)] + gap).only_enforce_if([*both, a_first])
+            m.add(ends[ra][int(a)] >= ends[rb][int(b)] + gap).only_enforce_if([*both, a_first.Not()])
+            if span:
+                continue
+        pair = m.new_bool_var(f"conflict_{a}_{b}")
+        m.add_bool_or([both[0].Not(), both[1].Not(), pair])
+        if interlocks == "charged":
+            charges[ra].append(half * pair)
+            charges[rb].append(half * pair)
+        if span == 0:  # the wear objective: the waiting cables' cost
+            rate = 0.5 * (problem.cost_rate[a] + problem.cost_rate[b])
+            cost_terms.append(int(np.rint(problem.conflict_wait * rate * WEAR_SCALE)) * pair)
+        else:
+            cost_terms.append(2 * half * pair)
+    if interlocks == "charged":
+        for r in range(R):
+            ret = m.new_int_var(0, cap, f"ret{r}")
+            m.add(ret == busy[r] + sum(charges[r]))
+            rets.append(ret)
     makespan = m.new_int_var(0, cap, "makespan")
-    m.add_max_equality(makespan, route_time)
+    m.add_max_equality(makespan, rets)
     if objective == "wear":
         # a robot done early hangs its cable at Home until the station's cycle ends: that wear counts too (as in the
         # station replay), at its Home's rate per millisecond of the wait. (The balanced objective weighs the
         # makespan itself, which already pulls the robots' ends together.)
         for r in range(R):
             per_ms = problem.cost_rate[r] * WEAR_SCALE / TIME_SCALE
-            cost_terms.append(int(np.rint(per_ms)) * (makespan - route_time[r]))
+            cost_terms.append(int(np.rint(per_ms)) * (makespan - busy[r]))
     m.minimize(span * makespan + sum(cost_terms))
     if hint is not None:
         used = {(r, a, b) for r, route in enumerate(hint) for a, b in zip([r, *route], [*route, r])}
         for r, lits in enumerate(arcs_of):
             for (a, b), x in lits.items():
                 m.add_hint(x, (r, a, b) in used)
+    if hint is not None and interlocks == "timed":
+        # and a timing of it, so the hint is a whole solution (CP-SAT need not repair one)
+        _, end_ms, ret_ms, first = problem.timed_schedule(hint)
+        for r, route in enumerate(hint):
+            m.add_hint(rets[r], ret_ms[r])
+            for n in route:
+                m.add_hint(ends[r][n], end_ms[n])
+        for key, x in firsts.items():
+            m.add_hint(x, first.get(key, True))
+        m.add_hint(makespan, max(ret_ms))
     solver = cp_model.CpSolver()
     solver.parameters.num_workers = 1  # one worker: the search is deterministic
     solver.parameters.random_seed = int(seed)

@@ -56,3 +56,12 @@ def test_the_held_out_variant_moves_the_car_body_and_adds_a_clamp_column():
         expected = (0.0, 0.0, 0.0) if o.name == "cabinet" else (0.12, -0.10, 0.0)
         np.testing.assert_allclose(shift, expected, atol=1e-12, err_msg=o.name)
     assert [r.robot.name for r in variant.robots] == [r.robot.name for r in base.robots]
+
+
+def test_the_fifty_weld_station_is_the_four_robot_station_with_ten_more_welds():
+    """side_framing_4r_50 (the multi-robot issue's scale case) changes nothing of side_framing_4r but adds ten
+    welds, each reachable by the robot it names (test_station_settles_with_finite_measures)."""
+    base, big = load_station("side_framing_4r"), load_station("side_framing_4r_50")
+    assert big.robots == base.robots and big.obstacles == base.obstacles and big.wear_cost == base.wear_cost
+    assert big.weld_points[:40] == base.weld_points and len(big.weld_points) == 50
+    assert len({w.name for w in big.weld_points}) == 50
