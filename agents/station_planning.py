@@ -44,8 +44,9 @@ EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estima
 EXTRA_ROUNDS = 3
 BLOCKED = 1e4  # [s] the travel time of a move OMPL found no path for: the solver avoids it
 # Two robots' weld options closer than this [m] are a conflict (they cannot weld at once; their legs around
-# them likely meet): the solver starts two such welds at least CONFLICT_WAIT x (weld time + a typical leg)
-# apart, time for the first robot to weld and leave before the second arrives (an interlock zone)
+# them likely meet): CONFLICT_WAIT x (weld time + a typical leg) is the time the solver keeps between two such
+# welds' starts (for the first robot to weld and leave before the second arrives: an interlock zone), or, in
+# its charged model, the wait it charges the pair (station_solver.INTERLOCKS)
 CONFLICT_DISTANCE = 0.15
 CONFLICT_WAIT = 1.0
 # Re-routes a leg that jammed its cable gets before it counts as blocked: OMPL with another seed (a route it had

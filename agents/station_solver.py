@@ -46,7 +46,8 @@ class RoutingProblem:
     # option pairs of different robots that cannot be welded at the same time (the robots would touch), and
     # the least time [s] between the starts of their welds when both are taken: the first robot welds and
     # leaves before the second arrives (an interlock zone). The solver schedules such welds apart in time, so
-    # the waits they need are in its makespan, and the wear objective charges the wait at the cables' rates.
+    # the waits they need are in its makespan, or charges the pair that wait (INTERLOCKS); the wear objective
+    # also charges it at the cables' rates.
     conflicts: np.ndarray | None = None  # (K, 2) node pairs
     conflict_wait: float = 0.0
     # (R, N, N) robot r's integrated wear cost of the move i -> j and the weld at j as simulated (its cable from
@@ -113,6 +114,16 @@ class RoutingProblem:
         from ortools.sat.python import cp_model
 
         pairs = self.taken_conflicts(routes) if self.conflict_wait > 0 else []
+        if not pairs:  # nothing to order: each weld as its route reaches it (the makespan not rounded to ms)
+            end, rets = {}, []
+            for r, route in enumerate(routes):
+                t = np.rint(self.leg_time(r) * TIME_SCALE).astype(np.int64)
+                clock = 0
+                for prev, n in zip([r, *route], route):
+                    clock += int(t[prev, n])
+                    end[n] = clock
+                rets.append(clock + int(t[route[-1], r]) if route else 0)
+            return max(self.route_ends(routes)), end, rets, {}
         m = cp_model.CpModel()
         horizon = int(np.rint((sum(self.route_ends(routes)) + len(pairs) * self.conflict_wait)
                               * TIME_SCALE)) + 1
@@ -142,9 +153,6 @@ class RoutingProblem:
         status = solver.solve(m)
         if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):  # every order is feasible: cannot happen
             raise RuntimeError(f"timing {len(pairs)} conflicting weld pairs: CP-SAT status {solver.status_name(status)}")
-        if not pairs:  # no conflict taken: the routes as they are (not rounded to milliseconds)
-            return (max(self.route_ends(routes)), {n: solver.value(e) for n, e in end.items()},
-                    [solver.value(x) for x in rets], {})
         return (solver.value(makespan) / TIME_SCALE, {n: solver.value(e) for n, e in end.items()},
                 [solver.value(x) for x in rets], {k: bool(solver.value(x)) for k, x in first.items()})
 
