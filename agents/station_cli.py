@@ -10,7 +10,7 @@ from dresspack_gym.cli_args import number, output_dir, seed
 from dresspack_gym.cost_variants import COST_VARIANTS
 
 from .budget import DEFAULT_ITERATIONS, MAX_WORK
-from .station_solver import BLOCKED_ESTIMATES, DEFAULT_WORK, OBJECTIVES
+from .station_solver import BLOCKED_ESTIMATES, DEFAULT_WORK, LEG_ROUTES, OBJECTIVES
 
 WORK = number(1, MAX_WORK, integer=True)
 
@@ -41,6 +41,10 @@ def add_station_plan_command(sub) -> None:
                    help="the solver's time for a move it has not planned yet (blocked as a straight move): its "
                         "straight-move time x the median slow-down of the detours planned so far (planned_ratio, "
                         "default) or the straight-move time alone (straight, a lower bound)")
+    p.add_argument("--leg-route", choices=list(LEG_ROUTES), default="fastest",
+                   help="a leg whose straight move is blocked: the straight move's neighbourhood searched for one "
+                        "via point, else OMPL, then shortened under the time law (fastest, default), or OMPL's "
+                        "RRTConnect path as the single-robot ompl planner plans it (ompl)")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis")
     p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--cable-repairs", type=number(0, 100, integer=True), default=3,
@@ -69,7 +73,7 @@ def cmd_station_plan(args) -> int:
                                  iterations=args.iterations, makespan_slack=args.makespan_slack, seed=args.seed,
                                  cost_variant=args.cost_variant, fixed_assignment=args.fixed_assignment,
                                  cable_repairs=0 if args.no_replay else args.cable_repairs,
-                                 blocked_estimate=args.blocked_estimate,
+                                 blocked_estimate=args.blocked_estimate, leg_route=args.leg_route,
                                  welds=tuple(args.welds) if args.welds else None)
                for o in dict.fromkeys(args.objective)]
     out = args.out

@@ -34,9 +34,10 @@ from dresspack_gym.validation import check_choice, check_integer, check_number
 
 from .base import PlanningError
 from .budget import DEFAULT_ITERATIONS
+from .fast_routes import FastLegPlanner
 from .ompl_planner import OmplPlanner
-from .station_solver import (BLOCKED_ESTIMATES, DEFAULT_WORK, INTERLOCKS, MAKESPAN_SLACK, OBJECTIVES, SPAN_WEIGHT,
-                             Assignment, RoutingProblem, lower_bound, solve)
+from .station_solver import (BLOCKED_ESTIMATES, DEFAULT_WORK, INTERLOCKS, LEG_ROUTES, MAKESPAN_SLACK, OBJECTIVES,
+                             SPAN_WEIGHT, Assignment, RoutingProblem, lower_bound, solve)
 
 EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estimate by more is re-solved with it
 # rounds allowed, as a multiple of exact_rounds, while no solved answer has every leg planned (legs that jam their
@@ -49,13 +50,19 @@ BLOCKED = 1e4  # [s] the travel time of a move OMPL found no path for: the solve
 # its charged model, the wait it charges the pair (station_solver.INTERLOCKS)
 CONFLICT_DISTANCE = 0.15
 CONFLICT_WAIT = 1.0
-# Re-routes a leg that jammed its cable gets before it counts as blocked: OMPL with another seed (a route it had
-# not drawn), then through the robot's Home (where the dresspack is laid out to hang freely)
-REROUTES = ("ompl_reseeded", "via_home")
-RESEED = 7919  # seed offset of a re-routed leg's OMPL plan (any fixed number: another stream, deterministically)
+# Re-routes a leg that jammed its cable gets before it counts as blocked: the leg planner with another seed (a via
+# point or OMPL route it had not drawn), then through the robot's Home (where the dresspack is laid out to hang
+# freely)
+REROUTES = ("reseeded", "via_home")
+RESEED = 7919  # seed offset of a re-routed leg's plan (any fixed number: another stream, deterministically)
 # [s] sampling of the wear cost C along a simulated leg and in the station replay (the integral is over these
 # samples; one value for both, so a leg's simulated wear and its part of the replay are the same measure)
 RECORD_EVERY = 0.05
+# how a leg whose straight move is blocked is planned (StationPlanConfig.leg_route): "fastest", the straight move
+# else one taught via point else OMPL, shortened under the time law (agents/fast_routes.py); "ompl", OMPL's
+# RRTConnect path as the single-robot ``ompl`` planner returns it (the station planner's legs until stop 36: on
+# side_framing_4r its detours took 1.6x as long)
+LEG_PLANNERS = dict(zip(LEG_ROUTES, (FastLegPlanner, OmplPlanner)))
 
 
 @dataclass(frozen=True)
@@ -94,9 +101,11 @@ class StationPlanConfig:
     # lower bound: the solver then favours unplanned detours, and on side_framing_4r its time plan took 39.4 s
     # against 34.2 s)
     blocked_estimate: str = "planned_ratio"
+    leg_route: str = "fastest"  # LEG_PLANNERS
 
     def __post_init__(self):
         check_choice("objective", self.objective, OBJECTIVES)
+        check_choice("leg_route", self.leg_route, LEG_ROUTES)
         check_choice("blocked_estimate", self.blocked_estimate, BLOCKED_ESTIMATES)
         check_number(self.weld_time, "weld_time", lo=0.0, hi=600.0, unit="s")
         check_number(self.work, "work", lo=0.0, lo_open=True, hi=1e6)
@@ -160,7 +169,7 @@ class StationPlanner:
         self.station = station
         self.config = config
         self.progress = progress
-        self.leg_planners = [OmplPlanner(station, r, iterations=config.iterations, seed=config.seed)
+        self.leg_planners = [LEG_PLANNERS[config.leg_route](station, r, iterations=config.iterations, seed=config.seed)
                              for r in range(station.n_robots)]
         cfg = station.config
         self.limits = [r.robot.joint_motion_limits.at_speed(cfg.simulation.speed_fraction) for r in cfg.robots]
@@ -188,9 +197,9 @@ class StationPlanner:
 
     def reconfigured(self, config: StationPlanConfig) -> StationPlanner:
         """A planner with ``config`` that keeps this one's settled-cable costs and planned legs (same station,
-        seed, OMPL iterations and cost variant: the cached answers do not depend on anything else)."""
-        if (config.seed, config.iterations, config.cost_variant) != \
-                (self.config.seed, self.config.iterations, self.config.cost_variant):
+        seed, OMPL iterations, leg route and cost variant: the cached answers do not depend on anything else)."""
+        if (config.seed, config.iterations, config.cost_variant, config.leg_route) != \
+                (self.config.seed, self.config.iterations, self.config.cost_variant, self.config.leg_route):
             return StationPlanner(self.station, config, self.progress)
         other = copy.copy(self)  # shares the caches
         other.config = config
@@ -662,8 +671,8 @@ class StationPlanner:
     def _alternative(self, how: str, robot: int, qa: np.ndarray, qb: np.ndarray, old) -> np.ndarray | None:
         planner = self.leg_planners[robot]
         home = self.station.home[robot]
-        if how == "ompl_reseeded":
-            if old is not None and len(old) == 2:  # a straight move: OMPL would return the same line
+        if how == "reseeded":
+            if old is not None and len(old) == 2:  # a straight move: any seed returns the same line
                 return None
             seed, planner.seed = planner.seed, planner.seed + RESEED
             try:

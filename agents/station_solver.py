@@ -17,6 +17,9 @@ from dresspack_gym.validation import check_choice
 
 # how a move not planned yet is timed for the solver (StationPlanConfig.blocked_estimate)
 BLOCKED_ESTIMATES = ("straight", "planned_ratio")
+# how a blocked move's leg is planned (station_planning.LEG_PLANNERS; named here, with the solver's settings, so
+# the command line offers them without importing the planners)
+LEG_ROUTES = ("fastest", "ompl")
 OBJECTIVES = ("time", "wear", "balanced")
 TIME_SCALE = 1000  # integer costs: milliseconds
 WEAR_SCALE = 100_000  # integer costs: 1e-5 of the wear cost's unit x s (fine enough for a Home rate per ms)
