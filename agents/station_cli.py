@@ -45,6 +45,9 @@ def add_station_plan_command(sub) -> None:
                    help="a leg whose straight move is blocked: the straight move's neighbourhood searched for one "
                         "via point, else OMPL, then shortened under the time law (fastest, default), or OMPL's "
                         "RRTConnect path as the single-robot ompl planner plans it (ompl)")
+    p.add_argument("--stop-at-via-points", action="store_true",
+                   help="every leg stops at each of its via points (default: a leg flies by them, corners rounded "
+                        "within the joint limits, where the rounded curve is collision-free)")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis")
     p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--cable-repairs", type=number(0, 100, integer=True), default=3,
@@ -74,6 +77,7 @@ def cmd_station_plan(args) -> int:
                                  cost_variant=args.cost_variant, fixed_assignment=args.fixed_assignment,
                                  cable_repairs=0 if args.no_replay else args.cable_repairs,
                                  blocked_estimate=args.blocked_estimate, leg_route=args.leg_route,
+                                 fly_by=not args.stop_at_via_points,
                                  welds=tuple(args.welds) if args.welds else None)
                for o in dict.fromkeys(args.objective)]
     out = args.out

@@ -34,7 +34,7 @@ from dresspack_gym.validation import check_choice, check_integer, check_number
 
 from .base import PlanningError
 from .budget import DEFAULT_ITERATIONS
-from .fast_routes import FastLegPlanner
+from .fast_routes import FastLegPlanner, curve_valid
 from .ompl_planner import OmplPlanner
 from .station_solver import (BLOCKED_ESTIMATES, DEFAULT_WORK, INTERLOCKS, LEG_ROUTES, MAKESPAN_SLACK, OBJECTIVES,
                              SPAN_WEIGHT, Assignment, RoutingProblem, lower_bound, solve)
@@ -102,6 +102,9 @@ class StationPlanConfig:
     # against 34.2 s)
     blocked_estimate: str = "planned_ratio"
     leg_route: str = "fastest"  # LEG_PLANNERS
+    # legs fly by their via points (time_law.PathMotion) where the rounded curve is still collision-free (checked
+    # like a path: agents/fast_routes.curve_valid), else stop at each; False: every leg stops at each
+    fly_by: bool = True
 
     def __post_init__(self):
         check_choice("objective", self.objective, OBJECTIVES)
@@ -186,6 +189,7 @@ class StationPlanner:
         self._reroutes: dict[tuple, int] = {}
         self._reroute_log: list[dict] = []  # what was re-routed, and why (a plan's info["rerouted_legs"])
         self._leg_runs: dict[tuple, LegRun] = {}  # by robot, waypoints and weld time: depends on nothing else
+        self._motions: dict[tuple, time_law.PathMotion] = {}  # by robot and waypoints: each leg's timed motion
         # the legs this planner has asked for: the solver treats only these as exact. The caches above may hold
         # more (a reconfigured planner shares them), and using those would make a plan depend on what was
         # planned before it
@@ -198,8 +202,9 @@ class StationPlanner:
     def reconfigured(self, config: StationPlanConfig) -> StationPlanner:
         """A planner with ``config`` that keeps this one's settled-cable costs and planned legs (same station,
         seed, OMPL iterations, leg route and cost variant: the cached answers do not depend on anything else)."""
-        if (config.seed, config.iterations, config.cost_variant, config.leg_route) != \
-                (self.config.seed, self.config.iterations, self.config.cost_variant, self.config.leg_route):
+        if (config.seed, config.iterations, config.cost_variant, config.leg_route, config.fly_by) != \
+                (self.config.seed, self.config.iterations, self.config.cost_variant, self.config.leg_route,
+                 self.config.fly_by):
             return StationPlanner(self.station, config, self.progress)
         other = copy.copy(self)  # shares the caches
         other.config = config
@@ -237,7 +242,8 @@ class StationPlanner:
             sim = self._alone(robot)
             sim.reset(leg[None, 0])
             settled = sim.last_settle.converged
-            motion = RobotSchedule(0, (), (leg,), np.zeros(1), self.limits[robot], 0.0)
+            motion = RobotSchedule(0, (), (leg,), np.zeros(1), self.limits[robot], 0.0,
+                                   (self.leg_motion(robot, leg).fly_by,))
             program = StationSchedule((motion,), leg[None, -1])
             first = sim.cable_measures()
             times, samples = sim.follow(program.at, motion.end_time + weld_time, record_every=RECORD_EVERY)
@@ -318,7 +324,7 @@ class StationPlanner:
             for i in node_of.get((r, qa), ()):
                 for j in node_of.get((r, qb), ()):
                     exact[r, i, j], detour[r, i, j] = True, leg is not None and len(leg) > 2
-                    travel[r, i, j] = BLOCKED if leg is None else time_law.path_duration(leg, self.limits[r])
+                    travel[r, i, j] = BLOCKED if leg is None else self.leg_motion(r, leg).duration
                     run = None if leg is None else self._leg_runs.get((r, leg.tobytes(), float(weld_after[j])))
                     if run is not None:
                         simulated[r, i, j] = run.wear
@@ -401,6 +407,17 @@ class StationPlanner:
                 self._legs[key] = None
         return self._legs[key]
 
+    def leg_motion(self, robot: int, leg: np.ndarray) -> time_law.PathMotion:
+        """The timed motion of robot ``robot``'s ``leg`` (waypoints): flying by its via points if the config allows
+        and the rounded curve is collision-free, else stopping at each (cached)."""
+        key = (int(robot), np.asarray(leg, dtype=float).tobytes())
+        if key not in self._motions:
+            motion = time_law.PathMotion(leg, self.limits[robot], fly_by=self.config.fly_by)
+            if motion.fly_by and not curve_valid(motion, self.leg_planners[robot].validity):
+                motion = time_law.PathMotion(leg, self.limits[robot])
+            self._motions[key] = motion
+        return self._motions[key]
+
     def _plan_chosen_legs(self, problem: RoutingProblem, assignment: Assignment, qs: np.ndarray,
                           stops: list[str]) -> int:
         """Plan every leg of the assignment and run it with its robot's cable (a leg that jams the cable is
@@ -416,7 +433,7 @@ class StationPlanner:
                 if leg is not None and self.leg_run(r, leg, weld).jammed:
                     self._reroute(r, a, b, qs, stops, "jammed its cable alone", weld)
                     leg = self.leg(r, a, b, qs)
-                real = BLOCKED if leg is None else time_law.path_duration(leg, self.limits[r])
+                real = BLOCKED if leg is None else self.leg_motion(r, leg).duration
                 changed += real > estimate * (1 + EXACT_TOLERANCE) + 1e-6
                 if leg is not None and self.config.objective != "time":
                     changed += self.leg_run(r, leg, weld).wear > wear[a, b] * (1 + EXACT_TOLERANCE) + 1e-6
@@ -450,7 +467,8 @@ class StationPlanner:
             path = [r, *route, r]
             legs = [self.leg(r, a, b, qs) for a, b in zip(path[:-1], path[1:])]
             schedules.append(RobotSchedule.as_soon_as_possible(r, [options[n - R].weld for n in route], legs,
-                                                               self.limits[r], task.weld_time))
+                                                               self.limits[r], task.weld_time,
+                                                               fly_by=[self.leg_motion(r, g).fly_by for g in legs]))
         return StationSchedule(tuple(schedules), task.homes)
 
     def _best(self, problem: RoutingProblem, candidates: list[Assignment], task: StationTask,
@@ -734,9 +752,11 @@ def save_plan(plan: StationPlan, out: Path) -> None:
     robots = {}
     for s in plan.schedule.robots:
         name = plan.names[s.robot]
+        # the .npz holds the waypoints (a single-robot trajectory, stopping at each: what `dresspack export` writes);
+        # which legs fly by their via points is in its meta and plan.json
         save_trajectory(out / f"{name}.npz", s.trajectory(), robot=s.robot, robot_name=name,
-                        leg_start=s.leg_start.tolist(), weld_time=s.weld_time)
-        robots[name] = {"welds": list(s.welds), "leg_start": s.leg_start.round(4).tolist(),
+                        leg_start=s.leg_start.tolist(), weld_time=s.weld_time, fly_by=list(s.fly_by))
+        robots[name] = {"welds": list(s.welds), "leg_start": s.leg_start.round(4).tolist(), "fly_by": list(s.fly_by),
                         "waits": s.waits().round(4).tolist(), "end_time": round(s.end_time, 4),
                         "trajectory": f"{name}.npz"}
     data = {"summary": plan.summary(), "robots": robots, "config": asdict(plan.config)}

@@ -21,7 +21,9 @@ PHASES = ("moving", "welding", "waiting", "done")
 class RobotSchedule:
     """Robot ``robot`` leaves Home, welds ``welds`` in order (``weld_time`` standing still at each) and returns
     Home. ``legs[k]`` are the waypoints of the motion into stop k (the welds, then Home); the motion of leg k
-    starts at ``leg_start[k]`` [s]. A robot that is not moving, welding or done is waiting where it is."""
+    starts at ``leg_start[k]`` [s]. ``fly_by[k]``: leg k flies by its via points instead of stopping at each
+    (:class:`~dresspack_gym.time_law.PathMotion`; empty: no leg does). A robot that is not moving, welding or done
+    is waiting where it is."""
 
     robot: int
     welds: tuple[str, ...]
@@ -29,41 +31,35 @@ class RobotSchedule:
     leg_start: np.ndarray
     limits: time_law.JointLimits  # (6,) joint limits of the time law (velocity at the programmed speed fraction)
     weld_time: float
-    _table: tuple = field(default=None, repr=False, compare=False)
-    # per leg, its segments' timed motions: built from ``legs``, kept by ``delayed`` (same legs, other start times);
-    # a copy with other legs must pass _motions=None
+    fly_by: tuple[bool, ...] = ()
+    # per leg, its timed motion: built from ``legs`` and ``fly_by``, kept by ``delayed`` (same legs, other start
+    # times); a copy with other legs must pass _motions=None
     _motions: tuple = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
-        motions = self._motions or tuple(tuple(time_law.SegmentMotion(dq, self.limits) for dq in np.diff(leg, axis=0))
-                                         for leg in self.legs)
+        fly = tuple(bool(x) for x in self.fly_by) or (False,) * len(self.legs)
+        if len(fly) != len(self.legs):
+            raise ValueError(f"fly_by has {len(fly)} entries for {len(self.legs)} legs")
+        object.__setattr__(self, "fly_by", fly)
+        motions = self._motions or tuple(time_law.PathMotion(leg, self.limits, f) for leg, f in zip(self.legs, fly))
         object.__setattr__(self, "_motions", motions)
-        durations = [np.array([m.duration for m in leg]) for leg in motions]
-        object.__setattr__(self, "_leg_durations", np.array([float(d.sum()) for d in durations]))
-        t0, d, a, b = [], [], [], []
-        for start, leg, dur in zip(self.leg_start, self.legs, durations):
-            offsets = np.concatenate([[0.0], np.cumsum(dur)[:-1]])
-            t0.append(start + offsets)
-            d.append(dur)
-            a.append(leg[:-1])
-            b.append(leg[1:])
-        table = (np.concatenate(t0), np.concatenate(d), np.concatenate(a), np.concatenate(b))
-        object.__setattr__(self, "_table", table)
-        object.__setattr__(self, "_segment_motions", [m for leg in motions for m in leg])
+        object.__setattr__(self, "_leg_durations", np.array([m.duration for m in motions]))
         object.__setattr__(self, "leg_start", np.asarray(self.leg_start, dtype=float))
 
     @staticmethod
     def as_soon_as_possible(robot: int, welds, legs, limits: time_law.JointLimits, weld_time: float,
-                            start: float = 0.0) -> RobotSchedule:
+                            start: float = 0.0, fly_by=()) -> RobotSchedule:
         """Every leg starts as soon as the previous weld is done (no waits)."""
+        fly = tuple(fly_by) or (False,) * len(legs)
+        legs = tuple(np.asarray(x, dtype=float) for x in legs)
+        motions = tuple(time_law.PathMotion(leg, limits, f) for leg, f in zip(legs, fly))
         starts, t = [], start
-        for k, leg in enumerate(legs):
+        for k, m in enumerate(motions):
             starts.append(t)
-            t += time_law.path_duration(leg, limits)
+            t += m.duration
             if k < len(welds):
                 t += weld_time
-        return RobotSchedule(robot, tuple(welds), tuple(np.asarray(x, dtype=float) for x in legs),
-                             np.array(starts), limits, float(weld_time))
+        return RobotSchedule(robot, tuple(welds), legs, np.array(starts), limits, float(weld_time), fly, motions)
 
     # ---------------------------------------------------------------------------- timing
     def leg_durations(self) -> np.ndarray:
@@ -89,7 +85,7 @@ class RobotSchedule:
         """Leg ``k`` and every later leg start ``delay`` seconds later."""
         starts = self.leg_start.copy()
         starts[k:] += delay
-        return replace(self, leg_start=starts, _table=None)  # same legs: their timed motions are kept
+        return replace(self, leg_start=starts)  # same legs: their timed motions are kept
 
     def intervals(self) -> dict[str, list[tuple[float, float]]]:
         """(start, end) of each motion, weld and wait (for the Gantt chart)."""
@@ -119,30 +115,20 @@ class RobotSchedule:
     def at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Joint positions and velocities at times ``t`` (N,): ((N, 6), (N, 6)); Home before and after."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
-        t0, dur, a, b = self._table
-        k = np.searchsorted(t0, t, side="right") - 1
-        q = np.empty((len(t), 6))
+        k = np.searchsorted(self.leg_start, t, side="right") - 1  # the last leg started by t (-1: none yet)
+        q = np.broadcast_to(self.legs[0][0], (len(t), 6)).copy()
         qd = np.zeros((len(t), 6))
-        before = k < 0
-        q[before] = self.legs[0][0]
-        k = np.clip(k, 0, len(t0) - 1)
-        tau = np.where(dur[k] > 0, (t - t0[k]) / np.where(dur[k] > 0, dur[k], 1.0), 1.0)
-        moving = ~before & (tau < 1.0)
-        resting = ~before & ~moving
-        for seg in np.unique(k[moving]):  # each segment's own timed motion, over the times that fall in it
-            rows = np.flatnonzero(moving & (k == seg))
-            frac, rate = self._segment_motions[seg].at(t[rows] - t0[seg])
-            q[rows] = a[seg] + frac[:, None] * (b[seg] - a[seg])
-            qd[rows] = rate[:, None] * (b[seg] - a[seg])
-        q[resting] = b[k[resting]]
+        for leg in np.unique(k[k >= 0]):
+            rows = np.flatnonzero(k == leg)
+            q[rows], qd[rows] = self._motions[leg].at(t[rows] - self.leg_start[leg])  # at rest after its end
         return q, qd
 
     def next_motion(self, t: float) -> float:
         """The earliest time >= ``t`` at which the robot moves (``t`` if it is moving; inf once it is Home for
         good)."""
-        t0, dur, a, b = self._table
-        live = (t0 + dur > t) & (dur > 0) & np.any(a != b, axis=1)
-        return float(max(t, t0[live].min())) if live.any() else np.inf
+        ends = self.leg_end()
+        live = (ends > t) & (self._leg_durations > 0) & np.array([np.any(leg[1:] != leg[0]) for leg in self.legs])
+        return float(max(t, self.leg_start[live].min())) if live.any() else np.inf
 
     def trajectory(self) -> Trajectory:
         """The robot's path as a single-robot trajectory (stops at the welds and Home; timing without waits)."""

@@ -167,6 +167,13 @@ class SegmentMotion:
             return 0.0
         return float(np.max(np.abs(self._traj.profiles[0][0].a))) / self.length
 
+    @property
+    def peak_rate(self) -> float:
+        """The largest d fraction / dt [1/s] (reached where the acceleration is zero, a phase boundary)."""
+        if self.length <= 0:
+            return 0.0
+        return float(np.max(np.abs(self._traj.profiles[0][0].v))) / self.length
+
     def at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """(fraction of the segment covered, its rate [1/s]) at times ``t`` [s] (clipped to the motion)."""
         t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), 0.0, self.duration)
@@ -188,3 +195,90 @@ class SegmentMotion:
         frac, rate = self.at(np.arange(1, steps + 1) * dt * stretch)
         frac[-1] = 1.0
         return frac, rate * stretch
+
+
+def pass_velocities(waypoints: np.ndarray, limits: JointLimits) -> np.ndarray:
+    """(K, 6) joint velocities [rad/s] at which a path flies by its via points (zero at its two ends): per joint,
+    the smaller of the peak speeds the straight segments before and after the via point reach when each is run
+    rest to rest, and zero in a joint that turns back there (or does not move on one side). So a joint never
+    passes a via point faster than either neighbouring segment would move it, and the corner is rounded as a
+    robot's zone rounds a fly-by point."""
+    pts = np.asarray(waypoints, dtype=float)
+    peaks = np.array([SegmentMotion(d, limits).peak_rate * d for d in np.diff(pts, axis=0)])
+    v = np.zeros_like(pts)
+    before, after = peaks[:-1], peaks[1:]
+    same = np.sign(before) * np.sign(after) > 0
+    v[1:-1] = np.where(same, np.sign(before) * np.minimum(np.abs(before), np.abs(after)), 0.0)
+    # a segment that cruises peaks at the limit, and Ruckig wants a target below it: each point's velocity scaled
+    # down as a whole (per joint clipping would turn it off the line, and Ruckig could then not keep to the line)
+    top = np.ravel(limits.velocity) * (1.0 - 1e-9)
+    scale = np.min(np.where(np.abs(v) > top, top / np.maximum(np.abs(v), 1e-300), 1.0), axis=1, keepdims=True)
+    return v * scale
+
+
+class PathMotion:
+    """The timed motion of one path (K, n joints) from rest to rest: stopping at every via point (its straight
+    segments, each a :class:`SegmentMotion`), or flying by them (``fly_by``): each section a jerk-limited motion
+    from one point's :func:`pass_velocities` to the next's, within every joint's limits (Ruckig, phase-
+    synchronised where the states allow, so a section between two rests stays a straight segment). Flying by
+    leaves the straight segments near the via points: whoever uses it checks the curve (:meth:`at`) first."""
+
+    def __init__(self, waypoints: np.ndarray, limits: JointLimits, fly_by: bool = False):
+        self.waypoints = np.asarray(waypoints, dtype=float)
+        self.fly_by = bool(fly_by) and len(self.waypoints) > 2
+        dq = np.diff(self.waypoints, axis=0)
+        if not self.fly_by:
+            self._segments = [SegmentMotion(d, limits) for d in dq]
+            durations = [m.duration for m in self._segments]
+        else:
+            n = self.waypoints.shape[1]
+            v = pass_velocities(self.waypoints, limits)
+            otg, inp = Ruckig(n), InputParameter(n)
+            inp.synchronization = Synchronization.Phase  # straight where it can be; Ruckig falls back to Time
+            inp.max_velocity, inp.max_acceleration, inp.max_jerk = (np.ravel(x) for x in (
+                limits.velocity, limits.acceleration, limits.jerk))
+            self._sections = []
+            for i in range(len(dq)):
+                inp.current_position, inp.current_velocity = self.waypoints[i], v[i]
+                inp.current_acceleration = np.zeros(n)
+                inp.target_position, inp.target_velocity = self.waypoints[i + 1], v[i + 1]
+                inp.target_acceleration = np.zeros(n)
+                traj = RuckigTrajectory(n)
+                _check(otg.calculate(inp, traj), "a fly-by section")
+                self._sections.append(traj)
+            durations = [float(t.duration) for t in self._sections]
+        self.section_durations = np.array(durations)
+        self.section_starts = np.concatenate([[0.0], np.cumsum(durations)[:-1]])
+        self.duration = float(np.sum(durations))
+
+    def at(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """Joint positions and velocities ((N, n), (N, n)) at times ``t`` (N,) [s] from the path's start (clipped
+        to the motion: at rest at its ends)."""
+        t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), 0.0, self.duration)
+        k = np.clip(np.searchsorted(self.section_starts, t, side="right") - 1, 0, len(self.section_durations) - 1)
+        q = np.empty((len(t), self.waypoints.shape[1]))
+        qd = np.zeros_like(q)
+        for sec in np.unique(k):
+            rows = np.flatnonzero(k == sec)
+            local = t[rows] - self.section_starts[sec]
+            if not self.fly_by:
+                a, b = self.waypoints[sec], self.waypoints[sec + 1]
+                frac, rate = self._segments[sec].at(local)
+                q[rows] = a + frac[:, None] * (b - a)
+                qd[rows] = rate[:, None] * (b - a)
+                continue
+            traj = self._sections[sec]
+            for r, tl in zip(rows, local):
+                p, v, _ = traj.at_time(float(min(tl, traj.duration)))
+                q[r], qd[r] = p, v
+        if len(t) and t[-1] >= self.duration:  # exactly at the end (float rounding of the sections' sum)
+            q[t >= self.duration] = self.waypoints[-1]
+            qd[t >= self.duration] = 0.0
+        return q, qd
+
+    def peak_acceleration(self) -> float:
+        """The largest |joint acceleration| [rad/s^2] over the motion (at its profiles' phase boundaries)."""
+        if not self.fly_by:
+            return max((m.peak_acceleration * float(np.max(np.abs(d)))
+                        for m, d in zip(self._segments, np.diff(self.waypoints, axis=0))), default=0.0)
+        return max((float(np.max(np.abs(p.a))) for traj in self._sections for p in traj.profiles[0]), default=0.0)

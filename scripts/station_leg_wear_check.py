@@ -41,7 +41,9 @@ def main() -> None:
 
     station = Station(load_station(args.station))
     plan = json.loads((args.plan / "plan.json").read_text())
-    config = StationPlanConfig(cost_variant=plan["config"]["cost_variant"], cable_repairs=0)
+    # legs fly by their via points as the plan did (plans before stop 36 stopped at each)
+    config = StationPlanConfig(cost_variant=plan["config"]["cost_variant"], cable_repairs=0,
+                               fly_by=plan["config"].get("fly_by", False))
     planner = StationPlanner(station, config)
     weld_time = float(plan["config"]["weld_time"])
     robots = []
@@ -50,7 +52,7 @@ def main() -> None:
         stops = np.r_[0, data["stops"]]
         legs = tuple(data["waypoints"][a:b + 1] for a, b in zip(stops[:-1], stops[1:]))
         robots.append(RobotSchedule(r, tuple(info["welds"]), legs, np.array(info["leg_start"]), planner.limits[r],
-                                    weld_time))
+                                    weld_time, tuple(info.get("fly_by", ()))))  # plans before stop 36: all stop
     schedule = StationSchedule(tuple(robots), station.home)
 
     class _Plan:  # what StationPlanner.replay reads
@@ -123,7 +125,7 @@ def explain_in_path_order(planner, station, robots, rows) -> None:
         name = station.config.robots[s.robot].name
         own = [r for r in rows if r["robot"] == name]
         sim = planner._alone(s.robot)
-        alone = RobotSchedule(0, s.welds, s.legs, s.leg_start, s.limits, s.weld_time)
+        alone = RobotSchedule(0, s.welds, s.legs, s.leg_start, s.limits, s.weld_time, s.fly_by)
         program = StationSchedule((alone,), station.home[None, s.robot])
         sim.reset(station.home[None, s.robot])
         first = sim.cable_measures()

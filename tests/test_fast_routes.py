@@ -42,6 +42,9 @@ class BoxInJointSpace:
             t0, t1 = max(t0, u), min(t1, v)
         return not t0 < t1
 
+    def path_valid(self, path) -> bool:
+        return self.valid(path[0]) and all(self.segment_valid(p, q) for p, q in zip(path[:-1], path[1:]))
+
 
 def test_one_via_round_a_joint_space_box_takes_the_fastest_detour():
     """From q0 = -1 to +1 through the box: any detour needs joint 0 to travel 1 rad to the via and 1 rad on (the
@@ -125,3 +128,51 @@ def test_station_plan_config_names_the_leg_routes():
     assert set(LEG_PLANNERS) == {"fastest", "ompl"} and StationPlanConfig().leg_route == "fastest"
     with pytest.raises(ConfigError, match="leg_route.*fastest.*ompl"):
         replace(StationPlanConfig(), leg_route="rrt")
+
+
+def test_a_fly_by_that_cuts_a_corner_into_an_obstacle_is_caught():
+    """At an obtuse corner both joints keep their direction, so the fly-by rounds it toward the chord; a small box
+    put where the rounded curve strays farthest from the segments (clear of them) is hit by the curve and caught,
+    while stopping at the via point keeps to the checked segments."""
+    from dresspack.agents.fast_routes import curve_valid
+    from dresspack_gym.time_law import PathMotion
+
+    path = np.array([[0.0, 0.0, 0, 0, 0, 0], [1.0, 1.0, 0, 0, 0, 0], [2.0, 1.2, 0, 0, 0, 0]])
+    stop, fly = PathMotion(path, LIMITS), PathMotion(path, LIMITS, fly_by=True)
+    assert fly.duration < stop.duration
+    q, _ = fly.at(np.linspace(0.0, fly.duration, 2001))
+
+    def off_path(x):  # distance in (q0, q1) from the two segments
+        d = []
+        for p0, p1 in zip(path[:-1, :2], path[1:, :2]):
+            f = np.clip(np.dot(x - p0, p1 - p0) / np.dot(p1 - p0, p1 - p0), 0.0, 1.0)
+            d.append(np.linalg.norm(x - (p0 + f * (p1 - p0))))
+        return min(d)
+
+    gap = np.array([off_path(x) for x in q[:, :2]])
+    assert gap.max() > 0.01  # the corner is rounded, not a hair's width
+    box = BoxInJointSpace()
+    box.lo, box.hi = q[gap.argmax(), :2] - 0.4 * gap.max(), q[gap.argmax(), :2] + 0.4 * gap.max()
+    assert all(box.segment_valid(p, r) for p, r in zip(path[:-1], path[1:]))
+    assert curve_valid(stop, box) and not curve_valid(fly, box)
+
+
+def test_station_legs_fly_by_where_the_curve_is_clear(blocked_moves):
+    """The station planner times each leg by its motion: flying by where the rounded curve passes the check (on
+    the shipped station's blocked moves, some do), else stopping; --stop-at-via-points stops everywhere."""
+    from dresspack.agents.station_planning import StationPlanConfig, StationPlanner
+
+    station, fast, moves = blocked_moves
+    planner = StationPlanner(station, StationPlanConfig())
+    still = StationPlanner(station, StationPlanConfig(fly_by=False))
+    legs = [fast.plan(Task(0, a, (), np.zeros((0, 6)), b)).trajectory.waypoints for a, b in moves]
+    flown = 0
+    for leg in legs:
+        m, s = planner.leg_motion(0, leg), still.leg_motion(0, leg)
+        assert not s.fly_by and s.duration == pytest.approx(path_duration(leg, fast.motion_limits))
+        if m.fly_by:
+            flown += 1
+            assert m.duration < s.duration
+        else:
+            assert m.duration == s.duration
+    assert flown >= 1

@@ -160,3 +160,62 @@ def test_quasi_static_slowing_is_a_pure_time_scaling():
         m = SegmentMotion(dq[20], LIMITS.slowed(f))
         assert m.peak_acceleration == pytest.approx(SegmentMotion(dq[20], LIMITS).peak_acceleration * f ** 2,
                                                     rel=1e-9)
+
+
+# ---------------------------------------------------------------------------- paths flown by their via points
+def _bounded(motion, limits, n=4000):
+    """The motion sampled densely: (positions, velocities) and whether every joint keeps its velocity limit."""
+    t = np.linspace(0.0, motion.duration, n)
+    q, qd = motion.at(t)
+    return q, qd, bool(np.all(np.abs(qd) <= limits.velocity + 1e-9))
+
+
+def test_a_path_that_stops_at_every_via_point_is_the_straight_segments():
+    from dresspack_gym.time_law import PathMotion
+
+    pts = np.radians([[0, 0, 0, 0, 0, 0], [40, 10, 0, 0, 30, 0], [60, -20, 5, 90, 30, 0], [20, -20, 5, 0, 0, 10]])
+    m = PathMotion(pts, LIMITS)
+    assert m.duration == pytest.approx(path_duration(pts, LIMITS))
+    q, _ = m.at(m.section_starts + m.section_durations * 0.5)  # half way in time: on each segment
+    for k, x in enumerate(q):
+        d = pts[k + 1] - pts[k]
+        f = np.dot(x - pts[k], d) / np.dot(d, d)
+        np.testing.assert_allclose(x, pts[k] + f * d, atol=1e-9)
+
+
+def test_flying_by_passes_every_via_point_within_the_limits_and_is_faster():
+    from dresspack_gym.time_law import PathMotion, pass_velocities
+
+    pts = np.radians([[0, 0, 0, 0, 0, 0], [40, 10, 0, 0, 30, 0], [60, -20, 5, 90, 30, 0], [20, -20, 5, 0, 0, 10]])
+    fly = PathMotion(pts, LIMITS, fly_by=True)
+    stop = PathMotion(pts, LIMITS)
+    assert fly.duration < stop.duration
+    q, qd = fly.at(fly.section_starts)
+    np.testing.assert_allclose(q, pts[:-1], atol=1e-9)  # each section starts at its point ...
+    np.testing.assert_allclose(qd, pass_velocities(pts, LIMITS)[:-1], atol=1e-9)  # ... at its pass velocity
+    end_q, end_qd = fly.at([fly.duration, fly.duration + 1.0])
+    np.testing.assert_allclose(end_q, pts[[-1, -1]])
+    np.testing.assert_array_equal(end_qd, 0.0)
+    _, _, within = _bounded(fly, LIMITS)
+    assert within and fly.peak_acceleration() <= LIMITS.acceleration.max() + 1e-9
+    # a joint that turns back at a via point passes it at rest; one that keeps going does not
+    v = pass_velocities(pts, LIMITS)
+    assert v[1, 1] == 0.0 and v[2, 0] == 0.0  # joint 2 goes up then down; joint 1 up then back at point 2
+    assert v[1, 0] > 0 and v[1, 3] == 0.0  # joint 4 does not move into point 1
+
+
+def test_flying_by_a_point_on_a_straight_line_keeps_to_the_line():
+    """Through a via point half way along a straight move: every joint keeps its direction, so the pass velocity
+    is the half segment's peak, the synchronised sections stay on the line, and the time lies between the
+    straight move's (no stop, the fastest) and the two halves' (a stop)."""
+    from dresspack_gym.time_law import PathMotion, pass_velocities
+
+    a, b = np.zeros(6), np.radians([100.0, 50.0, 0.0, 0.0, 20.0, 0.0])
+    pts = np.array([a, 0.5 * (a + b), b])
+    half = SegmentMotion(pts[1] - pts[0], LIMITS)
+    np.testing.assert_allclose(pass_velocities(pts, LIMITS)[1], half.peak_rate * (pts[1] - pts[0]))
+    fly = PathMotion(pts, LIMITS, fly_by=True)
+    q, _, within = _bounded(fly, LIMITS)
+    f = q @ (b - a) / np.dot(b - a, b - a)
+    np.testing.assert_allclose(q, f[:, None] * (b - a), atol=1e-9)
+    assert within and path_duration(pts[[0, 2]], LIMITS) < fly.duration < 2 * half.duration
