@@ -1,4 +1,5 @@
-"""Timed robot programs on one station clock: legs (straight joint segments under the time law), welds, waits.
+"""Timed robot programs on one station clock: legs (paths under the time law, stopping at or flying by their via
+points), welds, waits.
 
 Where every robot is at any time ``t`` is answered here only (the coordination check, the station replay and the
 Gantt chart all read it), so they cannot disagree about the timing."""

@@ -10,6 +10,9 @@ the slowest joint is driven at its limits. Ruckig solves the scalar motion (a 7-
 limits; accelerations and jerks stay the robot's own. (The cubic law of version 0 instead stretched every segment
 to 1.5x the slowest joint's time at that speed, whatever its length: short moves accelerated far beyond what a
 large robot does, long ones never reached the programmed speed.)
+
+A path of several segments stops at each waypoint (``path_duration``), or, in station plans, flies by its via points
+(:class:`PathMotion`: the corners rounded within the same limits, the curve checked by the caller).
 """
 
 from __future__ import annotations
