@@ -53,10 +53,6 @@ def curve_valid(motion: time_law.PathMotion, validity: MotionValidity) -> bool:
     return validity.path_valid(q)
 
 
-def path_time(path: np.ndarray, limits: time_law.JointLimits) -> float:
-    return time_law.path_duration(path, limits)
-
-
 def one_via(a: np.ndarray, b: np.ndarray, validity: MotionValidity, limits: time_law.JointLimits,
             rng: np.random.Generator) -> np.ndarray | None:
     """The fastest valid a -> via -> b found among the candidates (see the module docstring), or None."""
@@ -88,7 +84,7 @@ def shorten(path: np.ndarray, validity: MotionValidity, limits: time_law.JointLi
         p = path[i] + si * (path[i + 1] - path[i])
         q = path[j] + sj * (path[j + 1] - path[j])
         new = np.vstack([path[:i + 1], p, q, path[j + 1:]])
-        if path_time(new, limits) < path_time(path, limits) - 1e-9 and validity.segment_valid(p, q):
+        if time_law.path_duration(new, limits) < time_law.path_duration(path, limits) - 1e-9 and validity.segment_valid(p, q):
             path = new
     return _pull(path, validity, limits)
 
@@ -101,15 +97,15 @@ def _pull(path: np.ndarray, validity: MotionValidity, limits: time_law.JointLimi
         i = 1
         while i < len(path) - 1:
             a, v, b = path[i - 1], path[i], path[i + 1]
-            here = path_time(path[i - 1:i + 2], limits)
-            if path_time(np.array([a, b]), limits) <= here and validity.segment_valid(a, b):
+            here = time_law.path_duration(path[i - 1:i + 2], limits)
+            if time_law.path_duration(np.array([a, b]), limits) <= here and validity.segment_valid(a, b):
                 path = np.delete(path, i, axis=0)
                 changed = True
                 continue
             mid = 0.5 * (a + b)
             for f in PULL_FRACTIONS:
                 w = v + f * (mid - v)
-                if path_time(np.array([a, w, b]), limits) < here - 1e-9 and validity.valid(w) \
+                if time_law.path_duration(np.array([a, w, b]), limits) < here - 1e-9 and validity.valid(w) \
                         and validity.segment_valid(a, w) and validity.segment_valid(w, b):
                     path[i] = w
                     changed = True

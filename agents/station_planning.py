@@ -242,8 +242,8 @@ class StationPlanner:
             sim = self._alone(robot)
             sim.reset(leg[None, 0])
             settled = sim.last_settle.converged
-            motion = RobotSchedule(0, (), (leg,), np.zeros(1), self.limits[robot], 0.0,
-                                   (self.leg_motion(robot, leg).fly_by,))
+            motion = RobotSchedule.as_soon_as_possible(0, (), (leg,), self.limits[robot], 0.0,
+                                                       motions=(self.leg_motion(robot, leg),))
             program = StationSchedule((motion,), leg[None, -1])
             first = sim.cable_measures()
             times, samples = sim.follow(program.at, motion.end_time + weld_time, record_every=RECORD_EVERY)
@@ -468,7 +468,7 @@ class StationPlanner:
             legs = [self.leg(r, a, b, qs) for a, b in zip(path[:-1], path[1:])]
             schedules.append(RobotSchedule.as_soon_as_possible(r, [options[n - R].weld for n in route], legs,
                                                                self.limits[r], task.weld_time,
-                                                               fly_by=[self.leg_motion(r, g).fly_by for g in legs]))
+                                                               motions=[self.leg_motion(r, g) for g in legs]))
         return StationSchedule(tuple(schedules), task.homes)
 
     def _best(self, problem: RoutingProblem, candidates: list[Assignment], task: StationTask,

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .time_law import JointLimits, SegmentMotion
+from .time_law import JointLimits, PathMotion
 from .trajectory import Trajectory
 
 # [rad] joint changes below this do not count as a direction (numerical noise of a planner's waypoints)
@@ -17,11 +17,11 @@ def smoothness(traj: Trajectory, limits: JointLimits) -> dict[str, float]:
     direction flips from one moving segment of it to its next) per second of motion, and the largest joint
     acceleration [rad/s^2] of the timed motion."""
     dq = np.diff(traj.waypoints, axis=0)
-    motions = [SegmentMotion(d, limits) for d in dq]
-    duration = sum(m.duration for m in motions)
+    motion = PathMotion(traj.waypoints, limits)
+    duration = motion.duration
     reversals = 0
     for j in range(dq.shape[1]):
         signs = np.sign(dq[np.abs(dq[:, j]) > STILL_JOINT, j])
         reversals += int(np.count_nonzero(signs[1:] != signs[:-1]))
-    peak = max((m.peak_acceleration * float(np.max(np.abs(d))) for m, d in zip(motions, dq)), default=0.0)
-    return {"reversals_per_s": reversals / duration if duration > 0 else 0.0, "peak_joint_acceleration": peak}
+    return {"reversals_per_s": reversals / duration if duration > 0 else 0.0,
+            "peak_joint_acceleration": motion.peak_acceleration()}

@@ -45,15 +45,19 @@ class RobotSchedule:
         motions = self._motions or tuple(time_law.PathMotion(leg, self.limits, f) for leg, f in zip(self.legs, fly))
         object.__setattr__(self, "_motions", motions)
         object.__setattr__(self, "_leg_durations", np.array([m.duration for m in motions]))
+        # legs that move at all (a robot without welds has a leg from Home to Home): next_motion reads it often
+        object.__setattr__(self, "_leg_moves", np.array([m.duration > 0 and bool(np.any(leg[1:] != leg[0]))
+                                                         for m, leg in zip(motions, self.legs)], dtype=bool))
         object.__setattr__(self, "leg_start", np.asarray(self.leg_start, dtype=float))
 
     @staticmethod
     def as_soon_as_possible(robot: int, welds, legs, limits: time_law.JointLimits, weld_time: float,
-                            start: float = 0.0, fly_by=()) -> RobotSchedule:
-        """Every leg starts as soon as the previous weld is done (no waits)."""
-        fly = tuple(fly_by) or (False,) * len(legs)
+                            start: float = 0.0, motions=None) -> RobotSchedule:
+        """Every leg starts as soon as the previous weld is done (no waits). ``motions``: the legs' timed motions
+        (time_law.PathMotion, e.g. flying by their via points); default: stopping at each."""
         legs = tuple(np.asarray(x, dtype=float) for x in legs)
-        motions = tuple(time_law.PathMotion(leg, limits, f) for leg, f in zip(legs, fly))
+        motions = tuple(motions) if motions is not None else tuple(time_law.PathMotion(leg, limits) for leg in legs)
+        fly = tuple(m.fly_by for m in motions)
         starts, t = [], start
         for k, m in enumerate(motions):
             starts.append(t)
@@ -127,8 +131,7 @@ class RobotSchedule:
     def next_motion(self, t: float) -> float:
         """The earliest time >= ``t`` at which the robot moves (``t`` if it is moving; inf once it is Home for
         good)."""
-        ends = self.leg_end()
-        live = (ends > t) & (self._leg_durations > 0) & np.array([np.any(leg[1:] != leg[0]) for leg in self.legs])
+        live = (self.leg_end() > t) & self._leg_moves
         return float(max(t, self.leg_start[live].min())) if live.any() else np.inf
 
     def trajectory(self) -> Trajectory:

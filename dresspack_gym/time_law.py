@@ -274,9 +274,8 @@ class PathMotion:
             for r, tl in zip(rows, local):
                 p, v, _ = traj.at_time(float(min(tl, traj.duration)))
                 q[r], qd[r] = p, v
-        if len(t) and t[-1] >= self.duration:  # exactly at the end (float rounding of the sections' sum)
-            q[t >= self.duration] = self.waypoints[-1]
-            qd[t >= self.duration] = 0.0
+        end = t >= self.duration  # exactly the last point at rest (not the float rounding of the sections' sum)
+        q[end], qd[end] = self.waypoints[-1], 0.0
         return q, qd
 
     def peak_acceleration(self) -> float:
