@@ -107,31 +107,39 @@ def _clear_for(clearance: float, t: float, a: tuple[RobotSchedule, float], b: tu
 
 def coordinate(station: Station, schedule: StationSchedule, pairs: RobotPairDistance | None = None,
                margin: float = ROBOT_MARGIN, order: tuple[int, ...] | None = None) -> tuple[StationSchedule, dict]:
-    """Resolve robot-robot conflicts by waits: robots are placed one by one (``order``, default: every order
-    tried, robots that stay Home first, then the longest programs first, until one works); a leg whose motion or following weld meets an already
-    placed robot starts later, in ``WAIT_STEP`` steps, the robot holding where it is. Returns the schedule and
+    """Resolve robot-robot conflicts by waits: robots are placed one by one in an ``order`` (default: every order
+    tried, robots that stay Home first, and the resolved one of the least makespan kept; the first of equals,
+    trying the longest programs first); a leg whose motion or following weld meets an already placed robot starts
+    later, in ``WAIT_STEP`` steps, the robot holding where it is. Which robot yields changes the waits a lot (one
+    order may add seconds where another adds none), so every order is worth its check; an order is dropped as soon
+    as its waits already make it no shorter than the best. Returns the schedule and
     ``{"order", "waits", "resolved"}``; unresolved conflicts stay (``resolved`` False) and are reported."""
     pairs = pairs or RobotPairDistance(station)
     # robots that stay Home are placed first (they cannot wait their way out of anything)
     idle = tuple(s.robot for s in schedule.robots if not s.welds)
     busy = sorted((s for s in schedule.robots if s.welds), key=lambda s: (-s.end_time, s.robot))
     orders = [tuple(order)] if order is not None else [idle + tuple(s.robot for s in p) for p in permutations(busy)]
-    best = None
+    best, best_order, first = None, None, None
     for o in orders:
-        result, ok = _place_in_order(pairs, schedule, o, margin)
+        cap = best.makespan if best is not None else np.inf
+        result, ok = _place_in_order(pairs, schedule, o, margin, cap)
         if ok:
-            return result, {"order": list(o), "waits": result.total_wait(), "resolved": True}
-        if best is None:
-            best = result
-    return best, {"order": list(orders[0]), "waits": best.total_wait(), "resolved": False}
+            best, best_order = result, o
+        elif first is None and result is not None:
+            first = result
+    if best is not None:
+        return best, {"order": list(best_order), "waits": best.total_wait(), "resolved": True}
+    return first, {"order": list(orders[0]), "waits": first.total_wait(), "resolved": False}
 
 
 def _place_in_order(pairs: RobotPairDistance, schedule: StationSchedule, order: tuple[int, ...],
-                    margin: float) -> tuple[StationSchedule, bool]:
+                    margin: float, cap: float = np.inf) -> tuple[StationSchedule | None, bool]:
     """Place the robots one by one; each is checked against those placed before it (the others are not fixed
     yet). A conflict in leg k's motion or weld delays leg k; a conflict while the robot holds at the stop before
     leg k (another robot passes through it there) delays its arrival at that stop, leg k - 1, instead, and the
-    check goes back to it. A leg is delayed only as far as needed; later legs keep their times when they can."""
+    check goes back to it. A leg is delayed only as far as needed; later legs keep their times when they can.
+    Waits only ever delay, so once the makespan reaches ``cap`` (a better order's) the order is given up:
+    (None, False)."""
     placed: list[int] = []
     current = schedule
     for r in order:
@@ -154,6 +162,8 @@ def _place_in_order(pairs: RobotPairDistance, schedule: StationSchedule, order: 
                 # the other robot comes to this one's Home, or is Home for good in its way: waits cannot help
                 return current.with_robot(mover), False
             mover = mover.delayed(j, WAIT_STEP)
+            if mover.end_time >= cap - 1e-9:
+                return None, False
             k = j
         current = current.with_robot(mover)
         placed.append(r)
