@@ -37,7 +37,7 @@ from .budget import DEFAULT_ITERATIONS
 from .fast_routes import FastLegPlanner, curve_valid
 from .ompl_planner import OmplPlanner
 from .station_solver import (BLOCKED_ESTIMATES, DEFAULT_WORK, INTERLOCKS, LEG_ROUTES, MAKESPAN_SLACK, OBJECTIVES,
-                             SPAN_WEIGHT, Assignment, RoutingProblem, lower_bound, solve)
+                             SPAN_WEIGHT, Assignment, RoutingProblem, lower_bound, relaxation_bound, solve)
 
 EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estimate by more is re-solved with it
 # rounds allowed, as a multiple of exact_rounds, while no solved answer has every leg planned (legs that jam their
@@ -149,6 +149,7 @@ class StationPlan:
             "makespan": round(self.schedule.makespan, 3),
             "makespan_lower_bound": round(self.bound["bound"], 3),
             "gap_to_bound": round(self.schedule.makespan / self.bound["bound"] - 1.0, 4),
+            "lower_bounds": {k: None if v is None else round(v, 3) for k, v in self.bound.items()},
             "total_wait": round(self.schedule.total_wait(), 3),
             "estimate": self.assignment.estimate,
             "coordination": self.coordination,
@@ -182,6 +183,7 @@ class StationPlanner:
         # one option list), so a reconfigured planner with other options never reads a wrong one
         self._legs: dict[tuple, np.ndarray | None] = {}
         self._conflicts: dict[bytes, np.ndarray] = {}
+        self._relaxations: dict[bytes, dict] = {}  # relaxation_bound of a straight-move problem
         self._sub_sims: dict[int, CableSimulator] = {}
         # legs re-routed after they jammed a cable, over the planned ones (per planner: one objective's replays
         # do not change another's plan), and the re-routes each has used
@@ -446,14 +448,19 @@ class StationPlanner:
         return np.stack([time_law.segment_durations(qs[None, :, :] - qs[:, None, :], self.limits[r])
                          for r in range(len(self.limits))])
 
-    @staticmethod
-    def _bound(problem: RoutingProblem, straight: np.ndarray, solver_bound: float) -> dict:
-        """Makespan lower bounds of any plan over these options: the analytic ones (station_solver.lower_bound)
-        on the straight-move times (not the planned legs' times: a planned path is one way, not the fastest),
-        and the solver's (``solver``: CP-SAT's bound, from rounds whose every leg time was a straight move)."""
-        b = lower_bound(replace(problem, travel=straight))
-        b["solver"] = solver_bound
-        b["bound"] = max(b["bound"], solver_bound)
+    def _bound(self, problem: RoutingProblem, straight: np.ndarray, solver_bound: float) -> dict:
+        """Makespan lower bounds of any plan over these options, all on the straight-move times (not the planned
+        legs' times: a planned path is one way, not the fastest): the analytic ones (station_solver.lower_bound),
+        CP-SAT's bound on the routes without conflicts (``relaxation``, station_solver.relaxation_bound), and
+        the rounds' (``solver``: CP-SAT's bound, from rounds whose every leg time was a straight move)."""
+        relaxed = replace(problem, travel=straight)
+        b = lower_bound(relaxed)
+        key = straight.tobytes() + problem.node_robot.tobytes() + problem.node_weld.tobytes() + \
+            np.float64(problem.weld_time).tobytes()
+        if key not in self._relaxations:  # the same for every objective: solved once
+            self._relaxations[key] = relaxation_bound(relaxed, seed=self.config.seed)
+        b.update(self._relaxations[key], solver=solver_bound)
+        b["bound"] = max(b["bound"], solver_bound, b["relaxation"] or 0.0)
         return b
 
     def _schedule(self, task: StationTask, options: list[WeldOption], routes, qs) -> StationSchedule:
@@ -586,12 +593,15 @@ class StationPlanner:
             problem = self.problem(task, options)
             # the fastest answer two ways: conflicting welds scheduled apart, or charged a wait and so avoided
             # (whose answers' legs cross less); both are candidates, and the coordination of their planned legs
-            # decides. Later rounds start from the previous answer (still feasible: only leg times changed)
+            # decides. Later rounds start from the fastest routes known under this round's times, of the previous
+            # answers and every candidate so far (all still feasible: only leg times changed): a previous answer
+            # can have lost a leg to a jam or grown by its planned detours, and CP-SAT, which does not converge
+            # within its work, would stay near a start worse than one in hand
+            known = [*answers.values(), *candidates]
+            start = min(known, key=lambda a: _fastest_first(problem, a.routes)).routes if known else None
             for model in INTERLOCKS:
-                previous_answer = answers.get(model)
                 answers[model] = solve(problem, "time", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
-                                       start=previous_answer.routes if previous_answer is not None else None,
-                                       interlocks=model)
+                                       start=start, interlocks=model)
                 solves += 1
             fastest = min(answers.values(), key=lambda a: (a.estimate["timed_makespan"], a.estimate["time"]))
             if np.array_equal(problem.travel, straight):  # a bound of any plan only while no leg is a planned path
@@ -723,6 +733,12 @@ class StationPlanner:
         if self.progress is None:
             return _NoBar()
         return self.progress(label, total)
+
+
+def _fastest_first(problem: RoutingProblem, routes: list[list[int]]) -> tuple[float, float]:
+    """How ``routes`` rank in ``problem``'s times: makespan with the interlocks' waits, then summed time."""
+    e = problem.evaluate(routes)
+    return e["timed_makespan"], e["time"]
 
 
 def _task_key(task: StationTask) -> tuple:

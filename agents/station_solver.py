@@ -25,6 +25,8 @@ TIME_SCALE = 1000  # integer costs: milliseconds
 WEAR_SCALE = 100_000  # integer costs: 1e-5 of the wear cost's unit x s (fine enough for a Home rate per ms)
 SPAN_WEIGHT = 100  # makespan against the sum of route times in the time objective (min-max first)
 DEFAULT_WORK = 10.0  # CP-SAT deterministic seconds per solve (the solver's work budget, machine-independent)
+BOUND_WORK = 10.0  # CP-SAT deterministic seconds spent bounding the makespan (relaxation_bound)
+SOLVER_WORKERS = 2  # CP-SAT's interleaved workers (the results depend on this number, not on the cores)
 HINT_SOLUTIONS = 20  # routing local-search solutions behind CP-SAT's first assignment
 HINT_BRANCHES = 100_000  # ... or at most this many search branches (work units; ~150 find 20 solutions)
 MAKESPAN_SLACK = 0.10  # wear objective: makespan allowed above the time-optimal plan's (as a fraction)
@@ -273,26 +275,15 @@ def _routing_first(problem: RoutingProblem, arc_cost, span: int, cap: int, horiz
     return routes
 
 
-def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: float, seed: int,
-            time_limit: float | None, objective: str = "time",
-            interlocks: str = "timed") -> tuple[list[list[int]] | None, dict]:
-    """The exact model: per robot a circuit through its Home and the options it takes (the others skipped by
-    self-loops); each weld's options taken exactly once; each taken weld's end time follows its route's arcs,
-    and two conflicting welds that are both taken start ``conflict_wait`` apart (either first), so the robots'
-    waits for each other are in the makespan (``interlocks="charged"``: each route is charged half of
-    ``conflict_wait`` per pair instead); route ends within the cap; the objective with the makespan weighted by
-    ``span`` (min-max first)."""
-    from ortools.sat.python import cp_model
-
-    R = problem.n_robots
-    m = cp_model.CpModel()
-    taken = {}
-    arcs_of, busy, cost_terms = [], [], []  # busy: each route's legs and welds [ms], without waits
-    for r in range(R):
+def _route_circuits(m, problem: RoutingProblem) -> tuple[dict, list[dict]]:
+    """The routes in CP-SAT model ``m``: per robot a circuit through its Home and the options it takes (the
+    others skipped by self-loops; a robot that takes none stays Home), each weld's options taken exactly once.
+    Returns the literal of each (robot, option) taken and, per robot, the literal of each arc (a, b)."""
+    taken, arcs_of = {}, []
+    for r in range(problem.n_robots):
         nodes = [r] + [int(n) for n in np.flatnonzero((problem.node_robot == r) & (problem.node_weld >= 0))]
         local = {n: k for k, n in enumerate(nodes)}
-        t = np.rint(problem.leg_time(r) * TIME_SCALE).astype(np.int64)
-        arcs, lits, times, costs = [], {}, [], []
+        arcs, lits = [], {}
         idle = m.new_bool_var(f"idle{r}")
         arcs.append((0, 0, idle))
         for n in nodes[1:]:
@@ -307,14 +298,32 @@ def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: 
                 x = m.new_bool_var(f"x{r}_{a}_{b}")
                 lits[(a, b)] = x
                 arcs.append((local[a], local[b], x))
-                times.append(int(t[a, b]) * x)
-                costs.append(int(arc_cost[r][a, b]) * x)
         m.add_circuit(arcs)
-        busy.append(sum(times))
-        cost_terms += costs
         arcs_of.append(lits)
     for w in range(problem.n_welds):
         m.add_exactly_one([taken[(int(problem.node_robot[n]), int(n))] for n in np.flatnonzero(problem.node_weld == w)])
+    return taken, arcs_of
+
+
+def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: float, seed: int,
+            time_limit: float | None, objective: str = "time",
+            interlocks: str = "timed") -> tuple[list[list[int]] | None, dict]:
+    """The exact model: per robot a circuit through its Home and the options it takes (the others skipped by
+    self-loops); each weld's options taken exactly once; each taken weld's end time follows its route's arcs,
+    and two conflicting welds that are both taken start ``conflict_wait`` apart (either first), so the robots'
+    waits for each other are in the makespan (``interlocks="charged"``: each route is charged half of
+    ``conflict_wait`` per pair instead); route ends within the cap; the objective with the makespan weighted by
+    ``span`` (min-max first)."""
+    from ortools.sat.python import cp_model
+
+    R = problem.n_robots
+    m = cp_model.CpModel()
+    taken, arcs_of = _route_circuits(m, problem)
+    busy, cost_terms = [], []  # busy: each route's legs and welds [ms], without waits
+    for r, lits in enumerate(arcs_of):
+        t = np.rint(problem.leg_time(r) * TIME_SCALE).astype(np.int64)
+        busy.append(sum(int(t[a, b]) * x for (a, b), x in lits.items()))
+        cost_terms += [int(arc_cost[r][a, b]) * x for (a, b), x in lits.items()]
     ends, rets, firsts = [], [], {}  # rets: when each robot is back Home, waits included
     conflicts = problem.conflicts if problem.conflicts is not None and problem.conflict_wait > 0 else []
     if interlocks == "timed":
@@ -384,7 +393,10 @@ def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: 
             m.add_hint(x, first.get(key, True))
         m.add_hint(makespan, max(ret_ms))
     solver = cp_model.CpSolver()
-    solver.parameters.num_workers = 1  # one worker: the search is deterministic
+    # CP-SAT's portfolio of searches, its large-neighbourhood ones among them, interleaved: deterministic whatever
+    # the machine (the workers' tasks run in fixed batches); one plain worker has no LNS and stalls on these routes
+    solver.parameters.num_workers = SOLVER_WORKERS
+    solver.parameters.interleave_search = True
     solver.parameters.random_seed = int(seed)
     solver.parameters.max_deterministic_time = float(work)
     if time_limit is not None:
@@ -442,3 +454,32 @@ def lower_bound(problem: RoutingProblem) -> dict:
     load = min((total + sum(returns[:u])) / u for u in range(1, len(returns) + 1)) if returns else total
     return {"single": float(single), "load": float(load), "forced": float(forced.max()),
             "bound": float(max(single, load, forced.max()))}
+
+
+def relaxation_bound(problem: RoutingProblem, work: float = BOUND_WORK, seed: int = 0) -> dict:
+    """A lower bound [s] on the makespan of any routes of ``problem``, waits included: CP-SAT's proven bound on
+    the min-max routes with the conflicts ignored (a wait only lengthens a plan) and every leg time rounded down
+    to whole milliseconds, so the bound stays below the true optimum. Solving this smaller model alone, with
+    CP-SAT's strongest linear relaxation, bounds far tighter than the full model's objective does.
+    ``relaxation``: the bound; ``relaxation_best``: the best routes it found (their makespan in the relaxation;
+    the bound is proven tight when the two meet), both None if CP-SAT proved nothing within ``work``."""
+    from ortools.sat.python import cp_model
+
+    m = cp_model.CpModel()
+    _, arcs_of = _route_circuits(m, problem)
+    times = [np.floor(problem.leg_time(r) * TIME_SCALE).astype(np.int64) for r in range(problem.n_robots)]
+    horizon = int(max(t.max() for t in times)) * (problem.n_welds + 2) + 1
+    makespan = m.new_int_var(0, horizon, "makespan")
+    for t, lits in zip(times, arcs_of):
+        m.add(makespan >= sum(int(t[a, b]) * x for (a, b), x in lits.items()))
+    m.minimize(makespan)
+    solver = cp_model.CpSolver()
+    solver.parameters.num_workers = 1  # deterministic
+    solver.parameters.random_seed = int(seed)
+    solver.parameters.max_deterministic_time = float(work)
+    solver.parameters.linearization_level = 2  # cuts from the circuits: the bound this is for
+    status = solver.solve(m)
+    if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
+        return {"relaxation": None, "relaxation_best": None}
+    return {"relaxation": float(solver.best_objective_bound) / TIME_SCALE,
+            "relaxation_best": float(solver.objective_value) / TIME_SCALE}

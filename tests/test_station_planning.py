@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from dresspack.agents.station_planning import StationPlanConfig, StationPlanner, _leg_key
-from dresspack.agents.station_solver import RoutingProblem, lower_bound, solve
+from dresspack.agents.station_solver import RoutingProblem, lower_bound, relaxation_bound, solve
 from dresspack_gym.config import StationConfig
 from dresspack_gym.coordination import RobotPairDistance, coordinate, verify
 from dresspack_gym.errors import ConfigError
@@ -82,6 +82,11 @@ def test_solver_assignment_is_optimal_against_brute_force(seed):
         assert all(p.node_robot[n] == r for n in route)  # a robot visits its own options only
     assert a.estimate["makespan"] == pytest.approx(brute_force_makespan(p), abs=2e-3)
     assert lower_bound(p)["bound"] <= a.estimate["makespan"] + 1e-9
+    # the relaxation (no conflicts here: the problem itself) is solved to optimality on problems this small, so its
+    # bound is the optimum, less at most the legs' times rounded down to whole milliseconds
+    relaxed = relaxation_bound(p)
+    assert relaxed["relaxation"] == relaxed["relaxation_best"]
+    assert a.estimate["makespan"] - (p.n_welds + 1) * 1e-3 <= relaxed["relaxation"] <= a.estimate["makespan"] + 1e-9
 
 
 def test_solver_is_deterministic_and_wear_objective_respects_the_makespan_cap():
@@ -150,6 +155,8 @@ def test_conflicting_welds_start_apart_and_the_wait_is_in_the_makespan():
     assert earliest_timed_makespan(p, a.routes) == pytest.approx(6.0)
     b = solve(replace(p, conflict_wait=5.0), "time", work=5)
     assert sorted(map(len, b.routes)) == [0, 2] and b.estimate["timed_makespan"] == pytest.approx(7.0)
+    # the relaxation bound ignores the conflicts: the split's 3 s, a bound of both waits' plans
+    assert relaxation_bound(p)["relaxation"] == pytest.approx(3.0)
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3, 5])  # problems whose interlocks change the best answer
@@ -271,6 +278,28 @@ def test_coordination_resolves_a_conflict_by_waiting_and_the_dense_check_confirm
     first = fixed.robot(info["order"][0])
     second = fixed.robot(info["order"][1])
     assert second.leg_start[0] >= first.leg_end()[0] + first.weld_time - second.leg_durations()[0]
+
+
+def test_coordination_keeps_the_order_of_least_makespan(two_robot_station):
+    """Both robots to one weld; r2 welds 5 s, r1 1 s. Placing the longest program first (r2, r1 waits for it)
+    ends later than letting r1 through first: coordination tries both orders and keeps the shorter, which is
+    the shortest of the orders tried one by one."""
+    task = make_station_task(two_robot_station, lambda r: None, ["r2_b_pillar_1"])
+    q = {r: next(o.q for o in task.options["r2_b_pillar_1"] if o.robot == r) for r in (0, 1)}
+    limits = two_robot_station.config.robots[0].robot.joint_motion_limits.at_speed(
+        two_robot_station.config.simulation.speed_fraction)
+    robots = tuple(RobotSchedule.as_soon_as_possible(r, ["r2_b_pillar_1"], [np.array([task.homes[r], q[r]]),
+                                                                             np.array([q[r], task.homes[r]])],
+                                                     limits, weld) for r, weld in ((0, 1.0), (1, 5.0)))
+    schedule = StationSchedule(robots, task.homes)
+    assert robots[1].end_time > robots[0].end_time
+    pairs = RobotPairDistance(two_robot_station)
+    each = {o: coordinate(two_robot_station, schedule, pairs, order=o)[0].makespan for o in ((0, 1), (1, 0))}
+    assert each[(0, 1)] < each[(1, 0)] - 0.05  # the longest-first order is the worse one here
+    fixed, info = coordinate(two_robot_station, schedule, pairs)
+    assert info["resolved"] and info["order"] == [0, 1]
+    assert fixed.makespan == pytest.approx(min(each.values()), abs=1e-12)
+    assert verify(two_robot_station, fixed, pairs=pairs)["collisions"] == 0
 
 
 def test_pair_distance_matches_base_separation(two_robot_station):
