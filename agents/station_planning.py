@@ -593,15 +593,12 @@ class StationPlanner:
             problem = self.problem(task, options)
             # the fastest answer two ways: conflicting welds scheduled apart, or charged a wait and so avoided
             # (whose answers' legs cross less); both are candidates, and the coordination of their planned legs
-            # decides. Later rounds start from the fastest routes known under this round's times, of the previous
-            # answers and every candidate so far (all still feasible: only leg times changed): a previous answer
-            # can have lost a leg to a jam or grown by its planned detours, and CP-SAT, which does not converge
-            # within its work, would stay near a start worse than one in hand
-            known = [*answers.values(), *candidates]
-            start = min(known, key=lambda a: _fastest_first(problem, a.routes)).routes if known else None
+            # decides. Later rounds start from the previous answer (still feasible: only leg times changed)
             for model in INTERLOCKS:
+                previous_answer = answers.get(model)
                 answers[model] = solve(problem, "time", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
-                                       start=start, interlocks=model)
+                                       start=previous_answer.routes if previous_answer is not None else None,
+                                       interlocks=model)
                 solves += 1
             fastest = min(answers.values(), key=lambda a: (a.estimate["timed_makespan"], a.estimate["time"]))
             if np.array_equal(problem.travel, straight):  # a bound of any plan only while no leg is a planned path
@@ -733,12 +730,6 @@ class StationPlanner:
         if self.progress is None:
             return _NoBar()
         return self.progress(label, total)
-
-
-def _fastest_first(problem: RoutingProblem, routes: list[list[int]]) -> tuple[float, float]:
-    """How ``routes`` rank in ``problem``'s times: makespan with the interlocks' waits, then summed time."""
-    e = problem.evaluate(routes)
-    return e["timed_makespan"], e["time"]
 
 
 def _task_key(task: StationTask) -> tuple:

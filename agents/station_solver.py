@@ -26,7 +26,6 @@ WEAR_SCALE = 100_000  # integer costs: 1e-5 of the wear cost's unit x s (fine en
 SPAN_WEIGHT = 100  # makespan against the sum of route times in the time objective (min-max first)
 DEFAULT_WORK = 10.0  # CP-SAT deterministic seconds per solve (the solver's work budget, machine-independent)
 BOUND_WORK = 10.0  # CP-SAT deterministic seconds spent bounding the makespan (relaxation_bound)
-SOLVER_WORKERS = 2  # CP-SAT's interleaved workers (the results depend on this number, not on the cores)
 HINT_SOLUTIONS = 20  # routing local-search solutions behind CP-SAT's first assignment
 HINT_BRANCHES = 100_000  # ... or at most this many search branches (work units; ~150 find 20 solutions)
 MAKESPAN_SLACK = 0.10  # wear objective: makespan allowed above the time-optimal plan's (as a fraction)
@@ -393,10 +392,7 @@ def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: 
             m.add_hint(x, first.get(key, True))
         m.add_hint(makespan, max(ret_ms))
     solver = cp_model.CpSolver()
-    # CP-SAT's portfolio of searches, its large-neighbourhood ones among them, interleaved: deterministic whatever
-    # the machine (the workers' tasks run in fixed batches); one plain worker has no LNS and stalls on these routes
-    solver.parameters.num_workers = SOLVER_WORKERS
-    solver.parameters.interleave_search = True
+    solver.parameters.num_workers = 1  # one worker: the search is deterministic
     solver.parameters.random_seed = int(seed)
     solver.parameters.max_deterministic_time = float(work)
     if time_limit is not None:

@@ -112,7 +112,8 @@ def coordinate(station: Station, schedule: StationSchedule, pairs: RobotPairDist
     trying the longest programs first); a leg whose motion or following weld meets an already placed robot starts
     later, in ``WAIT_STEP`` steps, the robot holding where it is. Which robot yields changes the waits a lot (one
     order may add seconds where another adds none), so every order is worth its check; an order is dropped as soon
-    as its waits already make it no shorter than the best. Returns the schedule and
+    as its waits already make it no shorter than the best, and the search ends at an order whose waits end no later
+    than the program without them. Returns the schedule and
     ``{"order", "waits", "resolved"}``; unresolved conflicts stay (``resolved`` False) and are reported."""
     pairs = pairs or RobotPairDistance(station)
     # robots that stay Home are placed first (they cannot wait their way out of anything)
@@ -125,6 +126,8 @@ def coordinate(station: Station, schedule: StationSchedule, pairs: RobotPairDist
         result, ok = _place_in_order(pairs, schedule, o, margin, cap)
         if ok:
             best, best_order = result, o
+            if best.makespan <= schedule.makespan + 1e-9:
+                break  # no waits lengthen it: no order can end sooner
         elif first is None and result is not None:
             first = result
     if best is not None:
