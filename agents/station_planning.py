@@ -494,8 +494,22 @@ class StationPlanner:
                                 f"iterations in {EXTRA_ROUNDS * cfg.exact_rounds} rounds (raise --iterations)")
         scored = []
         bar = self._bar("coordinating the candidate plans", len(exact))
+        # the time objective wants the fastest coordinated candidate only: candidates in order of their makespan
+        # without waits, each coordinated only as far as it can still beat the best so far (waits only add), and
+        # skipped once even its makespan without waits cannot. The same answer as coordinating all of them
+        fastest_only = cfg.objective == "time"
+        if fastest_only:
+            exact.sort(key=lambda a: a.estimate["makespan"])
+        beat = np.inf
         for a in exact:
-            schedule, info = coordinate(self.station, self._schedule(task, options, a.routes, qs), pairs)
+            bar.update(1)
+            if a.estimate["makespan"] >= beat:
+                continue
+            schedule, info = coordinate(self.station, self._schedule(task, options, a.routes, qs), pairs, cap=beat)
+            if schedule is None:  # every order ended no sooner than the best so far
+                continue
+            if fastest_only and info["resolved"]:
+                beat = min(beat, schedule.makespan)
             stops = {r: [r, *route] for r, route in enumerate(a.routes)}
             wait_wear = sum(w * problem.cost_rate[stops[s.robot][k]] for s in schedule.robots
                             for k, w in enumerate(s.waits()))
@@ -505,7 +519,6 @@ class StationPlanner:
                               wear_with_waits=a.estimate["wear"] - a.estimate["idle_wear"] + float(wait_wear) + idle,
                               resolved=info["resolved"])
             scored.append((a, schedule, info))
-            bar.update(1)
         bar.close()
         ok = [x for x in scored if x[2]["resolved"]] or scored
         fastest = min(ok, key=lambda x: (x[1].makespan, x[0].estimate["time"]))

@@ -106,7 +106,8 @@ def _clear_for(clearance: float, t: float, a: tuple[RobotSchedule, float], b: tu
 
 
 def coordinate(station: Station, schedule: StationSchedule, pairs: RobotPairDistance | None = None,
-               margin: float = ROBOT_MARGIN, order: tuple[int, ...] | None = None) -> tuple[StationSchedule, dict]:
+               margin: float = ROBOT_MARGIN, order: tuple[int, ...] | None = None,
+               cap: float = np.inf) -> tuple[StationSchedule | None, dict]:
     """Resolve robot-robot conflicts by waits: robots are placed one by one in an ``order`` (default: every order
     tried, robots that stay Home first, and the resolved one of the least makespan kept; the first of equals,
     trying the longest programs first); a leg whose motion or following weld meets an already placed robot starts
@@ -114,7 +115,9 @@ def coordinate(station: Station, schedule: StationSchedule, pairs: RobotPairDist
     order may add seconds where another adds none), so every order is worth its check; an order is dropped as soon
     as its waits already make it no shorter than the best, and the search ends at an order whose waits end no later
     than the program without them. Returns the schedule and
-    ``{"order", "waits", "resolved"}``; unresolved conflicts stay (``resolved`` False) and are reported."""
+    ``{"order", "waits", "resolved"}``; unresolved conflicts stay (``resolved`` False) and are reported. ``cap``
+    [s]: a makespan in hand elsewhere; orders are dropped once they end no sooner, and if every order is, the
+    schedule returned is None."""
     pairs = pairs or RobotPairDistance(station)
     # robots that stay Home are placed first (they cannot wait their way out of anything)
     idle = tuple(s.robot for s in schedule.robots if not s.welds)
@@ -122,8 +125,7 @@ def coordinate(station: Station, schedule: StationSchedule, pairs: RobotPairDist
     orders = [tuple(order)] if order is not None else [idle + tuple(s.robot for s in p) for p in permutations(busy)]
     best, best_order, first = None, None, None
     for o in orders:
-        cap = best.makespan if best is not None else np.inf
-        result, ok = _place_in_order(pairs, schedule, o, margin, cap)
+        result, ok = _place_in_order(pairs, schedule, o, margin, best.makespan if best is not None else cap)
         if ok:
             best, best_order = result, o
             if best.makespan <= schedule.makespan + 1e-9:
@@ -132,6 +134,8 @@ def coordinate(station: Station, schedule: StationSchedule, pairs: RobotPairDist
             first = result
     if best is not None:
         return best, {"order": list(best_order), "waits": best.total_wait(), "resolved": True}
+    if first is None:
+        return None, {"order": list(orders[0]), "waits": None, "resolved": False}
     return first, {"order": list(orders[0]), "waits": first.total_wait(), "resolved": False}
 
 

@@ -300,6 +300,10 @@ def test_coordination_keeps_the_order_of_least_makespan(two_robot_station):
     assert info["resolved"] and info["order"] == [0, 1]
     assert fixed.makespan == pytest.approx(min(each.values()), abs=1e-12)
     assert verify(two_robot_station, fixed, pairs=pairs)["collisions"] == 0
+    # with a shorter makespan in hand elsewhere, no order is worth finishing; with a longer one the same answer
+    assert coordinate(two_robot_station, schedule, pairs, cap=fixed.makespan - 0.01)[0] is None
+    capped, capped_info = coordinate(two_robot_station, schedule, pairs, cap=fixed.makespan + 0.01)
+    assert capped.makespan == fixed.makespan and capped_info["order"] == info["order"]
 
 
 def test_pair_distance_matches_base_separation(two_robot_station):
