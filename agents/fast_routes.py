@@ -84,7 +84,8 @@ def shorten(path: np.ndarray, validity: MotionValidity, limits: time_law.JointLi
         p = path[i] + si * (path[i + 1] - path[i])
         q = path[j] + sj * (path[j + 1] - path[j])
         new = np.vstack([path[:i + 1], p, q, path[j + 1:]])
-        if time_law.path_duration(new, limits) < time_law.path_duration(path, limits) - 1e-9 and validity.segment_valid(p, q):
+        if time_law.path_duration(new, limits) < time_law.path_duration(path, limits) - 1e-9 \
+                and validity.segment_valid(p, q):
             path = new
     return _pull(path, validity, limits)
 

@@ -151,9 +151,7 @@ class RoutingProblem:
         makespan = m.new_int_var(0, horizon, "makespan")
         m.add_max_equality(makespan, rets)
         m.minimize(makespan)
-        solver = cp_model.CpSolver()
-        solver.parameters.num_workers = 1  # deterministic
-        solver.parameters.max_deterministic_time = DEFAULT_WORK
+        solver = _deterministic_solver(DEFAULT_WORK)
         status = solver.solve(m)
         if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):  # every order is feasible: cannot happen
             raise RuntimeError(f"timing {len(pairs)} conflicting weld pairs: CP-SAT status {solver.status_name(status)}")
@@ -274,6 +272,19 @@ def _routing_first(problem: RoutingProblem, arc_cost, span: int, cap: int, horiz
     return routes
 
 
+def _deterministic_solver(work: float, seed: int | None = None):
+    """A CP-SAT solver whose answer depends only on the model, ``work`` (deterministic seconds, CP-SAT's
+    machine-independent work measure) and ``seed`` (None: CP-SAT's default): one worker, as several race."""
+    from ortools.sat.python import cp_model
+
+    solver = cp_model.CpSolver()
+    solver.parameters.num_workers = 1
+    if seed is not None:
+        solver.parameters.random_seed = int(seed)
+    solver.parameters.max_deterministic_time = float(work)
+    return solver
+
+
 def _route_circuits(m, problem: RoutingProblem) -> tuple[dict, list[dict]]:
     """The routes in CP-SAT model ``m``: per robot a circuit through its Home and the options it takes (the
     others skipped by self-loops; a robot that takes none stays Home), each weld's options taken exactly once.
@@ -391,10 +402,7 @@ def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: 
         for key, x in firsts.items():
             m.add_hint(x, first.get(key, True))
         m.add_hint(makespan, max(ret_ms))
-    solver = cp_model.CpSolver()
-    solver.parameters.num_workers = 1  # one worker: the search is deterministic
-    solver.parameters.random_seed = int(seed)
-    solver.parameters.max_deterministic_time = float(work)
+    solver = _deterministic_solver(work, seed)
     if time_limit is not None:
         solver.parameters.max_time_in_seconds = float(time_limit)
     status = solver.solve(m)
@@ -469,10 +477,7 @@ def relaxation_bound(problem: RoutingProblem, work: float = BOUND_WORK, seed: in
     for t, lits in zip(times, arcs_of):
         m.add(makespan >= sum(int(t[a, b]) * x for (a, b), x in lits.items()))
     m.minimize(makespan)
-    solver = cp_model.CpSolver()
-    solver.parameters.num_workers = 1  # deterministic
-    solver.parameters.random_seed = int(seed)
-    solver.parameters.max_deterministic_time = float(work)
+    solver = _deterministic_solver(work, seed)
     solver.parameters.linearization_level = 2  # cuts from the circuits: the bound this is for
     status = solver.solve(m)
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
