@@ -21,7 +21,7 @@ def add_station_plan_command(sub) -> None:
     p.add_argument("station", help="station YAML or shipped name (e.g. side_framing_4r)")
     p.add_argument("--objective", nargs="+", choices=OBJECTIVES, default=["time", "wear"],
                    help="time: shortest makespan; wear: least estimated wear within --makespan-slack of the "
-                        "shortest; balanced: time + wear in equal measure. Several: one plan each, compared "
+                        "time plan's makespan; balanced: time + wear in equal measure. Several: one plan each, compared "
                         "(default: time wear)")
     p.add_argument("--weld-time", type=number(0, 600, unit="s"), default=1.0,
                    help="seconds a robot stands still at each weld (default 1)")
@@ -29,7 +29,7 @@ def add_station_plan_command(sub) -> None:
     p.add_argument("--fixed-assignment", action="store_true",
                    help="each weld by the robot its YAML names (default: by any robot that reaches it)")
     p.add_argument("--makespan-slack", type=number(0, 10), default=0.10,
-                   help="wear objective: makespan allowed above the fastest plan's, as a fraction (default 0.1)")
+                   help="wear objective: makespan allowed above the time plan's, as a fraction (default 0.1)")
     p.add_argument("--work", type=number(0, 1e6, lo_open=True), default=DEFAULT_WORK,
                    help="solver work budget per solve, in CP-SAT deterministic seconds (machine-independent; "
                         f"default {DEFAULT_WORK:g})")
