@@ -200,6 +200,7 @@ class StationPlanner:
         # answer as a candidate, and the command has usually just planned it with the same settings (a plan
         # depends only on these, so the answer and the legs it asked for are reused, not planned again)
         self._time_answers: dict[tuple, tuple] = {}
+        self._candidates: list[Assignment] = []  # the last rounds' candidates (a cable repair keeps them)
 
     def reconfigured(self, config: StationPlanConfig) -> StationPlanner:
         """A planner with ``config`` that keeps this one's settled-cable costs and planned legs (same station,
@@ -574,9 +575,12 @@ class StationPlanner:
             self._rerouted.update(rerouted)
             self._reroutes.update(reroutes)
             self._reroute_log += [{**e, "why": e["why"] + " (planning the time objective)"} for e in log]
-        best = None
+        best, earlier = None, []
         for repair in range(cfg.cable_repairs + 1):
-            plan = self._plan_legs(task, options, qs, stops, given, reference)
+            # a repair keeps the answers found before it as candidates (with the jammed leg re-routed, or blocked,
+            # which drops them): its rounds look for better ones, they do not start over without them
+            plan = self._plan_legs(task, options, qs, stops, [*given, *earlier], reference)
+            earlier = self._candidates
             if cfg.cable_repairs == 0:
                 return self._finished(plan, task)
             self.replay(plan)
@@ -658,6 +662,7 @@ class StationPlanner:
         bar.close()
         problem = self.problem(task, options)
         pairs = RobotPairDistance(self.station)
+        self._candidates = list(candidates)
         assignment, schedule, coordination = self._best(problem, candidates, task, options, qs, pairs, reference)
         verification = verify(self.station, schedule, pairs=pairs)
         plan = StationPlan(task, [r.name for r in self.station.config.robots], options, assignment, schedule,

@@ -575,6 +575,27 @@ def test_a_leg_that_jams_its_cable_alone_is_rerouted_while_planning(two_robot_st
     assert plan.info["simulated_legs"] > 0
 
 
+def test_a_cable_repair_keeps_the_answers_found_before_it(two_robot_station, monkeypatch):
+    """A jam found in the station replay re-routes its leg and the station is planned again: the answers of the
+    rounds before are still candidates then (their jammed leg re-routed), not thrown away."""
+    config = StationPlanConfig(kept_options=2, costed_options=2, cable_repairs=1, work=0.5)
+    planner = StationPlanner(two_robot_station, config)
+    real, before, calls = StationPlanner.jammed_legs, [], []
+
+    def jam_once(self, plan, qs):  # the first replay's verdict: the first leg of a robot that works jammed
+        calls.append(len(self._candidates))
+        if not before:
+            before.extend(self._candidates)
+            r = next(r for r, route in enumerate(plan.assignment.routes) if route)
+            return [(r, r, plan.assignment.routes[r][0])]
+        return real(self, plan, qs)
+
+    monkeypatch.setattr(StationPlanner, "jammed_legs", jam_once)
+    planner.plan()
+    assert len(calls) == 2 and calls[1] > calls[0]  # the repair's rounds added answers to the earlier ones
+    assert before and all(any(c is b for c in planner._candidates) for b in before)
+
+
 def brute_force_wear(p: RoutingProblem, cap: float) -> float:
     """The least wear within a makespan cap by enumeration, counting the cables of robots done early hanging at
     Home until the makespan (every weld to every robot, every order, every option)."""
