@@ -21,8 +21,8 @@ def add_station_plan_command(sub) -> None:
     p.add_argument("station", help="station YAML or shipped name (e.g. side_framing_4r)")
     p.add_argument("--objective", nargs="+", choices=OBJECTIVES, default=["time", "wear"],
                    help="time: shortest makespan; wear: least estimated wear within --makespan-slack of the "
-                        "time plan's makespan; balanced: time + wear in equal measure. Several: one plan each, compared "
-                        "(default: time wear)")
+                        "time plan's makespan; balanced: time + wear in equal measure. Several: one plan each, "
+                        "compared (default: time wear)")
     p.add_argument("--weld-time", type=number(0, 600, unit="s"), default=1.0,
                    help="seconds a robot stands still at each weld (default 1)")
     p.add_argument("--welds", nargs="+", default=None, help="weld point names to plan (default: all)")
