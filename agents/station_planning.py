@@ -575,12 +575,12 @@ class StationPlanner:
             self._rerouted.update(rerouted)
             self._reroutes.update(reroutes)
             self._reroute_log += [{**e, "why": e["why"] + " (planning the time objective)"} for e in log]
-        best, earlier = None, []
+        best = None
         for repair in range(cfg.cable_repairs + 1):
-            # a repair keeps the answers found before it as candidates (with the jammed leg re-routed, or blocked,
-            # which drops them): its rounds look for better ones, they do not start over without them
-            plan = self._plan_legs(task, options, qs, stops, [*given, *earlier], reference)
-            earlier = self._candidates
+            plan = self._plan_legs(task, options, qs, stops, given, reference)
+            # a repair keeps every candidate so far, ``given`` ones included (with the jammed leg re-routed, or
+            # blocked, which drops them): its rounds look for better ones, they do not start over without them
+            given = self._candidates
             if cfg.cable_repairs == 0:
                 return self._finished(plan, task)
             self.replay(plan)
