@@ -195,7 +195,10 @@ def test_maskable_ppo_runs_on_the_env():
     """sb3-contrib picks up action_masks() (the full training pipeline is a separate command)."""
     contrib = pytest.importorskip("sb3_contrib")
     e = DresspackEnv(station="thesis_distance", max_steps=16)
+    from stable_baselines3.common.logger import Logger
+
     model = contrib.MaskablePPO("MlpPolicy", e, n_steps=16, batch_size=16, n_epochs=1, seed=0, verbose=0)
+    model.set_logger(Logger(folder=None, output_formats=[]))  # SB3's default logger leaves a /tmp/SB3-* folder
     model.learn(total_timesteps=32)
     obs, _ = e.reset(seed=0)
     action, _ = model.predict(obs, action_masks=e.action_masks(), deterministic=True)
