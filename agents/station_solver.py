@@ -8,6 +8,7 @@ answer on any machine."""
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +29,13 @@ DEFAULT_WORK = 10.0  # CP-SAT deterministic seconds per solve (the solver's work
 BOUND_WORK = 10.0  # CP-SAT deterministic seconds spent bounding the makespan (relaxation_bound)
 HINT_SOLUTIONS = 20  # routing local-search solutions behind CP-SAT's first assignment
 HINT_BRANCHES = 100_000  # ... or at most this many search branches (work units; ~150 find 20 solutions)
+# after the rounds, two robots re-solved at a time, the rest held (improve_by_pairs): improvements kept at most,
+# solves at most (the search's work budget: each solve's work is PAIR_WORK), tries per pair (each re-solved on the
+# legs the try before made exact)
+PAIR_IMPROVEMENTS = 8
+PAIR_SOLVES = 12
+PAIR_TRIES = 3
+PAIR_WORK = 5.0
 MAKESPAN_SLACK = 0.10  # wear objective: makespan allowed above the time-optimal plan's (as a fraction)
 # How the solver sees two conflicting welds both taken: "timed" schedules them conflict_wait apart (the wait is
 # in the makespan); "charged" adds conflict_wait to the two routes whatever the timing, which steers answers away
@@ -180,7 +188,7 @@ class Assignment:
 def solve(problem: RoutingProblem, objective: str = "time", *, work: float = DEFAULT_WORK,
           makespan_cap: float | None = None, wear_weight: float | None = None, seed: int = 0,
           time_limit: float | None = None, start: list[list[int]] | None = None,
-          interlocks: str = "timed") -> Assignment:
+          interlocks: str = "timed", hold: dict[int, list[int]] | None = None) -> Assignment:
     """Assign and order the welds. ``time``: minimise the makespan, then the summed time; ``wear``: minimise
     the wear estimate with every route within ``makespan_cap`` [s]; ``balanced``: time plus ``wear_weight`` x
     wear (both in seconds), makespan first.
@@ -189,6 +197,7 @@ def solve(problem: RoutingProblem, objective: str = "time", *, work: float = DEF
     assignment; CP-SAT, started from it, improves it and bounds it, for ``work`` deterministic seconds (CP-SAT's
     machine-independent work measure, so the answer does not depend on machine load; ``time_limit`` [s] is an
     optional wall-clock cap on top). ``start``: routes to start from instead (e.g. the previous round's answer).
+    ``hold``: robots whose routes are given (robot -> its route): the others share the remaining welds.
     The estimate says whether the answer is proven optimal and carries CP-SAT's bound on the makespan."""
     check_choice("objective", objective, OBJECTIVES)
     check_choice("interlocks", interlocks, INTERLOCKS)
@@ -208,7 +217,7 @@ def solve(problem: RoutingProblem, objective: str = "time", *, work: float = DEF
             arc_cost.append(np.rint(t + wear_weight * problem.leg_wear(r) * TIME_SCALE).astype(np.int64))
     span = SPAN_WEIGHT if objective != "wear" else 0
     hint = start if start is not None else _routing_first(problem, arc_cost, span, cap, horizon)
-    routes, status = _cp_sat(problem, arc_cost, span, cap, hint, work, seed, time_limit, objective, interlocks)
+    routes, status = _cp_sat(problem, arc_cost, span, cap, hint, work, seed, time_limit, objective, interlocks, hold)
     if status and objective == "time" and (problem.conflicts is None or problem.conflict_wait == 0):
         # every route's summed time is at most the makespan, so objective <= (span + R) x makespan (not with
         # conflict charges: they are guesses of waits, not times a plan must take)
@@ -219,6 +228,77 @@ def solve(problem: RoutingProblem, objective: str = "time", *, work: float = DEF
     estimate = problem.evaluate(routes)
     estimate.update(status)
     return Assignment(routes, estimate, objective)
+
+
+def improve_by_pairs(problem: RoutingProblem, routes: list[list[int]], exact=None, judge=None, *,
+                     objective: str = "time",
+                     makespan_cap: float | None = None, work: float = PAIR_WORK, seed: int = 0,
+                     time_limit: float | None = None, improvements: int = PAIR_IMPROVEMENTS, solves: int = PAIR_SOLVES,
+                     tries: int = PAIR_TRIES, progress=None) -> tuple[RoutingProblem, list[list[list[int]]]]:
+    """Answers better than ``routes``, by re-solving two robots at a time (a large-neighbourhood search whose
+    neighbourhoods are robot pairs): the pair shares its welds while the other robots' routes are held (their
+    interlocks with the pair still timed). CP-SAT, which does not converge on a whole station in its budget,
+    searches such a pair far better. ``time``: the robot back Home last (its interlock waits included) with each
+    other robot, earliest back first; judged by (conflict-timed makespan, slowest route, summed time). ``wear``:
+    every pair, most wear first, each for the least wear with the conflict-timed makespan within
+    ``makespan_cap``; judged by (time over the cap, wear, makespan). An answer that looks better is made exact by
+    ``exact(routes)`` (plans its legs; returns the problem with their times and wear; None: the problem is exact
+    already) and kept only if it is still better on those, and then by ``judge(problem, routes)`` (a tuple, lower
+    is better; e.g. the makespan once the robots are coordinated; None: the solver's measures above); a pair is
+    re-solved on the exact legs (``tries`` at most). Returns the last problem and the kept routes, each better
+    than the one before: at most ``improvements`` of them, found in at most ``solves`` solves (work units)."""
+    check_choice("objective", objective, ("time", "wear"))
+    if objective == "wear" and makespan_cap is None:
+        raise ConfigError("makespan_cap", "re-solving pairs for wear needs a makespan cap [s]")
+
+    def score(p: RoutingProblem, rs) -> tuple:
+        e = p.evaluate(rs)
+        if objective == "time":
+            return e["timed_makespan"], max(e["robot_times"]), e["time"]
+        return max(0.0, e["timed_makespan"] - makespan_cap), e["wear"], e["timed_makespan"]
+
+    def pairs(p: RoutingProblem, rs) -> list[tuple[int, int]]:
+        R = p.n_robots
+        if objective == "wear":
+            worn = [sum(p.leg_wear(r)[a, b] for a, b in zip([r, *rs[r]], [*rs[r], r])) for r in range(R)]
+            return sorted(itertools.combinations(range(R), 2), key=lambda x: (-(worn[x[0]] + worn[x[1]]), x))
+        back, ends = p.timed_schedule(rs)[2], p.route_ends(rs)  # back Home: interlock waits included
+        slowest = max(range(R), key=lambda r: (back[r], ends[r]))
+        return [(slowest, r) for r in sorted(range(R), key=lambda r: (back[r], ends[r], r)) if r != slowest]
+
+    judge = judge or score
+    current, kept, left = [list(r) for r in routes], [], solves
+    verdict = judge(problem, current)
+    for _ in range(improvements):
+        improved = False
+        for pair in pairs(problem, current):
+            hold = {r: current[r] for r in range(problem.n_robots) if r not in pair}
+            for _try in range(tries):
+                if left <= 0:
+                    break
+                left -= 1
+                try:
+                    new = solve(problem, objective, work=work, seed=seed, time_limit=time_limit, start=current,
+                                interlocks="timed", hold=hold, makespan_cap=makespan_cap).routes
+                except ConfigError:  # no answer within the cap in the budget (a start over the cap)
+                    break
+                if score(problem, new) >= score(problem, current):
+                    break  # no better on the legs known
+                if exact is not None:
+                    problem = exact(new)
+                if score(problem, new) < score(problem, current):
+                    new_verdict = judge(problem, new)
+                    if new_verdict < verdict:
+                        current, verdict, improved = new, new_verdict, True
+                        kept.append(new)
+                        break
+            if improved:
+                break
+        if progress is not None:
+            progress.update(1)
+        if not improved:
+            break
+    return problem, kept
 
 
 def _routing_first(problem: RoutingProblem, arc_cost, span: int, cap: int, horizon: int) -> list[list[int]] | None:
@@ -316,19 +396,23 @@ def _route_circuits(m, problem: RoutingProblem) -> tuple[dict, list[dict]]:
 
 
 def _cp_sat(problem: RoutingProblem, arc_cost, span: int, cap: int, hint, work: float, seed: int,
-            time_limit: float | None, objective: str = "time",
-            interlocks: str = "timed") -> tuple[list[list[int]] | None, dict]:
+            time_limit: float | None, objective: str = "time", interlocks: str = "timed",
+            hold: dict[int, list[int]] | None = None) -> tuple[list[list[int]] | None, dict]:
     """The exact model: per robot a circuit through its Home and the options it takes (the others skipped by
     self-loops); each weld's options taken exactly once; each taken weld's end time follows its route's arcs,
     and two conflicting welds that are both taken start ``conflict_wait`` apart (either first), so the robots'
     waits for each other are in the makespan (``interlocks="charged"``: each route is charged half of
     ``conflict_wait`` per pair instead); route ends within the cap; the objective with the makespan weighted by
-    ``span`` (min-max first)."""
+    ``span`` (min-max first); the robots in ``hold`` take their given routes."""
     from ortools.sat.python import cp_model
 
     R = problem.n_robots
     m = cp_model.CpModel()
     taken, arcs_of = _route_circuits(m, problem)
+    for r, route in (hold or {}).items():
+        path = {(a, b) for a, b in zip([r, *route], [*route, r])} if route else set()
+        for (a, b), x in arcs_of[r].items():
+            m.add(x == int((a, b) in path))
     busy, cost_terms = [], []  # busy: each route's legs and welds [ms], without waits
     for r, lits in enumerate(arcs_of):
         t = np.rint(problem.leg_time(r) * TIME_SCALE).astype(np.int64)
