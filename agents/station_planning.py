@@ -205,6 +205,8 @@ class StationPlanner:
         # depends only on these, so the answer and the legs it asked for are reused, not planned again)
         self._time_answers: dict[tuple, tuple] = {}
         self._candidates: list[Assignment] = []  # the last rounds' candidates (a cable repair keeps them)
+        # coordinated schedules by routes and their legs: the pair search's kept answer is coordinated again in _best
+        self._coordinations: dict[tuple, tuple] = {}
 
     def reconfigured(self, config: StationPlanConfig) -> StationPlanner:
         """A planner with ``config`` that keeps this one's settled-cable costs and planned legs (same station,
@@ -487,10 +489,22 @@ class StationPlanner:
                      qs: np.ndarray, pairs: RobotPairDistance, cap: float = np.inf):
         """``routes`` with their planned legs, coordinated: (schedule, coordination info, wear with the waits: at
         the waiting robot's stop, and the cables hanging at Home until the coordinated makespan), or None when no
-        robot order ends before ``cap``."""
-        schedule, info = coordinate(self.station, self._schedule(task, options, routes, qs), pairs, cap=cap)
-        if schedule is None:
-            return None
+        robot order ends before ``cap``. A resolved one is cached by the routes and their legs (it depends on
+        nothing else: the best order below one cap is the best below any cap above it)."""
+        legs = tuple(None if (g := self.leg(r, a, b, qs)) is None else g.tobytes()
+                     for r, route in enumerate(routes) for a, b in zip([r, *route], [*route, r]))
+        key = (_routes_key(routes), legs, qs.tobytes())
+        if key in self._coordinations:
+            schedule, info = self._coordinations[key]
+            if schedule.makespan >= cap:
+                return None
+            info = dict(info)
+        else:
+            schedule, info = coordinate(self.station, self._schedule(task, options, routes, qs), pairs, cap=cap)
+            if schedule is None:
+                return None
+            if info["resolved"]:  # an unresolved one may depend on the cap (orders given up at it)
+                self._coordinations[key] = (schedule, dict(info))
         estimate = problem.evaluate(routes)
         stops = {r: [r, *route] for r, route in enumerate(routes)}
         wait_wear = sum(w * problem.cost_rate[stops[s.robot][k]] for s in schedule.robots
