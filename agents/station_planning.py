@@ -737,7 +737,8 @@ class StationPlanner:
             verdicts[_routes_key(best.routes)] = (0.0, best.estimate["wear_with_waits"], schedule.makespan)
 
         def exact(routes):
-            self._plan_chosen_legs(self.problem(task, options), Assignment(routes, {}, cfg.objective), qs, stops)
+            # the problem passed only times the estimates _plan_chosen_legs counts changes against (unused here)
+            self._plan_chosen_legs(problem, Assignment(routes, {}, cfg.objective), qs, stops)
             return self.problem(task, options)
 
         def judge(p: RoutingProblem, routes) -> tuple:
@@ -746,12 +747,13 @@ class StationPlanner:
             if _routes_key(routes) in verdicts:
                 return verdicts[_routes_key(routes)]
             verdict = (np.inf,)
-            if p.evaluate(routes)["makespan"] < BLOCKED:
+            estimate = p.evaluate(routes)
+            if estimate["makespan"] < BLOCKED:
                 best_time = min(v[0] for v in verdicts.values()) if cfg.objective == "time" else np.inf
                 got = self._coordinated(p, routes, task, options, qs, pairs, cap=best_time)
                 if got is not None and got[1]["resolved"]:
                     span, wear = got[0].makespan, got[2]
-                    verdict = ((span, p.evaluate(routes)["time"]) if cfg.objective == "time"
+                    verdict = ((span, estimate["time"]) if cfg.objective == "time"
                                else (max(0.0, span - cap), wear, span))
             verdicts[_routes_key(routes)] = verdict
             return verdict

@@ -251,11 +251,13 @@ def improve_by_pairs(problem: RoutingProblem, routes: list[list[int]], exact=Non
     if objective == "wear" and makespan_cap is None:
         raise ConfigError("makespan_cap", "re-solving pairs for wear needs a makespan cap [s]")
 
-    def score(p: RoutingProblem, rs) -> tuple:
-        e = p.evaluate(rs)
+    def measure(e: dict) -> tuple:  # of an evaluation (RoutingProblem.evaluate, or a solve's estimate)
         if objective == "time":
             return e["timed_makespan"], max(e["robot_times"]), e["time"]
         return max(0.0, e["timed_makespan"] - makespan_cap), e["wear"], e["timed_makespan"]
+
+    def score(p: RoutingProblem, rs) -> tuple:
+        return measure(p.evaluate(rs))
 
     def pairs(p: RoutingProblem, rs) -> list[tuple[int, int]]:
         R = p.n_robots
@@ -268,7 +270,7 @@ def improve_by_pairs(problem: RoutingProblem, routes: list[list[int]], exact=Non
 
     judge = judge or score
     current, kept, left = [list(r) for r in routes], [], solves
-    verdict = judge(problem, current)
+    verdict, measured = judge(problem, current), score(problem, current)  # the current answer's, on ``problem``
     for _ in range(improvements):
         improved = False
         for pair in pairs(problem, current):
@@ -278,18 +280,20 @@ def improve_by_pairs(problem: RoutingProblem, routes: list[list[int]], exact=Non
                     break
                 left -= 1
                 try:
-                    new = solve(problem, objective, work=work, seed=seed, time_limit=time_limit, start=current,
-                                interlocks="timed", hold=hold, makespan_cap=makespan_cap).routes
+                    answer = solve(problem, objective, work=work, seed=seed, time_limit=time_limit, start=current,
+                                   interlocks="timed", hold=hold, makespan_cap=makespan_cap)
                 except ConfigError:  # no answer within the cap in the budget (a start over the cap)
                     break
-                if score(problem, new) >= score(problem, current):
+                new, new_measured = answer.routes, measure(answer.estimate)  # the estimate evaluates on ``problem``
+                if new_measured >= measured:
                     break  # no better on the legs known
                 if exact is not None:
                     problem = exact(new)
-                if score(problem, new) < score(problem, current):
+                    measured, new_measured = score(problem, current), score(problem, new)
+                if new_measured < measured:
                     new_verdict = judge(problem, new)
                     if new_verdict < verdict:
-                        current, verdict, improved = new, new_verdict, True
+                        current, verdict, measured, improved = new, new_verdict, new_measured, True
                         kept.append(new)
                         break
             if improved:
