@@ -6,8 +6,10 @@ import json
 
 from dresspack_gym.cli_args import ensure_parent, number, output_file, seed
 from dresspack_gym.cost_variants import COST_VARIANTS
+from dresspack_gym.errors import ConfigError
 
 from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, MAX_WALL_TIME, MAX_WORK
+from .tension_peak import MAX_TENSION_PEAK_TIME, TENSION_PEAK_TIME
 
 WORK = number(1, MAX_WORK, integer=True)
 
@@ -41,6 +43,11 @@ def add_plan_command(sub) -> None:
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis",
                    help="wear cost the wear-aware planners minimise and the replay reports: thesis (4.10), "
                         "normalized, or damage (the worst segment's damage rate; see the README)")
+    p.add_argument("--tension-peak-time", type=number(0, MAX_TENSION_PEAK_TIME, unit="s"), default=None,
+                   metavar="SECONDS",
+                   help="ompl-wear and ompl-wear-fmt only: charge each leg's highest tension term w_F F² as if it "
+                        f"lasted this long, on top of (4.10)'s integral (default {TENSION_PEAK_TIME:g}; 0: the "
+                        "integral alone)")
     p.add_argument("--policy", default=None, help="ppo only: run folder, model .zip or shipped policy name "
                                                   "(default: stud_welding)")
     p.add_argument("--plot", type=output_file, default=None,
@@ -55,10 +62,15 @@ def cmd_plan(args) -> int:
     from dresspack_gym.replay_plot import plot_replays
 
     from .base import PlanningError
-    from .planning import POLICY_METHODS, plan_station
+    from .planning import PEAK_AWARE, POLICY_METHODS, plan_station
 
+    extra = {"policy": args.policy} if args.planner in POLICY_METHODS else {}
+    if args.tension_peak_time is not None:
+        if args.planner not in PEAK_AWARE:
+            raise ConfigError("tension_peak_time", f"--tension-peak-time applies to {' and '.join(PEAK_AWARE)} "
+                                                   f"only, not {args.planner}")
+        extra["tension_peak_time"] = args.tension_peak_time
     try:
-        extra = {"policy": args.policy} if args.planner in POLICY_METHODS else {}
         run = plan_station(args.station, args.planner, seed=args.seed, iterations=args.iterations,
                            evaluations=args.evaluations, routes=args.routes, time_budget=args.time_budget,
                            welds=args.welds, cost_variant=args.cost_variant, robot=args.robot, **extra)
@@ -86,6 +98,8 @@ def cmd_plan(args) -> int:
     print(f"  cycle time {s['cycle_time']:.2f} s   integrated wear cost {s['cost']:.4g}")
     print(f"  max curvature {s['max_curvature']:.2f} 1/m   max tension {s['max_tension']:.1f} N   "
           f"min clearance {1000 * s['min_clearance']:.0f} mm   max twist rate {s['max_twist_rate']:.3g} rad/m")
+    if s["planner_info"].get("wall_cap_reached"):
+        print(f"  the wall-time cap of {args.time_budget:g} s cut the search short: the best route found by then")
     print(f"  damage (worst segment) {s['damage']:.4g} at {s['damage_at_m']:.2f} m   fatigue life "
           f"{s['life_cycles']:.3g} cycles (weakest segment at {s['weakest_segment_m']:.2f} m)")
     for key in ("plot", "out"):

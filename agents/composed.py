@@ -60,7 +60,10 @@ class ComposedPlanner(Planner):
             before, after = before + scores[0], after + j
         traj = Trajectory.from_legs(legs)
         info = {"duration": self.duration(traj), "waypoints": len(traj.waypoints), "routes_explored": explored,
-                "ompl_iterations": self.connector.iterations_used}
+                "ompl_iterations": self.connector.iterations_used,
+                # the wall cap (off by default) cut the search short: the answer is the best route found by then,
+                # at worst the first candidate (the wear-unaware route), never nothing
+                "wall_cap_reached": self.allowance.out_of_time()}
         if cost is not None:
             info.update(objective_nominal=before, objective=after, cable_evaluations=cost.evaluations,
                         route_scores=route_scores)  # per leg, each candidate route's leg cost before refinement

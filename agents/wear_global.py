@@ -15,10 +15,12 @@ from .map_roadmap import MapRoadmap
 from .map_routes import ROADMAP_WEIGHTS, MapRoutes
 from .refine import LocalRefiner
 from .routes import ViaRoutes
+from .tension_peak import TENSION_PEAK_TIME, check_tension_peak_time
 
 
 class OmplWearPlanner(ComposedPlanner):
     """``routes`` (the budget's) candidate routes per leg, each scored by one cable simulation; the best refined.
+    The score is the leg's seconds + ∫C dt + ``tension_peak_time`` x its peak tension term (see LegCost).
 
     ``wear_map``: a map file (default: the shipped map of this robot and dresspack, if there is one; False:
     none); with it the candidates start with the map's roadmap routes, without it they are via routes only
@@ -31,7 +33,9 @@ class OmplWearPlanner(ComposedPlanner):
 
     def __init__(self, *args, via_spread_deg: float = 90.0, n_interior: int = 3,
                  step_deg: float = 15.0, time_weight: float = 1.0, wear_weight: float = 1.0,
-                 cost_variant: str = "thesis", wear_map: str | WearMap | bool | None = None, **kwargs):
+                 tension_peak_time: float = TENSION_PEAK_TIME, cost_variant: str = "thesis",
+                 wear_map: str | WearMap | bool | None = None, **kwargs):
+        tension_peak_time = check_tension_peak_time(tension_peak_time)  # before the roadmap is built
         super().__init__(*args, **kwargs)
         via = ViaRoutes(self.connector, self.validity, self.budget.iterations, self.budget.routes, via_spread_deg)
         if wear_map is False:
@@ -45,7 +49,7 @@ class OmplWearPlanner(ComposedPlanner):
             search = self._global_search(MapStateCost(self.station, self.wear_map, self.robot, cost_variant))
         self.routes = MapRoutes(via, search, self.budget.routes, self.weights)
         self.leg_cost = LegCost(self.station, self.robot, time_weight=time_weight, wear_weight=wear_weight,
-                                cost_variant=cost_variant)
+                                tension_peak_time=tension_peak_time, cost_variant=cost_variant)
         self.refiner = LocalRefiner(self.validity, self.leg_cost, n_interior, step_deg)
 
     def _global_search(self, cost: MapStateCost):
@@ -61,6 +65,7 @@ class OmplWearPlanner(ComposedPlanner):
     def _plan(self, task):
         traj, info = super()._plan(task)
         info["wear_map"] = self.wear_map.info["key"] if self.wear_map is not None else None
+        info["tension_peak_time"] = self.leg_cost.tension_peak_time
         if self.routes.roadmap is not None:
             info.update(self._search_info(self.routes.roadmap))
         return traj, info

@@ -175,3 +175,56 @@ def test_global_wear_planner_finds_the_low_tension_route():
     assert base["max_tension"] > 300
     assert aware["max_tension"] < 70
     assert aware["cost"] < 0.2 * base["cost"]
+
+
+def test_leg_cost_charges_the_peak_tension_term_as_if_it_lasted_tension_peak_time():
+    """J(τ) - J(0) = τ · w_F · (max F)² of the leg, replayed independently: C_F = w_F F² pointwise, so its peak is
+    w_F times the square of the highest tension measured; τ = 0 is (4.10)'s integral alone. The straight move
+    across thesis_tension drags the cable over the cuboid: a peak worth charging."""
+    from dresspack.agents.leg_cost import LegCost
+    from dresspack_gym.trajectory import Trajectory
+
+    station = Station(load_station("thesis_tension"))
+    task = make_task(station, 0, RobotCollisionChecker(station).collides)
+    leg = task.goals[:2]  # side_a -> side_b straight: over the cuboid
+    plain, charged = LegCost(station), LegCost(station, tension_peak_time=0.25)
+    state = plain.start_state(leg[0])
+    j0, _, _ = plain.cost(state, leg)
+    j1, _, _ = charged.cost(state, leg)
+    rep = replay(CableSimulator(station), Trajectory(leg, (1,)), start_state=state, record_states=False)
+    peak_f = float(rep.measures["tension"].max())
+    assert peak_f > 100.0
+    assert j0 == pytest.approx(rep.cycle_time + rep.integrated_cost(), rel=1e-9)
+    assert j1 - j0 == pytest.approx(0.25 * station.config.wear_cost.w_tension * peak_f ** 2, rel=1e-9)
+
+
+@pytest.mark.parametrize("bad", [-0.1, float("nan"), 61.0, True, "0.25"])
+def test_a_bad_tension_peak_time_is_an_error_naming_it(bad):
+    from dresspack.agents.planning import make_planner
+    from dresspack_gym.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r"^tension_peak_time: must be a number of seconds in \[0, 60\]"):
+        make_planner("ompl-wear", Station(load_station("thesis_curvature")), tension_peak_time=bad)
+
+
+def test_plan_cli_tension_peak_time_only_for_the_global_wear_planners(capsys):
+    assert cli_main(["plan", "thesis_curvature", "--planner", "ompl", "--tension-peak-time", "0.5"]) == 2
+    assert "tension_peak_time: --tension-peak-time applies to ompl-wear and ompl-wear-fmt only, not ompl" \
+        in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        cli_main(["plan", "thesis_curvature", "--planner", "ompl-wear", "--tension-peak-time", "-1"])
+    assert "must be a number in [0, 60.0] s" in capsys.readouterr().err
+
+
+def test_a_wall_cap_that_cuts_the_wear_aware_search_returns_the_route_found_with_a_flag(curvature_station):
+    """A cap already used up when the search starts: no via route, no refinement, yet a valid answer (the first
+    candidate, the wear-unaware route) flagged ``wall_cap_reached``; without a cap the flag is False."""
+    from dresspack.agents.planning import make_planner
+
+    task = make_task(curvature_station, 0, RobotCollisionChecker(curvature_station).collides)
+    cut = make_planner("ompl-wear", curvature_station, time_budget=1e-6).plan(task)
+    assert cut.info["wall_cap_reached"] is True
+    assert cut.info["routes_explored"] == len(task.waypoints()) - 1  # one candidate per leg
+    assert brute_force_valid(curvature_station, cut.trajectory.waypoints)
+    full = make_planner("ompl-wear", curvature_station, routes=2, evaluations=2).plan(task)
+    assert full.info["wall_cap_reached"] is False and full.info["routes_explored"] > cut.info["routes_explored"]
