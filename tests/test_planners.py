@@ -167,13 +167,14 @@ def test_chain_reach_bounds_every_multi_joint_move(default_station):
 
 def test_global_wear_planner_finds_the_low_tension_route():
     """Thesis tension case: the wear-unaware route drags the cable over the cuboid (~370 N); with the shipped wear
-    map the global planner takes the route under it, near the free-hanging cable's ~25 N (seeds 0-2 peak at 43, 53
-    and 64 N; every seed of the 20-seed study stays under 75 N on this station, README)."""
+    map the global planner takes the route under it, near the free-hanging cable's ~25 N (seeds 0-2 peak at 35, 31
+    and 43 N with the peak-tension term; every seed of the 20-seed study stays under 46 N on this station, under
+    2x the lowest, 30 N, README)."""
     base = plan_station("thesis_tension", "ompl", seed=0).summary()
     aware = plan_station("thesis_tension", "ompl-wear", seed=0).summary()
     assert aware["planner_info"]["wear_map"] is not None
     assert base["max_tension"] > 300
-    assert aware["max_tension"] < 70
+    assert aware["max_tension"] < 60
     assert aware["cost"] < 0.2 * base["cost"]
 
 
