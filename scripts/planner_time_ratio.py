@@ -3,6 +3,11 @@ falls on both alike): the ratio issue 17 asks for between ompl-wear-fmt and ompl
 
     .venv/bin/python scripts/planner_time_ratio.py --station thesis_tension --seeds 0 1 2 \
         --planners ompl-wear ompl-wear-fmt --out docs/planner_time_ratio.json
+    .venv/bin/python scripts/planner_time_ratio.py --planners ompl-wear:no-map ompl-wear \
+        --out docs/planner_time_ratio_map.json   # with the wear map against the via routes alone
+
+A planner name ending in ``:no-map`` plans without the wear map (``wear_map=False``: direct and via routes only,
+the global planner as it was before the map).
 
 Each plan is timed alone (planning only, not the replay); the planners are built once per seed (the map's roadmap
 or FMT* search set up outside the timed plan, as a planner reused over tasks would be)."""
@@ -32,12 +37,14 @@ def main() -> None:
     rows = []
     for seed in args.seeds:
         for name in args.planners:
-            planner = make_planner(name, station, 0, seed=seed)
+            base, _, variant = name.partition(":")
+            planner = make_planner(base, station, 0, seed=seed, **({"wear_map": False} if variant == "no-map" else {}))
             task = make_task(station, 0, planner.validity.checker.collides, None)
             t = time.perf_counter()
             result = planner.plan(task)
             rows.append({"planner": name, "seed": seed, "plan_seconds": round(time.perf_counter() - t, 2),
-                         "objective": result.info.get("objective")})
+                         "objective": result.info.get("objective"),
+                         "cable_evaluations": result.info.get("cable_evaluations")})
             print(json.dumps(rows[-1]), flush=True)
     total = {n: sum(r["plan_seconds"] for r in rows if r["planner"] == n) for n in args.planners}
     summary = {"station": args.station, "seeds": args.seeds, "plans": rows, "total_seconds": total,
