@@ -33,12 +33,15 @@ def main() -> None:
     ap.add_argument("--planners", nargs=2, default=["ompl-wear", "ompl-wear-fmt"])
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
+    for name in args.planners:
+        if name.partition(":")[2] not in ("", "no-map"):
+            ap.error(f"--planners: {name!r}: the only suffix is ':no-map'")
     station = Station(load_station(args.station))
     rows = []
     for seed in args.seeds:
         for name in args.planners:
             base, _, variant = name.partition(":")
-            planner = make_planner(base, station, 0, seed=seed, **({"wear_map": False} if variant == "no-map" else {}))
+            planner = make_planner(base, station, 0, seed=seed, **({"wear_map": False} if variant else {}))
             task = make_task(station, 0, planner.validity.checker.collides, None)
             t = time.perf_counter()
             result = planner.plan(task)
