@@ -153,7 +153,7 @@ class StationPlan:
             "makespan": round(self.schedule.makespan, 3),
             "makespan_lower_bound": round(self.bound["bound"], 3),
             "gap_to_bound": round(self.schedule.makespan / self.bound["bound"] - 1.0, 4),
-            "lower_bounds": {k: None if v is None else round(v, 3) for k, v in self.bound.items()},
+            "lower_bounds": {k: round(v, 3) if isinstance(v, float) else v for k, v in self.bound.items()},
             "total_wait": round(self.schedule.total_wait(), 3),
             "estimate": self.assignment.estimate,
             "coordination": self.coordination,

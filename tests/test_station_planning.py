@@ -89,6 +89,30 @@ def test_solver_assignment_is_optimal_against_brute_force(seed):
     assert a.estimate["makespan"] - (p.n_welds + 1) * 1e-3 <= relaxed["relaxation"] <= a.estimate["makespan"] + 1e-9
 
 
+def glued(a: RoutingProblem, b: RoutingProblem) -> RoutingProblem:
+    """Two stations side by side as one problem: ``a``'s robots first, then ``b``'s; no weld is shared."""
+    Ra, Rb, Na, Nb = a.n_robots, b.n_robots, len(a.node_robot), len(b.node_robot)
+    order = [*range(Ra), *range(Na, Na + Rb), *range(Ra, Na), *range(Na + Rb, Na + Nb)]  # Homes first
+    travel = np.full((Ra + Rb, Na + Nb, Na + Nb), 1e3)
+    travel[:Ra, :Na, :Na], travel[Ra:, Na:, Na:] = a.travel, b.travel
+    node_robot = np.concatenate([a.node_robot, b.node_robot + Ra])
+    node_weld = np.concatenate([a.node_weld, np.where(b.node_weld >= 0, b.node_weld + a.n_welds, -1)])
+    return RoutingProblem(travel[:, order][:, :, order], np.ones(Na + Nb), node_robot[order], node_weld[order],
+                          a.weld_time, a.n_welds + b.n_welds)
+
+
+def test_relaxation_bound_solves_robots_that_share_no_weld_apart():
+    a, b = random_problem(0, robots=2, welds=4), random_problem(1, robots=3, welds=4)
+    p = glued(a, b)
+    bound = relaxation_bound(p)
+    assert [g["robots"] for g in bound["components"]] == [[0, 1], [2, 3, 4]]
+    expect = max(brute_force_makespan(a), brute_force_makespan(b))
+    assert bound["relaxation"] == bound["relaxation_best"]  # each group proven optimal
+    assert expect - 5e-3 <= bound["relaxation"] <= expect + 1e-9
+    assert bound["relaxation"] == pytest.approx(max(relaxation_bound(a)["relaxation"], relaxation_bound(b)["relaxation"]))
+    assert bound["relaxation"] <= solve(p, "time", work=10).estimate["makespan"] + 1e-9
+
+
 def first_reaching_routes(p: RoutingProblem) -> list[list[int]]:
     """A poor start: every weld to the lowest-numbered robot that reaches it, at its first option, in weld order."""
     routes = [[] for _ in range(p.n_robots)]
@@ -771,3 +795,4 @@ def test_re_solving_robot_pairs_for_wear_finds_the_least_wear_within_the_cap(see
     assert all(p.evaluate(r)["timed_makespan"] <= cap + 1e-9 for r in kept)
     with pytest.raises(ConfigError, match="makespan_cap"):
         improve_by_pairs(p, start.routes, objective="wear")
+
