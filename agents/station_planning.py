@@ -29,13 +29,13 @@ from dresspack_gym.station import Station
 from dresspack_gym.station_replay import JAM_STRAIN, StationReplay, replay_station
 from dresspack_gym.station_schedule import RobotSchedule, StationSchedule
 from dresspack_gym.station_tasks import DEFAULT_WELD_TIME, StationTask, WeldOption, make_station_task
-from dresspack_gym.tasks import Task
 from dresspack_gym.validation import check_choice, check_integer, check_number
 
 from .base import PlanningError
 from .budget import DEFAULT_ITERATIONS
 from .fast_routes import FastLegPlanner, curve_valid
 from .ompl_planner import OmplPlanner
+from .station_legs import own_moves, plan_leg, plan_moves
 from .station_solver import (BLOCKED_ESTIMATES, DEFAULT_WORK, INTERLOCKS, LEG_ROUTES, MAKESPAN_SLACK, OBJECTIVES,
                              PAIR_IMPROVEMENTS, PAIR_SOLVES, PAIR_WORK, SPAN_WEIGHT, Assignment, RoutingProblem,
                              improve_by_pairs, lower_bound, relaxation_bound, solve)
@@ -408,13 +408,35 @@ class StationPlanner:
             return self._rerouted[key]
         self._known.add(key)
         if key not in self._legs:
-            planner = self.leg_planners[robot]
-            task = Task(robot, qs[i], (), np.zeros((0, 6)), qs[j])
-            try:
-                self._legs[key] = planner.plan(task).trajectory.waypoints
-            except PlanningError:
-                self._legs[key] = None
+            self._legs[key] = plan_leg(self.leg_planners[robot], robot, qs[i], qs[j])
         return self._legs[key]
+
+    def plan_every_move(self, task: StationTask, options: list[WeldOption], cache: Path | None = None,
+                        workers: int = 2) -> None:
+        """Every robot's moves between its Home and its options planned now, in ``workers`` processes, and known
+        to the solver, which then times every move exactly (``scripts/station_leg_bound.py`` bounds the plans over
+        these legs). One direction is planned; the other is the same path backwards (the time law is symmetric
+        in time, so it takes as long). ``cache``: a file the legs are appended to as they finish and read back
+        by a later call with the same settings."""
+        R = task.n_robots
+        qs = np.vstack([task.homes, np.array([o.q for o in options]).reshape(-1, 6)])
+        node_robot = np.concatenate([np.arange(R), [o.robot for o in options]]).astype(int)
+        node_weld = np.concatenate([np.full(R, -1), [task.weld_names.index(o.weld) for o in options]]).astype(int)
+        moves = own_moves(node_robot, node_weld)
+        todo = [(r, i, j) for r, i, j in moves if _leg_key(r, qs[i], qs[j]) not in self._legs]
+        bar = self._bar("planning every move up front", len(todo))
+        cfg = self.config
+        legs = plan_moves(self.station.config, LEG_PLANNERS[cfg.leg_route], cfg.iterations, cfg.seed,
+                          [(r, qs[i], qs[j]) for r, i, j in todo], workers=workers, cache=cache, progress=bar)
+        bar.close()
+        for (r, i, j), leg in zip(todo, legs):
+            self._legs[_leg_key(r, qs[i], qs[j])] = leg
+        for r, i, j in moves:
+            back = _leg_key(r, qs[j], qs[i])
+            if back not in self._legs:
+                leg = self._legs[_leg_key(r, qs[i], qs[j])]
+                self._legs[back] = None if leg is None else leg[::-1].copy()
+            self._known |= {_leg_key(r, qs[i], qs[j]), back}
 
     def leg_motion(self, robot: int, leg: np.ndarray) -> time_law.PathMotion:
         """The timed motion of robot ``robot``'s ``leg`` (waypoints): flying by its via points if the config allows
@@ -815,9 +837,7 @@ class StationPlanner:
                 return None
             seed, planner.seed = planner.seed, planner.seed + RESEED
             try:
-                return planner.plan(Task(robot, qa, (), np.zeros((0, 6)), qb)).trajectory.waypoints
-            except PlanningError:
-                return None
+                return plan_leg(planner, robot, qa, qb)
             finally:
                 planner.seed = seed
         if np.array_equal(qa, home) or np.array_equal(qb, home):  # via_home: the leg already ends at Home

@@ -10,6 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from dresspack.agents.fast_routes import FastLegPlanner
 from dresspack.agents.station_planning import StationPlanConfig, StationPlanner, _leg_key
 from dresspack.agents.station_solver import RoutingProblem, improve_by_pairs, lower_bound, relaxation_bound, solve
 from dresspack_gym.config import StationConfig
@@ -796,3 +797,70 @@ def test_re_solving_robot_pairs_for_wear_finds_the_least_wear_within_the_cap(see
     with pytest.raises(ConfigError, match="makespan_cap"):
         improve_by_pairs(p, start.routes, objective="wear")
 
+
+def test_every_move_planned_up_front_is_exact_both_ways_and_resumes_from_its_cache(two_robot_station, tmp_path,
+                                                                                     monkeypatch):
+    """``plan_every_move``: every robot's moves between its Home and options are planned (in worker processes),
+    each the same path both ways, and the solver times every one of them exactly. The legs go to a
+    cache file as they finish; a later run reads them back (a torn last line is planned again), and a cache
+    written with other settings is ignored. Workers change nothing."""
+    from dresspack.agents import station_legs
+
+    cfg = StationPlanConfig(kept_options=1, costed_options=1)
+    planner = StationPlanner(two_robot_station, cfg)
+    task = make_station_task(two_robot_station, lambda r: planner.leg_planners[r].validity.checker.collides)
+    options = planner._choose_options(task)
+    planner.check_straight_moves(task, options)
+    cache = tmp_path / "planned_legs.jsonl"
+    planner.plan_every_move(task, options, cache, workers=2)
+    qs = np.vstack([task.homes, [o.q for o in options]])
+    node_robot = np.concatenate([[0, 1], [o.robot for o in options]])
+    own = [(r, i, j) for r in range(2) for i, j in itertools.permutations(range(len(qs)), 2)
+           if node_robot[i] == r == node_robot[j]]
+    assert all(_leg_key(r, qs[i], qs[j]) in planner._known for r, i, j in own)
+    travel = planner.problem(task, options).travel
+    detours = 0
+    for r, i, j in own:
+        leg, back = planner._legs[_leg_key(r, qs[i], qs[j])], planner._legs[_leg_key(r, qs[j], qs[i])]
+        np.testing.assert_array_equal(leg, back[::-1])
+        assert planner.leg_planners[r].validity.path_valid(leg)
+        assert travel[r, i, j] == planner.leg_motion(r, leg).duration == pytest.approx(travel[r, j, i], abs=1e-12)
+        detours += len(leg) > 2
+    assert detours >= 2  # some moves are blocked as straight moves: these are planned paths
+    planned = [line for line in cache.read_text().splitlines()[1:]]
+    assert len(planned) >= detours // 2
+
+    def refuse(*a, **k):
+        raise AssertionError("a cached leg was planned again")
+
+    again = StationPlanner(two_robot_station, cfg)
+    again.check_straight_moves(task, options)
+    monkeypatch.setattr(station_legs, "plan_leg", refuse)
+    again.plan_every_move(task, options, cache, workers=1)
+    for r, i, j in own:
+        np.testing.assert_array_equal(again._legs[_leg_key(r, qs[i], qs[j])], planner._legs[_leg_key(r, qs[i], qs[j])])
+    monkeypatch.undo()
+    # an interrupted write: the last line torn in half is planned again, in one worker, to the same leg
+    text = cache.read_text()
+    cache.write_text(text[:len(text) - len(text.splitlines()[-1]) // 2 - 1])
+    calls = []
+    original = station_legs.plan_leg
+    monkeypatch.setattr(station_legs, "plan_leg", lambda *a: calls.append(a) or original(*a))
+    torn = StationPlanner(two_robot_station, cfg)
+    torn.check_straight_moves(task, options)
+    torn.plan_every_move(task, options, cache, workers=1)
+    assert len(calls) == 1
+    for r, i, j in own:
+        np.testing.assert_array_equal(torn._legs[_leg_key(r, qs[i], qs[j])], planner._legs[_leg_key(r, qs[i], qs[j])])
+    assert len(cache.read_text().splitlines()) == len(text.splitlines()) + 1  # the torn line stays, unread
+    # another seed: the cache does not apply
+    assert station_legs._read_cache(cache, station_legs.fingerprint(two_robot_station.config, FastLegPlanner,
+                                                                    cfg.iterations, cfg.seed + 1)) == {}
+
+
+
+def test_planning_every_move_up_front_refuses_a_bad_worker_count(two_robot_station):
+    from dresspack.agents.station_legs import plan_moves
+
+    with pytest.raises(ConfigError, match="workers"):
+        plan_moves(two_robot_station.config, FastLegPlanner, 100, 0, [], workers=0)
