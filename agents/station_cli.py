@@ -10,7 +10,7 @@ from dresspack_gym.cli_args import number, output_dir, seed
 from dresspack_gym.cost_variants import COST_VARIANTS
 
 from .budget import DEFAULT_ITERATIONS, MAX_WORK
-from .station_solver import BLOCKED_ESTIMATES, DEFAULT_WORK, LEG_ROUTES, OBJECTIVES, PAIR_SOLVES
+from .station_solver import BLOCKED_ESTIMATES, BOUND_WORK, DEFAULT_WORK, LEG_ROUTES, OBJECTIVES, PAIR_SOLVES
 
 WORK = number(1, MAX_WORK, integer=True)
 
@@ -51,6 +51,9 @@ def add_station_plan_command(sub) -> None:
     p.add_argument("--pair-solves", type=number(0, 10_000, integer=True), default=PAIR_SOLVES,
                    help="after the rounds, solves of two robots at a time with the others' routes held, each better "
                         f"answer's legs planned and coordinated (work units; 0: none; default {PAIR_SOLVES})")
+    p.add_argument("--bound-work", type=number(0, 1e6, lo_open=True), default=BOUND_WORK,
+                   help="CP-SAT deterministic seconds proving the makespan's lower bound, shared by the groups of "
+                        f"robots that share welds; changes the bound, never the plan (default {BOUND_WORK:g})")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis")
     p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--cable-repairs", type=number(0, 100, integer=True), default=3,
@@ -80,7 +83,7 @@ def cmd_station_plan(args) -> int:
                                  cost_variant=args.cost_variant, fixed_assignment=args.fixed_assignment,
                                  cable_repairs=0 if args.no_replay else args.cable_repairs,
                                  blocked_estimate=args.blocked_estimate, leg_route=args.leg_route,
-                                 fly_by=not args.stop_at_via_points, pair_solves=args.pair_solves,
+                                 fly_by=not args.stop_at_via_points, pair_solves=args.pair_solves, bound_work=args.bound_work,
                                  welds=tuple(args.welds) if args.welds else None)
                for o in dict.fromkeys(args.objective)]
     out = args.out

@@ -36,7 +36,7 @@ from .budget import DEFAULT_ITERATIONS
 from .fast_routes import FastLegPlanner, curve_valid
 from .ompl_planner import OmplPlanner
 from .station_legs import own_moves, plan_leg, plan_moves
-from .station_solver import (BLOCKED_ESTIMATES, DEFAULT_WORK, INTERLOCKS, LEG_ROUTES, MAKESPAN_SLACK, OBJECTIVES,
+from .station_solver import (BLOCKED_ESTIMATES, BOUND_WORK, DEFAULT_WORK, INTERLOCKS, LEG_ROUTES, MAKESPAN_SLACK, OBJECTIVES,
                              PAIR_IMPROVEMENTS, PAIR_SOLVES, PAIR_WORK, SPAN_WEIGHT, Assignment, RoutingProblem,
                              improve_by_pairs, lower_bound, relaxation_bound, solve)
 
@@ -92,6 +92,9 @@ class StationPlanConfig:
     exact_rounds: int = 2
     # then solves of two robots at a time (station_solver.improve_by_pairs; 0: none), each better answer coordinated
     pair_solves: int = PAIR_SOLVES
+    # CP-SAT deterministic seconds proving the makespan bound (station_solver.relaxation_bound); it changes only
+    # the bound, never the plan
+    bound_work: float = BOUND_WORK
     makespan_slack: float = MAKESPAN_SLACK
     seed: int = 0
     cost_variant: str = "thesis"
@@ -121,6 +124,7 @@ class StationPlanConfig:
         check_integer(self.kept_options, "kept_options", lo=1, hi=100)
         check_integer(self.exact_rounds, "exact_rounds", lo=1, hi=100)
         check_integer(self.pair_solves, "pair_solves", lo=0, hi=10_000)
+        check_number(self.bound_work, "bound_work", lo=0.0, lo_open=True, hi=1e6)
         check_integer(self.cable_repairs, "cable_repairs", lo=0, hi=100)
         check_number(self.makespan_slack, "makespan_slack", lo=0.0, hi=10.0)
         check_integer(self.seed, "seed", lo=0, hi=2 ** 32 - 1)
@@ -485,9 +489,9 @@ class StationPlanner:
         relaxed = replace(problem, travel=straight)
         b = lower_bound(relaxed)
         key = straight.tobytes() + problem.node_robot.tobytes() + problem.node_weld.tobytes() + \
-            np.float64(problem.weld_time).tobytes()
+            np.float64(problem.weld_time).tobytes() + np.float64(self.config.bound_work).tobytes()
         if key not in self._relaxations:  # the same for every objective: solved once
-            self._relaxations[key] = relaxation_bound(relaxed, seed=self.config.seed)
+            self._relaxations[key] = relaxation_bound(relaxed, work=self.config.bound_work, seed=self.config.seed)
         b.update(self._relaxations[key], solver=solver_bound)
         b["bound"] = max(b["bound"], solver_bound, b["relaxation"] or 0.0)
         return b

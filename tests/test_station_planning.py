@@ -468,6 +468,8 @@ def test_plan_config_errors_name_the_field():
         StationPlanConfig(weld_time=-1)
     with pytest.raises(ConfigError, match="pair_solves"):
         StationPlanConfig(pair_solves=-1)
+    with pytest.raises(ConfigError, match="bound_work"):
+        StationPlanConfig(bound_work=0)
     assert isinstance(StationConfig, type)
 
 
@@ -864,3 +866,12 @@ def test_planning_every_move_up_front_refuses_a_bad_worker_count(two_robot_stati
 
     with pytest.raises(ConfigError, match="workers"):
         plan_moves(two_robot_station.config, FastLegPlanner, 100, 0, [], workers=0)
+
+
+def test_station_plan_command_refuses_a_bound_work_of_zero(capsys):
+    from dresspack_gym.cli import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["station-plan", "side_framing_4r", "--bound-work", "0"])
+    assert exit_.value.code == 2
+    assert "--bound-work" in capsys.readouterr().err
