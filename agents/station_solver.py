@@ -26,14 +26,16 @@ TIME_SCALE = 1000  # integer costs: milliseconds
 WEAR_SCALE = 100_000  # integer costs: 1e-5 of the wear cost's unit x s (fine enough for a Home rate per ms)
 SPAN_WEIGHT = 100  # makespan against the sum of route times in the time objective (min-max first)
 DEFAULT_WORK = 10.0  # CP-SAT deterministic seconds per solve (the solver's work budget, machine-independent)
-BOUND_WORK = 10.0  # CP-SAT deterministic seconds spent bounding the makespan (relaxation_bound)
+# CP-SAT deterministic seconds spent bounding the makespan (relaxation_bound): side_framing_4r's bound is 19.22 s
+# at 10, 19.43 s at 60 (about a minute more, once per station and objective set: never per solve)
+BOUND_WORK = 60.0
 HINT_SOLUTIONS = 20  # routing local-search solutions behind CP-SAT's first assignment
 HINT_BRANCHES = 100_000  # ... or at most this many search branches (work units; ~150 find 20 solutions)
 # after the rounds, two robots re-solved at a time, the rest held (improve_by_pairs): improvements kept at most,
 # solves at most (the search's work budget: each solve's work is PAIR_WORK), tries per pair (each re-solved on the
 # legs the try before made exact)
 PAIR_IMPROVEMENTS = 8
-PAIR_SOLVES = 12
+PAIR_SOLVES = 30  # side_framing_4r: 24.7 s at 12, 22.25 s at 30 (at 50 welds the same plan either way)
 PAIR_TRIES = 3
 PAIR_WORK = 5.0
 MAKESPAN_SLACK = 0.10  # wear objective: makespan allowed above the time-optimal plan's (as a fraction)
