@@ -83,7 +83,8 @@ def cmd_station_plan(args) -> int:
                                  cost_variant=args.cost_variant, fixed_assignment=args.fixed_assignment,
                                  cable_repairs=0 if args.no_replay else args.cable_repairs,
                                  blocked_estimate=args.blocked_estimate, leg_route=args.leg_route,
-                                 fly_by=not args.stop_at_via_points, pair_solves=args.pair_solves, bound_work=args.bound_work,
+                                 fly_by=not args.stop_at_via_points, pair_solves=args.pair_solves,
+                                 bound_work=args.bound_work,
                                  welds=tuple(args.welds) if args.welds else None)
                for o in dict.fromkeys(args.objective)]
     out = args.out

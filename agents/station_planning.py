@@ -36,9 +36,9 @@ from .budget import DEFAULT_ITERATIONS
 from .fast_routes import FastLegPlanner, curve_valid
 from .ompl_planner import OmplPlanner
 from .station_legs import own_moves, plan_leg, plan_moves
-from .station_solver import (BLOCKED_ESTIMATES, BOUND_WORK, DEFAULT_WORK, INTERLOCKS, LEG_ROUTES, MAKESPAN_SLACK, OBJECTIVES,
-                             PAIR_IMPROVEMENTS, PAIR_SOLVES, PAIR_WORK, SPAN_WEIGHT, Assignment, RoutingProblem,
-                             improve_by_pairs, lower_bound, relaxation_bound, solve)
+from .station_solver import (BLOCKED_ESTIMATES, BOUND_WORK, DEFAULT_WORK, INTERLOCKS, LEG_ROUTES, MAKESPAN_SLACK,
+                             OBJECTIVES, PAIR_IMPROVEMENTS, PAIR_SOLVES, PAIR_WORK, SPAN_WEIGHT, Assignment,
+                             RoutingProblem, improve_by_pairs, lower_bound, relaxation_bound, solve)
 
 EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estimate by more is re-solved with it
 # rounds allowed, as a multiple of exact_rounds, while no solved answer has every leg planned (legs that jam their

@@ -579,9 +579,9 @@ def sub_problem(problem: RoutingProblem, robots: list[int]) -> RoutingProblem:
     welds = {w: k for k, w in enumerate(sorted({int(problem.node_weld[n]) for n in nodes[len(robots):]}))}
     local = {r: k for k, r in enumerate(robots)}
     ix = np.ix_(nodes, nodes)
+    weld_of = [-1] * len(robots) + [welds[int(problem.node_weld[n])] for n in nodes[len(robots):]]
     return RoutingProblem(np.stack([problem.travel[r][ix] for r in robots]), problem.cost_rate[nodes],
-                          np.array([local[int(problem.node_robot[n])] for n in nodes]),
-                          np.array([-1] * len(robots) + [welds[int(problem.node_weld[n])] for n in nodes[len(robots):]]),
+                          np.array([local[int(problem.node_robot[n])] for n in nodes]), np.array(weld_of),
                           problem.weld_time, len(welds))
 
 

@@ -69,8 +69,8 @@ def main() -> None:
               "work": args.work,
               "straight": relaxation_bound(replace(problem, travel=straight), work=args.work, seed=args.seed),
               "planned_legs": relaxation_bound(problem, work=args.work, seed=args.seed)}
-    print(f"{result['moves']} moves, {result['detours']} of them detours (median {result['detour_slowdown_median']:.2f}x "
-          f"the straight move), {result['blocked']} with no path")
+    print(f"{result['moves']} moves, {result['detours']} of them detours "
+          f"(median {result['detour_slowdown_median']:.2f}x the straight move), {result['blocked']} with no path")
     for name in ("straight", "planned_legs"):
         b = result[name]
         groups = ", ".join(f"robots {g['robots']} {g['relaxation']:.2f}/{g['relaxation_best']:.2f} s"
