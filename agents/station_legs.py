@@ -91,6 +91,8 @@ def plan_moves(station_config, leg_planner: type, iterations: int, seed: int,
 
 
 def _run(units, workers: int, settings):
+    if not units:  # everything was in the cache: no planners to build
+        return
     if workers == 1 or len(units) <= 1:
         _init_worker(*settings)
         yield from map(_plan_unit, units)
