@@ -52,12 +52,12 @@ def plan_moves(station_config, leg_planner: type, iterations: int, seed: int,
                progress=None) -> list[np.ndarray | None]:
     """The legs of ``moves`` (robot, start, end), in order, planned by ``leg_planner(station, robot, iterations=,
     seed=)`` in ``workers`` processes. With ``cache`` (a JSON-lines file), legs planned before with the same
-    settings are read from it and every finished work unit is appended to it, so an interrupted run loses at
-    most the units in flight."""
+    settings are read from it (a file written with other settings is started afresh) and every finished work
+    unit is appended to it, so an interrupted run loses at most the units in flight."""
     check_integer(workers, "workers", lo=1, hi=256)
     key = fingerprint(station_config, leg_planner, iterations, seed)
     done = _read_cache(cache, key) if cache is not None else {}
-    out: list = [done.get(_move_key(*m), False) for m in moves]
+    out: list = [done.get(move_key(*m), False) for m in moves]
     todo = [k for k, leg in enumerate(out) if leg is False]
     if progress is not None:
         progress.update(len(moves) - len(todo))
@@ -115,7 +115,8 @@ def _plan_unit(unit) -> list[tuple[int, np.ndarray | None]]:
     return [(k, plan_leg(_PLANNERS[r], r, qa, qb)) for k, r, qa, qb in unit]
 
 
-def _move_key(robot: int, qa: np.ndarray, qb: np.ndarray) -> tuple:
+def move_key(robot: int, qa: np.ndarray, qb: np.ndarray) -> tuple:
+    """A move as a dictionary key: its robot and the exact bytes of its two configurations."""
     return int(robot), np.asarray(qa, dtype=float).tobytes(), np.asarray(qb, dtype=float).tobytes()
 
 
@@ -138,5 +139,5 @@ def _read_cache(path: Path, key: str) -> dict:
         except json.JSONDecodeError:
             continue
         leg = None if row["leg"] is None else np.array(row["leg"], dtype=float)
-        legs[_move_key(row["robot"], np.array(row["from"]), np.array(row["to"]))] = leg
+        legs[move_key(row["robot"], np.array(row["from"]), np.array(row["to"]))] = leg
     return legs

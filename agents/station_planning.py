@@ -35,6 +35,7 @@ from .base import PlanningError
 from .budget import DEFAULT_ITERATIONS
 from .fast_routes import FastLegPlanner, curve_valid
 from .ompl_planner import OmplPlanner
+from .station_legs import move_key as _leg_key
 from .station_legs import own_moves, plan_leg, plan_moves
 from .station_solver import (BLOCKED_ESTIMATES, BOUND_WORK, DEFAULT_WORK, INTERLOCKS, LEG_ROUTES, MAKESPAN_SLACK,
                              OBJECTIVES, PAIR_IMPROVEMENTS, PAIR_SOLVES, PAIR_WORK, SPAN_WEIGHT, Assignment,
@@ -879,10 +880,6 @@ def _task_key(task: StationTask) -> tuple:
     return (task.weld_names, float(task.weld_time), np.asarray(task.homes, dtype=float).tobytes(),
             tuple((o.weld, int(o.robot), np.asarray(o.q, dtype=float).tobytes())
                   for w in task.weld_names for o in task.options[w]))
-
-
-def _leg_key(robot: int, qa: np.ndarray, qb: np.ndarray) -> tuple:
-    return int(robot), np.asarray(qa, dtype=float).tobytes(), np.asarray(qb, dtype=float).tobytes()
 
 
 class _NoBar:
