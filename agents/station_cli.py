@@ -54,6 +54,12 @@ def add_station_plan_command(sub) -> None:
     p.add_argument("--bound-work", type=number(0, 1e6, lo_open=True), default=BOUND_WORK,
                    help="CP-SAT deterministic seconds proving the makespan's lower bound, shared by the groups of "
                         f"robots that share welds; changes the bound, never the plan (default {BOUND_WORK:g})")
+    p.add_argument("--costed-options", type=number(1, 1000, integer=True), default=8,
+                   help="per weld and robot: IK options (nearest Home first) whose settled cable is costed "
+                        "(default 8)")
+    p.add_argument("--kept-options", type=number(1, 100, integer=True), default=2,
+                   help="per weld and robot: options the solver chooses from, half nearest Home, half cheapest "
+                        "of those costed (default 2)")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis")
     p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--cable-repairs", type=number(0, 100, integer=True), default=3,
@@ -84,7 +90,8 @@ def cmd_station_plan(args) -> int:
                                  cable_repairs=0 if args.no_replay else args.cable_repairs,
                                  blocked_estimate=args.blocked_estimate, leg_route=args.leg_route,
                                  fly_by=not args.stop_at_via_points, pair_solves=args.pair_solves,
-                                 bound_work=args.bound_work,
+                                 bound_work=args.bound_work, costed_options=args.costed_options,
+                                 kept_options=args.kept_options,
                                  welds=tuple(args.welds) if args.welds else None)
                for o in dict.fromkeys(args.objective)]
     out = args.out

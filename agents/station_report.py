@@ -32,6 +32,18 @@ def write_summary(station, plans: dict, out: Path) -> dict:
                      f"{100 * s['gap_to_bound']:.1f} % | {s['total_wait']:.2f} | {v['collisions']} of {v['samples']} "
                      f"samples | {1000 * v['min_distance']:.0f} | {wear} | {s['estimate']['wear']:.4g} |")
     for name, s in rows.items():
+        b = s.get("wear_estimate_bound")
+        if b and b.get("bound") is not None:
+            line = (f"**{name}**: no routes over these weld options back Home within {b['makespan_cap']:.2f} s have a "
+                    f"wear estimate below **{b['bound']:.4g}** (CP-SAT's bound on straight-move times, waits and "
+                    "conflicts left out; the estimate charges a move its ends' mean settled rate)")
+            if b.get("best") is not None:
+                line += f"; the least-wear routes it found estimate {b['best']:.4g}"
+            time_wear = rows.get("time", {}).get("replay", {}).get("cost")
+            if time_wear:
+                line += f"; that bound is {100 * (1 - b['bound'] / time_wear):.1f} % below the time plan's replayed wear"
+            lines += ["", line + "."]
+    for name, s in rows.items():
         moved = s["info"].get("rerouted_legs") or []
         if moved:
             replays = s["info"].get("cable_replays")

@@ -9,7 +9,7 @@ answer on any machine."""
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -625,3 +625,52 @@ def _relaxation(problem: RoutingProblem, work: float, seed: int) -> dict:
         return {"relaxation": None, "relaxation_best": None}
     return {"relaxation": float(solver.best_objective_bound) / TIME_SCALE,
             "relaxation_best": float(solver.objective_value) / TIME_SCALE}
+
+
+def wear_relaxation_bound(problem: RoutingProblem, makespan_cap: float, work: float = BOUND_WORK,
+                          seed: int = 0) -> dict:
+    """A lower bound on the wear estimate (:meth:`RoutingProblem.leg_wear` without the simulated legs) of any
+    routes of ``problem`` whose every robot is back Home within ``makespan_cap`` [s]: CP-SAT's proven bound on the
+    least-wear routes with conflicts and waits ignored (they only add time and wear), the cables of robots done
+    early not counted (their Home wear is >= 0), every leg time rounded down to whole milliseconds and every leg's
+    wear down to the solver's unit. Groups of robots that share no weld (:func:`robot_components`) are solved alone
+    on an equal share of ``work``; the bound is their sum. Give it straight-move times (no motion is faster) and it
+    bounds the estimate of every plan within the cap over these options: how much wear the options themselves
+    allow, whatever the legs (``bound``; ``best``: the least-wear routes found, None if CP-SAT found none)."""
+    groups = []
+    components = robot_components(problem)
+    estimate = replace(problem, simulated_wear=None, conflicts=None)
+    for robots in components:
+        sub = estimate if len(robots) == problem.n_robots else sub_problem(estimate, robots)
+        groups.append({"robots": robots, **_wear_relaxation(sub, makespan_cap, work / len(components), seed)})
+    if any(g["bound"] is None for g in groups):
+        return {"bound": None, "best": None, "makespan_cap": makespan_cap, "components": groups}
+    best = None if any(g["best"] is None for g in groups) else sum(g["best"] for g in groups)
+    return {"bound": sum(g["bound"] for g in groups), "best": best, "makespan_cap": makespan_cap,
+            "components": groups}
+
+
+def _wear_relaxation(problem: RoutingProblem, makespan_cap: float, work: float, seed: int) -> dict:
+    """CP-SAT's bound and best summed leg wear of routes of ``problem`` within ``makespan_cap``, no conflicts."""
+    from ortools.sat.python import cp_model
+
+    m = cp_model.CpModel()
+    _, arcs_of = _route_circuits(m, problem)
+    cap = int(np.ceil(makespan_cap * TIME_SCALE))
+    cost = []
+    for r, lits in enumerate(arcs_of):
+        t = np.floor(problem.leg_time(r) * TIME_SCALE).astype(np.int64)
+        w = np.floor(problem.leg_wear(r) * WEAR_SCALE).astype(np.int64)
+        m.add(sum(int(t[a, b]) * x for (a, b), x in lits.items()) <= cap)
+        cost += [int(w[a, b]) * x for (a, b), x in lits.items()]
+    m.minimize(sum(cost))
+    solver = _deterministic_solver(work, seed)
+    solver.parameters.linearization_level = 2
+    status = solver.solve(m)
+    if status == cp_model.INFEASIBLE:
+        return {"bound": np.inf, "best": None}  # no routes within the cap at all: any bound holds
+    if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):  # no routes found yet: the bound may still hold
+        bound = float(solver.best_objective_bound)
+        return {"bound": bound / WEAR_SCALE if np.isfinite(bound) else None, "best": None}
+    return {"bound": float(solver.best_objective_bound) / WEAR_SCALE,
+            "best": float(solver.objective_value) / WEAR_SCALE}

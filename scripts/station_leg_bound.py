@@ -11,7 +11,12 @@ the same relaxation (``station_solver.relaxation_bound``: the min-max routes wit
 bound, each group of robots that share welds alone) on both travel-time matrices. The planned-leg bound holds for
 plans over these legs (another path can be faster than the planned one), so it measures how much of a plan's gap
 is the legs and how much the assignment, sequencing and the robots' waits for each other. Writes
-``OUT/leg_bound.json``."""
+``OUT/leg_bound.json``.
+
+With ``--wear-cap S`` it also bounds the wear estimate of any routes whose robots are back Home within S seconds
+(``station_solver.wear_relaxation_bound``) on both travel-time matrices: how much wear the options allow at that
+makespan, on straight moves (any plan) and on the planned legs (plans over these legs). The issue's wear bar asks
+for 30 % below the time plan at no more than 10 % longer makespan: give 1.1 x the time plan's makespan."""
 
 from __future__ import annotations
 
@@ -25,7 +30,7 @@ import numpy as np
 
 def main() -> None:
     from dresspack.agents.station_planning import BLOCKED, StationPlanConfig, StationPlanner
-    from dresspack.agents.station_solver import relaxation_bound
+    from dresspack.agents.station_solver import relaxation_bound, wear_relaxation_bound
 
     from dresspack_gym.loading import load_station
     from dresspack_gym.station import Station
@@ -39,6 +44,8 @@ def main() -> None:
     ap.add_argument("--work", type=float, default=60.0,
                     help="CP-SAT deterministic seconds per relaxation, shared by its robot groups (default 60)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--wear-cap", type=float, default=None,
+                    help="also bound the wear estimate of routes back Home within this many seconds")
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
 
@@ -76,6 +83,12 @@ def main() -> None:
         groups = ", ".join(f"robots {g['robots']} {g['relaxation']:.2f}/{g['relaxation_best']:.2f} s"
                            for g in b["components"])
         print(f"{name}: bound {b['relaxation']:.2f} s, best routes found {b['relaxation_best']:.2f} s ({groups})")
+    if args.wear_cap is not None:
+        for name, travel in (("straight", straight), ("planned_legs", problem.travel)):
+            b = result[f"wear_{name}"] = wear_relaxation_bound(replace(problem, travel=travel), args.wear_cap,
+                                                               work=args.work, seed=args.seed)
+            print(f"wear within {args.wear_cap:.2f} s, {name}: bound {b['bound']:.1f}, least-wear routes found "
+                  f"{b['best']}")
     if args.plan is not None:
         s = json.loads((args.plan / "plan.json").read_text())["summary"]
         result["plan"] = {"folder": str(args.plan), "makespan": s["makespan"], "waits": s["total_wait"],

@@ -12,7 +12,8 @@ import pytest
 
 from dresspack.agents.fast_routes import FastLegPlanner
 from dresspack.agents.station_planning import StationPlanConfig, StationPlanner, _leg_key
-from dresspack.agents.station_solver import RoutingProblem, improve_by_pairs, lower_bound, relaxation_bound, solve
+from dresspack.agents.station_solver import (RoutingProblem, improve_by_pairs, lower_bound, relaxation_bound, solve,
+                                            wear_relaxation_bound)
 from dresspack_gym.config import StationConfig
 from dresspack_gym.coordination import RobotPairDistance, coordinate, verify
 from dresspack_gym.errors import ConfigError
@@ -525,6 +526,12 @@ def test_station_plan_command_writes_plans_pictures_and_a_comparison(tmp_path, c
         welding = sum(r["by_phase"]["welding"] for r in split.values())
         assert welding >= 0.9 * s["info"]["cheapest_weld_wear"]  # the cables move a little while welding
     assert "Where the replayed wear" in (out / "summary.md").read_text()
+    # the wear objective states the least wear estimate its options allow within its cap; the time plan has none
+    bound = wear["wear_estimate_bound"]
+    assert bound["makespan_cap"] == pytest.approx(wear["coordination"]["makespan_cap"], abs=1e-3)
+    assert 0 < bound["bound"] <= bound["best"] + 1e-9
+    assert "wear_estimate_bound" not in summary["time"]
+    assert "have a wear estimate below" in (out / "summary.md").read_text()
 
 
 def test_station_plan_command_names_a_weld_no_robot_can_reach(tmp_path, capsys):
@@ -702,6 +709,38 @@ def brute_force_wear(p: RoutingProblem, cap: float) -> float:
             if max(ends) <= cap:
                 best = min(best, sum(c[1] for c in combo) + p.idle_wear(ends, max(ends)))
     return float(best)
+
+
+def brute_force_route_wear(p: RoutingProblem, cap: float) -> float:
+    """The least summed route wear (no cables hanging at Home) of routes whose every robot is back within ``cap``."""
+    best = np.inf
+    for per_robot in assignments(p):
+        for combo in itertools.product(*per_robot):
+            if max(c[0] for c in combo) <= cap:
+                best = min(best, sum(c[1] for c in combo))
+    return float(best)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_wear_relaxation_bounds_the_least_wear_within_the_cap_per_group_of_robots(seed):
+    """Each group of robots that share welds is solved alone to the brute-force optimum of its route wear, the
+    station's bound is their sum, it never exceeds the wear objective's answer (which also counts Home waits), and
+    a cap no routes meet bounds anything."""
+    rng = np.random.default_rng(seed)
+    a, b = random_problem(seed, robots=2, welds=4), random_problem(seed + 10, robots=2, welds=3)
+    a, b = (replace(x, cost_rate=rng.uniform(1, 10, len(x.node_robot))) for x in (a, b))
+    p = glued(a, b)
+    p = replace(p, cost_rate=np.concatenate([a.cost_rate[:2], b.cost_rate[:2], a.cost_rate[2:], b.cost_rate[2:]]))
+    cap = 1.1 * solve(p, "time", work=10).estimate["makespan"]
+    bound = wear_relaxation_bound(p, cap, work=20)
+    assert [g["robots"] for g in bound["components"]] == [[0, 1], [2, 3]]
+    expect = brute_force_route_wear(a, cap) + brute_force_route_wear(b, cap)
+    assert bound["best"] == pytest.approx(expect, rel=1e-4)
+    assert expect - 1e-3 <= bound["bound"] <= expect + 1e-9
+    assert bound["bound"] <= solve(p, "wear", work=10, makespan_cap=cap).estimate["wear"] + 1e-9
+    tighter = wear_relaxation_bound(p, 0.8 * cap, work=20)["bound"]
+    assert tighter >= bound["bound"] - 1e-9  # less time allows no less wear
+    assert wear_relaxation_bound(p, 1e-3, work=5)["bound"] == np.inf
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
