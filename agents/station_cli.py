@@ -60,6 +60,12 @@ def add_station_plan_command(sub) -> None:
     p.add_argument("--kept-options", type=number(1, 100, integer=True), default=2,
                    help="per weld and robot: options the solver chooses from, half nearest Home, half cheapest "
                         "of those costed (default 2)")
+    p.add_argument("--legs-up-front", action="store_true",
+                   help="wear and balanced objectives: plan every robot's moves between its Home and weld options "
+                        "before solving, so the solver knows every leg (slower: on side_framing_4r 1,722 legs, "
+                        "cached in OUT/planned_legs.jsonl for a later run; the time objective plans lazily anyway)")
+    p.add_argument("--leg-workers", type=number(1, 64, integer=True), default=2,
+                   help="processes planning the legs up front (default 2; the legs do not depend on it)")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis")
     p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--cable-repairs", type=number(0, 100, integer=True), default=3,
@@ -91,7 +97,8 @@ def cmd_station_plan(args) -> int:
                                  blocked_estimate=args.blocked_estimate, leg_route=args.leg_route,
                                  fly_by=not args.stop_at_via_points, pair_solves=args.pair_solves,
                                  bound_work=args.bound_work, costed_options=args.costed_options,
-                                 kept_options=args.kept_options,
+                                 kept_options=args.kept_options, legs_up_front=args.legs_up_front,
+                                 leg_workers=args.leg_workers,
                                  welds=tuple(args.welds) if args.welds else None)
                for o in dict.fromkeys(args.objective)]
     out = args.out
@@ -102,7 +109,7 @@ def cmd_station_plan(args) -> int:
     for cfg in configs:
         # one planner object: settled-cable costs and planned legs are shared between the objectives
         planner = StationPlanner(station, cfg, progress=bar) if planner is None else planner.reconfigured(cfg)
-        plan = planner.plan(cache=out / "option_costs.json")
+        plan = planner.plan(cache=out / "option_costs.json", leg_cache=out / "planned_legs.jsonl")
         if not args.no_replay and plan.replay is None:
             planner.replay(plan)
         folder = out / cfg.objective

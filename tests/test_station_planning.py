@@ -901,6 +901,32 @@ def test_every_move_planned_up_front_is_exact_both_ways_and_resumes_from_its_cac
 
 
 
+def test_legs_up_front_make_every_move_exact_for_the_wear_objective_only(two_robot_station, tmp_path):
+    """``legs_up_front``: the wear objective plans every own move before its rounds (to the leg cache) and its
+    solver knows them all; the time objective plans lazily whatever the flag says, so its plan is the lazy one."""
+    config = StationPlanConfig(kept_options=1, costed_options=1, cable_repairs=0, work=0.5, legs_up_front=True,
+                               leg_workers=1)
+    wear = StationPlanner(two_robot_station, replace(config, objective="wear"))
+    cache = tmp_path / "planned_legs.jsonl"
+    plan = wear.plan(leg_cache=cache)
+    task = plan.task
+    qs = np.vstack([task.homes, [o.q for o in plan.options]])
+    node_robot = np.concatenate([[0, 1], [o.robot for o in plan.options]])
+    node_weld = [None, None, *(o.weld for o in plan.options)]
+    own = [(r, i, j) for r in range(2) for i, j in itertools.permutations(range(len(qs)), 2)
+           if node_robot[i] == r == node_robot[j] and (node_weld[i] is None or node_weld[i] != node_weld[j])]
+    assert all(_leg_key(r, qs[i], qs[j]) in wear._known for r, i, j in own)
+    assert plan.info["planned_legs"] >= len(own)
+    assert cache.is_file() and len(cache.read_text().splitlines()) > 1
+    assert plan.schedule.makespan <= plan.coordination["makespan_cap"] + 1e-9
+    lazy = StationPlanner(two_robot_station, replace(config, legs_up_front=False)).plan()
+    timed = StationPlanner(two_robot_station, config).plan(leg_cache=tmp_path / "unused.jsonl")
+    assert timed.assignment.routes == lazy.assignment.routes and timed.schedule.makespan == lazy.schedule.makespan
+    assert timed.info["planned_legs"] < len(own) and not (tmp_path / "unused.jsonl").exists()
+    with pytest.raises(ConfigError, match="leg_workers"):
+        StationPlanConfig(leg_workers=0)
+
+
 def test_planning_every_move_up_front_refuses_a_bad_worker_count(two_robot_station):
     from dresspack.agents.station_legs import plan_moves
 
@@ -915,3 +941,13 @@ def test_station_plan_command_refuses_a_bound_work_of_zero(capsys):
         main(["station-plan", "side_framing_4r", "--bound-work", "0"])
     assert exit_.value.code == 2
     assert "--bound-work" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("flag", ["--leg-workers", "--kept-options", "--costed-options"])
+def test_station_plan_command_refuses_zero_workers_or_options(flag, capsys):
+    from dresspack_gym.cli import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["station-plan", "side_framing_4r", flag, "0"])
+    assert exit_.value.code == 2
+    assert flag in capsys.readouterr().err
