@@ -67,6 +67,10 @@ class RobotSchedule:
         return RobotSchedule(robot, tuple(welds), legs, np.array(starts), limits, float(weld_time), fly, motions)
 
     # ---------------------------------------------------------------------------- timing
+    def motions(self) -> tuple:
+        """Each leg's timed motion (time_law.PathMotion), as it runs."""
+        return self._motions
+
     def leg_durations(self) -> np.ndarray:
         return self._leg_durations
 
@@ -167,3 +171,37 @@ class StationSchedule:
 
     def total_wait(self) -> float:
         return float(sum(r.waits().sum() for r in self.robots))
+
+
+def load_schedule(folder, station) -> tuple[StationSchedule, dict]:
+    """The schedule of a plan folder written by ``dresspack station-plan`` (plan.json and one trajectory per
+    robot) on ``station`` (a ``Station``, whose robots the plan must name in order), and plan.json's content.
+    Each leg is timed again by the time law, flying by its via points as the plan did."""
+    import json
+    from pathlib import Path
+
+    from .errors import ConfigError
+
+    folder = Path(folder)
+    if not (folder / "plan.json").is_file():
+        raise ConfigError("station_plans", f"{folder} holds no plan.json: give folders written by "
+                                           "`dresspack station-plan` (e.g. station_plans/time)")
+    data = json.loads((folder / "plan.json").read_text())
+    cfg = station.config
+    names = [r.name for r in cfg.robots]
+    if list(data["robots"]) != names:
+        raise ConfigError("station", f"the plan in {folder} is for robots {list(data['robots'])}, station "
+                                     f"{cfg.name!r} has {names}: give the station it was planned on")
+    weld_time = float(data["config"]["weld_time"])
+    robots = []
+    for r, (name, info) in enumerate(data["robots"].items()):
+        limits = cfg.robots[r].robot.joint_motion_limits.at_speed(cfg.simulation.speed_fraction)
+        with np.load(folder / info["trajectory"]) as npz:
+            waypoints, stops = npz["waypoints"], np.r_[0, npz["stops"]]
+            meta = json.loads(str(npz["meta"])) if "meta" in npz else {}
+        legs = tuple(waypoints[a:b + 1] for a, b in zip(stops[:-1], stops[1:]))
+        # the trajectory's meta keeps the legs' start times unrounded (plan.json rounds them to 0.1 ms)
+        starts = np.array(meta.get("leg_start", info["leg_start"]), dtype=float)
+        robots.append(RobotSchedule(r, tuple(info["welds"]), legs, starts, limits, weld_time,
+                                    tuple(info.get("fly_by", ()))))
+    return StationSchedule(tuple(robots), station.home.copy()), data

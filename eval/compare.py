@@ -1,6 +1,7 @@
 """``dresspack-eval``: compare methods on the same tasks and seeds and write the report folder.
 
     dresspack-eval --methods ppo ompl ompl-wear --tasks sill_rear,roof_rail_top --seeds 0 1 --out out/eval
+    dresspack-eval --station-plans station_plans/time station_plans/wear --station side_framing_4r --out out/plans
 """
 
 from __future__ import annotations
@@ -85,10 +86,35 @@ def short_table(rows: list[dict], methods) -> str:
     return "\n".join(lines)
 
 
+def compare_plans_and_report(args) -> int:
+    """``--station-plans``: replay and measure each plan folder alike, write the comparison, print its table."""
+    from .station_compare import compare_station_plans, station_table
+
+    say = None if args.json else (lambda msg: print(msg, flush=True))
+    try:
+        rows = compare_station_plans(args.station_plans, args.station, args.out, args.cost_variant, progress=say)
+    except DresspackError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(rows, indent=2))
+    else:
+        print(station_table(rows, args.station, args.cost_variant))
+        print(f"\nwrote {Path(args.out).resolve()}/station_comparison.md (.json, .csv) and station_wear.png")
+    return 0 if all(r["collisions"] == 0 and not r["jammed"] for r in rows) else 1
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="dresspack-eval", description=__doc__.split("\n")[0])
     add_eval_arguments(p)
-    return evaluate_and_report(p.parse_args(argv))
+    p.add_argument("--station-plans", nargs="+", type=Path, default=None, metavar="DIR",
+                   help="instead of methods: plan folders written by `dresspack station-plan` (e.g. "
+                        "station_plans/time station_plans/wear), each replayed on --station and measured alike; "
+                        "the first is the reference of the relative columns")
+    args = p.parse_args(argv)
+    if args.station_plans:
+        return compare_plans_and_report(args)
+    return evaluate_and_report(args)
 
 
 if __name__ == "__main__":

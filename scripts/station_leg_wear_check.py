@@ -28,7 +28,7 @@ def main() -> None:
 
     from dresspack_gym.loading import load_station
     from dresspack_gym.station import Station
-    from dresspack_gym.station_schedule import RobotSchedule, StationSchedule
+    from dresspack_gym.station_schedule import load_schedule
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("plan", type=Path, help="a plan folder (plan.json, <robot>.npz)")
@@ -45,15 +45,8 @@ def main() -> None:
     config = StationPlanConfig(cost_variant=plan["config"]["cost_variant"], cable_repairs=0,
                                fly_by=plan["config"].get("fly_by", False))
     planner = StationPlanner(station, config)
-    weld_time = float(plan["config"]["weld_time"])
-    robots = []
-    for r, (name, info) in enumerate(plan["robots"].items()):
-        data = np.load(args.plan / info["trajectory"])
-        stops = np.r_[0, data["stops"]]
-        legs = tuple(data["waypoints"][a:b + 1] for a, b in zip(stops[:-1], stops[1:]))
-        robots.append(RobotSchedule(r, tuple(info["welds"]), legs, np.array(info["leg_start"]), planner.limits[r],
-                                    weld_time, tuple(info.get("fly_by", ()))))  # plans before stop 36: all stop
-    schedule = StationSchedule(tuple(robots), station.home)
+    schedule, _ = load_schedule(args.plan, station)  # plans before stop 36 have no fly_by: every leg stops
+    robots = schedule.robots
 
     class _Plan:  # what StationPlanner.replay reads
         pass

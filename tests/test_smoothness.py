@@ -39,3 +39,26 @@ def test_peak_acceleration_is_the_limit_on_long_moves_and_analytic_on_tiny_ones(
     # the joint moving most carries the peak; a slower-limited joint moving less does not raise it above its limit
     both = smoothness(_traj([[170, 0, 0, 40, 0, 0]]), LIMITS)["peak_joint_acceleration"]
     assert both == pytest.approx(LIMITS.acceleration[0], rel=1e-9)
+
+
+def test_a_station_program_is_measured_like_the_same_waypoints_as_one_trajectory():
+    """schedule_smoothness of legs that stop at each via point equals smoothness of their waypoints as one
+    trajectory (the legs share their ends); flying by the via points lowers the peak acceleration, not the
+    reversals."""
+    from dresspack_gym.smoothness import schedule_smoothness
+    from dresspack_gym.station_schedule import RobotSchedule
+
+    steps = [[20, 0, 0, 0, 0, 0], [-10, 10, 0, 0, 0, 0], [10, -10, 0, 5, 0, 0], [-20, 0, 0, -5, 0, 0]]
+    traj = _traj(steps)
+    pts = traj.waypoints
+    legs = [pts[0:3], pts[2:5]]
+    stopping = RobotSchedule.as_soon_as_possible(0, ["w"], legs, LIMITS, 1.0)
+    assert schedule_smoothness(stopping) == pytest.approx(smoothness(traj, LIMITS), rel=1e-12)
+    from dresspack_gym.time_law import PathMotion
+
+    flying = RobotSchedule.as_soon_as_possible(0, ["w"], legs, LIMITS, 1.0,
+                                               motions=[PathMotion(leg, LIMITS, True) for leg in legs])
+    fly, stop = schedule_smoothness(flying), schedule_smoothness(stopping)
+    assert fly["reversals_per_s"] * sum(flying.leg_durations()) == stop["reversals_per_s"] * sum(
+        stopping.leg_durations())
+    assert fly["peak_joint_acceleration"] <= stop["peak_joint_acceleration"] + 1e-9

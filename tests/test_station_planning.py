@@ -532,6 +532,28 @@ def test_station_plan_command_writes_plans_pictures_and_a_comparison(tmp_path, c
     assert 0 < bound["bound"] <= bound["best"] + 1e-9
     assert "wear_estimate_bound" not in summary["time"]
     assert "have a wear estimate below" in (out / "summary.md").read_text()
+    # dresspack-eval compares the plans like methods: replayed again in the same simulator, the same figures
+    from dresspack.eval.compare import main as eval_main
+
+    compared = tmp_path / "compared"
+    assert eval_main(["--station-plans", str(out / "time"), str(out / "wear"), "--station", str(station),
+                      "--out", str(compared)]) == 0
+    rows = json.loads((compared / "station_comparison.json").read_text())
+    assert [r["plan"] for r in rows] == ["time", "wear"]
+    for r in rows:
+        s = summary[r["plan"]]
+        assert r["makespan"] == pytest.approx(s["makespan"], abs=1e-3)
+        assert r["cost"] == pytest.approx(s["replay"]["cost"], rel=1e-9)
+        assert (r["collisions"], r["samples"]) == (s["verification"]["collisions"], s["verification"]["samples"])
+        assert r["max_tension"] == pytest.approx(max(x["max_tension"] for x in s["replay"]["robots"].values()))
+        assert r["reversals_per_s"] >= 0 and r["peak_joint_acceleration"] > 0
+    for f in ("station_comparison.md", "station_comparison.csv", "station_wear.png"):
+        assert (compared / f).is_file(), f
+    capsys.readouterr()
+    assert eval_main(["--station-plans", str(tmp_path), "--station", str(station), "--out", str(compared)]) == 2
+    assert "station_plans" in capsys.readouterr().err
+    assert eval_main(["--station-plans", str(out / "time"), "--station", "default", "--out", str(compared)]) == 2
+    assert "station" in capsys.readouterr().err
 
 
 def test_station_plan_command_names_a_weld_no_robot_can_reach(tmp_path, capsys):
