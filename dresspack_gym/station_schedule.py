@@ -6,11 +6,15 @@ Gantt chart all read it), so they cannot disagree about the timing."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field, replace
+from itertools import pairwise
+from pathlib import Path
 
 import numpy as np
 
 from . import time_law
+from .errors import ConfigError
 from .trajectory import Trajectory
 
 # what a robot does at a time of the station clock (RobotSchedule.phase_at indexes this); "done" is standing at
@@ -177,11 +181,6 @@ def load_schedule(folder, station) -> tuple[StationSchedule, dict]:
     """The schedule of a plan folder written by ``dresspack station-plan`` (plan.json and one trajectory per
     robot) on ``station`` (a ``Station``, whose robots the plan must name in order), and plan.json's content.
     Each leg is timed again by the time law, flying by its via points as the plan did."""
-    import json
-    from pathlib import Path
-
-    from .errors import ConfigError
-
     folder = Path(folder)
     if not (folder / "plan.json").is_file():
         raise ConfigError("station_plans", f"{folder} holds no plan.json: give folders written by "
@@ -199,7 +198,7 @@ def load_schedule(folder, station) -> tuple[StationSchedule, dict]:
         with np.load(folder / info["trajectory"]) as npz:
             waypoints, stops = npz["waypoints"], np.r_[0, npz["stops"]]
             meta = json.loads(str(npz["meta"])) if "meta" in npz else {}
-        legs = tuple(waypoints[a:b + 1] for a, b in zip(stops[:-1], stops[1:]))
+        legs = tuple(waypoints[a:b + 1] for a, b in pairwise(stops))
         # the trajectory's meta keeps the legs' start times unrounded (plan.json rounds them to 0.1 ms)
         starts = np.array(meta.get("leg_start", info["leg_start"]), dtype=float)
         robots.append(RobotSchedule(r, tuple(info["welds"]), legs, starts, limits, weld_time,
