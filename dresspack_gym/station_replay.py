@@ -43,6 +43,12 @@ class StationReplay:
         """Per robot, the integral of C over the cycle [cost x s]."""
         return np.trapezoid(self.cost, self.time, axis=0) if len(self.time) > 1 else np.zeros(self.cost.shape[1])
 
+    def running_cost(self) -> np.ndarray:
+        """(N, n_robots): the trapezoid integral of C from the cycle's start to each sample (its last row is
+        :meth:`integrated_cost`)."""
+        pieces = 0.5 * (self.cost[1:] + self.cost[:-1]) * np.diff(self.time)[:, None]
+        return np.concatenate([np.zeros((1, self.cost.shape[1])), np.cumsum(pieces, axis=0)])
+
     def wear_split(self, schedule: StationSchedule) -> dict:
         """Per robot index, the integrated cost split by what the robot did (``by_phase``: :data:`PHASES`, from
         ``schedule``) and by the cost's terms (``by_term``, when recorded). Each sampling interval counts whole

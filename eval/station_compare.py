@@ -109,9 +109,7 @@ def _plot_wear(rows: list[dict], replays: list, path: Path, station_name: str) -
 
     fig, ax = plt.subplots(figsize=(8, 4))
     for row, rep in zip(rows, replays):
-        total = rep.cost.sum(axis=1)
-        running = np.concatenate([[0.0], np.cumsum(0.5 * (total[1:] + total[:-1]) * np.diff(rep.time))])
-        ax.plot(rep.time, running, label=f"{row['plan']}: {row['cost']:.4g} in {row['makespan']:.2f} s")
+        ax.plot(rep.time, rep.running_cost().sum(axis=1), label=f"{row['plan']}: {row['cost']:.4g} in {row['makespan']:.2f} s")
     ax.set_xlabel("station clock [s]")
     ax.set_ylabel("∫C dt, all cables")
     ax.set_title(f"{station_name}: wear over the cycle")
