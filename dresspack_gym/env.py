@@ -10,10 +10,12 @@ change being ``joint_step`` (a straight joint-space move is what a planner's seg
 a planner's cycle time where the straight way is free). When every joint is within half a step of the
 current goal the robot finishes the move onto the goal exactly (that motion is simulated and timed too) and
 the goal is reached; the cable then settles (the robot dwells while welding, as in trajectory replay).
-With ``action_set="primitives"`` the actions are planner-like segments instead (``Discrete(2 + 12 k)`` for k
-``via_offsets_deg``): action 0 goes straight to the goal; action ``1 + 12 i + 2 j (+1)`` goes to the midpoint
-toward the goal with joint ``j`` offset by ``+(-)via_offsets_deg[i]`` (a via configuration: around an obstacle with
-j1-j3, re-orienting the wrist with j4-j6); the last action waits. A replayed episode is then a via path whose
+With ``action_set="primitives"`` the actions are planner-like segments instead (``Discrete(2 + 12 k a)`` for k
+``via_offsets_deg`` and a ``via_anchors``): action 0 goes straight to the goal; action ``1 + 12 (k b + i) + 2 j (+1)``
+goes to anchor ``b``'s configuration with joint ``j`` offset by ``+(-)via_offsets_deg[i]`` (a via configuration:
+around an obstacle with j1-j3, re-orienting the wrist with j4-j6). Anchors: ``"midpoint"``
+(halfway toward the goal) and ``"here"`` (the current configuration: backing out of a tight spot, e.g. away
+from the panel just welded, before heading anywhere); the last action waits. A replayed episode is then a via path whose
 segments the time law times rest-to-rest, exactly like a planner's, and an episode takes a few decisions per leg.
 
 Tasks: ``welds`` (all of them, in order), or each episode ``n_welds`` of them (optionally shuffled), or one
@@ -97,6 +99,8 @@ TOWARD_GOAL = 13
 # obstacle with j1-j3, a wrist re-orientation with j4-j6), and last a wait. Every action is one straight,
 # rest-to-rest segment timed by the time law, so a replayed episode is as smooth as a planner's via path.
 ACTION_SETS = ("joint_steps", "primitives")
+# where a via configuration is taken from, as the fraction of the way toward the goal
+VIA_ANCHORS = {"midpoint": 0.5, "here": 0.0}
 TO_GOAL = 0
 # [s] with wear_integral the cost is sampled this often along a motion and integrated (trapezoid): a primitive
 # segment lasts seconds, its end state alone would miss what the cable went through on the way
@@ -178,6 +182,13 @@ def _check_arguments(kw: dict[str, Any]) -> None:
         raise ConfigError("via_offsets_deg", f"expected a non-empty list of angles [deg], got {offsets!r}")
     for i, v in enumerate(offsets):
         check_number(v, f"via_offsets_deg[{i}]", lo=VIA_OFFSET_RANGE_DEG[0], hi=VIA_OFFSET_RANGE_DEG[1], unit="deg")
+    anchors = kw["via_anchors"]
+    if isinstance(anchors, (str, bytes)) or not isinstance(anchors, (list, tuple)) or not anchors:
+        raise ConfigError("via_anchors", f"expected a non-empty list from {list(VIA_ANCHORS)}, got {anchors!r}")
+    for i, anchor in enumerate(anchors):
+        check_choice(f"via_anchors[{i}]", anchor, list(VIA_ANCHORS))
+    if len(set(anchors)) != len(anchors):
+        raise ConfigError("via_anchors", f"each anchor at most once, got {list(anchors)}")
     if kw["goal_action"] and kw["action_set"] == "primitives":
         raise ConfigError("goal_action", "applies to action_set joint_steps only (primitives always go to the goal "
                                          "with action 0)")
@@ -203,7 +214,8 @@ class DresspackEnv(gym.Env):
                  start_noise_deg: float = 0.0, sim_timestep: float | None = None,
                  physics_profile: str = "accurate", part_welds: int = 0,
                  weld_tilt_deg: float = 20.0, action_set: str = "joint_steps",
-                 via_offsets_deg: tuple[float, ...] = (30.0, 60.0), wear_reward_cap: float | None = None,
+                 via_offsets_deg: tuple[float, ...] = (30.0, 60.0), via_anchors: tuple[str, ...] = ("midpoint",),
+                 wear_reward_cap: float | None = None,
                  render_mode: str | None = None,
                  render_size: tuple[int, int] = (480, 360)):
         self._kwargs = dict(locals())
@@ -262,14 +274,15 @@ class DresspackEnv(gym.Env):
         if part_welds:  # goals change every episode: the goal's tool pose too (position, approach)
             self.observation_structure["goal_pose"] = 6
         if action_set == "primitives":  # which segments are free: probes of the geometry along each candidate
-            self.observation_structure["action_masks"] = 2 + 12 * len(via_offsets_deg)
+            self.observation_structure["action_masks"] = 2 + 12 * len(via_offsets_deg) * len(via_anchors)
         n_obs = sum(self.observation_structure.values())
         self.observation_space = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(n_obs,), dtype=np.float32)
         self.action_set = action_set
         if action_set == "primitives":
-            # (joint, signed offset) per via action, in action order 1..n; the wait is the last action
-            self._vias = [(j, sign * math.radians(off)) for off in via_offsets_deg for j in range(6)
-                          for sign in (1.0, -1.0)]
+            # (fraction toward the goal, joint, signed offset) per via action, in action order 1..n; the wait is
+            # the last action
+            self._vias = [(VIA_ANCHORS[anchor], j, sign * math.radians(off)) for anchor in via_anchors
+                          for off in via_offsets_deg for j in range(6) for sign in (1.0, -1.0)]
             self.n_actions = 2 + len(self._vias)
             self.stay_action = self.n_actions - 1
         else:
@@ -508,8 +521,9 @@ class DresspackEnv(gym.Env):
         if self.action_set == "primitives":
             if a == TO_GOAL:
                 return "straight to the goal"
-            j, offset = self._vias[a - 1]
-            return f"via the midpoint with j{j + 1} {math.degrees(offset):+g} deg"
+            fraction, j, offset = self._vias[a - 1]
+            anchor = "the midpoint" if fraction else "here"
+            return f"via {anchor} with j{j + 1} {math.degrees(offset):+g} deg"
         if a == TOWARD_GOAL:
             return f"toward goal (<= {math.degrees(self.step_size):g} deg)"
         return f"j{a // 2 + 1} {'+' if a % 2 == 0 else '-'}{math.degrees(self.step_size):g} deg"
@@ -532,8 +546,8 @@ class DresspackEnv(gym.Env):
         if self.action_set == "primitives":
             if a == TO_GOAL:
                 return self.goal.copy()
-            j, offset = self._vias[a - 1]
-            target = q + 0.5 * (self.goal - q)
+            fraction, j, offset = self._vias[a - 1]
+            target = q + fraction * (self.goal - q)
             target[j] += offset
             return target
         if a == TOWARD_GOAL:

@@ -40,6 +40,32 @@ def test_action_layout_and_targets(env):
     assert env.describe_action(TO_GOAL) == "straight to the goal" and env.describe_action(env.stay_action) == "stay"
 
 
+def test_here_anchored_vias_offset_the_current_configuration():
+    e = DresspackEnv(station="default", action_set="primitives", via_offsets_deg=[30.0, 60.0],
+                     via_anchors=["midpoint", "here"], physics_profile="training")
+    assert e.n_actions == 2 + 12 * 2 * 2 and e.observation_structure["action_masks"] == e.n_actions
+    assert e.observation_space.shape == (sum(e.observation_structure.values()),)
+    e.reset(seed=0)
+    q, goal = e.q, e.goal
+    for i, off in enumerate((30.0, 60.0)):
+        for j in range(6):
+            for sign, k in ((1.0, 0), (-1.0, 1)):
+                mid, here = 1 + 12 * i + 2 * j + k, 1 + 24 + 12 * i + 2 * j + k
+                expected = q + 0.5 * (goal - q)
+                expected[j] += sign * math.radians(off)
+                np.testing.assert_allclose(e._target(q, mid), expected, atol=1e-12)
+                expected = q.copy()
+                expected[j] += sign * math.radians(off)
+                np.testing.assert_allclose(e._target(q, here), expected, atol=1e-12)
+                assert e.describe_action(here) == f"via here with j{j + 1} {sign * off:+g} deg"
+    # a here-anchored via leaves the other joints where they are: the segment moves one joint only
+    a = int(next(a for a in range(25, e.n_actions - 1) if e.action_masks()[a]))
+    _, _, _, _, info = e.step(a)
+    moved = np.abs(info["moved_through"][0] - q) > 1e-12
+    assert moved.sum() == 1
+    e.close()
+
+
 def test_straight_to_the_goal_reaches_it_in_one_step_and_integrates_the_wear(env):
     env.reset(seed=1, options=FREE_WAY)
     assert env.action_masks()[TO_GOAL]
@@ -116,6 +142,10 @@ def test_primitive_env_pickles_mid_episode(env):
     ({"action_set": "primitives", "via_offsets_deg": "30"}, "via_offsets_deg"),
     ({"action_set": "primitives", "via_offsets_deg": [30.0, 0.0]}, "via_offsets_deg[1]"),
     ({"action_set": "primitives", "goal_action": True}, "goal_action"),
+    ({"action_set": "primitives", "via_anchors": "here"}, "via_anchors"),
+    ({"action_set": "primitives", "via_anchors": []}, "via_anchors"),
+    ({"action_set": "primitives", "via_anchors": ["midpoint", "start"]}, "via_anchors[1]"),
+    ({"action_set": "primitives", "via_anchors": ["here", "here"]}, "via_anchors"),
     ({"wear_reward_cap": -1.0}, "wear_reward_cap"),
     ({"wear_reward_cap": float("nan")}, "wear_reward_cap"),
 ])
