@@ -131,12 +131,66 @@ class RobotCollisionChecker:
             lb[self.box] = np.where(box_lb > 0.0, box_lb, -np.inf)
         return self.pairs[:, 0], self.pairs[:, 1], lb
 
+    def _pose_batch(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each configuration of ``qs`` (B, 6) posed as :meth:`_pose` poses one: this robot's geom positions
+        (B, G, 3) and orientations (B, G, 9), and the pairs' lower bounds (B, P), computed for all at once (one
+        configuration's bounds are a dozen small array operations whose overhead dwarfs their arithmetic)."""
+        d, own = self.data, self._own_geoms
+        pos = np.empty((len(qs), len(own), 3))
+        mat = np.empty((len(qs), len(own), 9))
+        for b, q in enumerate(qs):
+            d.qpos[self.robot.qpos] = q
+            mujoco.mj_kinematics(self.model, d)
+            pos[b] = d.geom_xpos[own]
+            mat[b] = d.geom_xmat[own]
+        every = np.concatenate([pos, np.broadcast_to(self._static_pos, (len(qs), *self._static_pos.shape))], axis=1)
+        gap = pos[:, :, None, :] - every[:, None, :, :]
+        lb = np.sqrt(np.einsum("zabk,zabk->zab", gap, gap)).reshape(len(qs), -1)[:, self._pair_cell] - self._radii
+        lb[:, self.plane] = -np.inf
+        lb *= self.scale
+        if len(self._box_cell):
+            local = np.matmul(pos[:, None] - self._box_centre[None, :, None], self._box_frame[None])
+            outside = np.maximum(np.abs(local) - self._box_half[None, :, None], 0.0)
+            box_lb = (np.sqrt(np.einsum("zbgk,zbgk->zbg", outside, outside)).reshape(len(qs), -1)[:, self._box_cell]
+                      - self._box_radii)
+            lb[:, self.box] = np.where(box_lb > 0.0, box_lb, -np.inf)
+        return pos, mat, lb
+
+    def min_distances(self, qs) -> np.ndarray:
+        """:meth:`min_distance` of each configuration of ``qs`` (B, 6), the bounds computed in one batch; the
+        configuration posed last is the last one (as for :meth:`joint_reach`)."""
+        qs = np.atleast_2d(np.asarray(qs, dtype=float))
+        if len(self.pairs) == 0:
+            return np.full(len(qs), np.inf)
+        pos, mat, lbs = self._pose_batch(qs)
+        d, own = self.data, self._own_geoms
+        # every configuration's pairs by lower bound, sorted at once and read as Python numbers: the loop below
+        # is per exact query (what _nearest does per configuration, without its per-call array operations)
+        order = np.argsort(lbs, axis=1, kind="stable")
+        bounds = np.take_along_axis(lbs, order, axis=1).tolist()
+        order = order.tolist()
+        out = np.empty(len(qs))
+        for b in range(len(qs)):  # the exact queries read the geoms' poses: this configuration's
+            d.geom_xpos[own] = pos[b]
+            d.geom_xmat[own] = mat[b]
+            pairs, lb = order[b], bounds[b]
+            best = self._pair_distance(pairs[0], np.inf)
+            for k, bound in zip(pairs[1:], lb[1:]):
+                if bound >= best:  # sorted by lower bound: none of the rest can be nearer
+                    break
+                best = min(best, self._pair_distance(k, best))
+            out[b] = best
+        return out
+
     def min_distance(self, q) -> float:
         """Smallest robot-obstacle surface distance at configuration ``q`` (negative when penetrating); a
         hardware-to-own-link pair counts half its distance."""
         if len(self.pairs) == 0:
             return np.inf
-        lb = self._pose(q)[2]
+        return self._nearest(self._pose(q)[2])
+
+    def _nearest(self, lb: np.ndarray) -> float:
+        """The smallest exact pair distance, given every pair's lower bound at the posed configuration."""
         first = int(lb.argmin())
         best = self._pair_distance(first, np.inf)
         # only pairs whose bound is below the nearest pair's distance can be nearer: usually a few of the

@@ -81,17 +81,47 @@ class MotionValidity:
 
     def segment_clear(self, q0: np.ndarray, q1: np.ndarray) -> bool:
         """The collision part of :meth:`segment_valid` alone (for callers that checked limits/restrictions)."""
-        reach_per_t = float(self.checker.chain_reach() @ np.abs(q1 - q0))
+        dq = q1 - q0
+        return self._advance(q0, dq, float(self.checker.chain_reach() @ np.abs(dq)), 0.0)
+
+    def _advance(self, q0: np.ndarray, dq: np.ndarray, reach_per_t: float, t: float) -> bool:
+        """Conservative advancement along q0 + t dq from ``t`` to 1: True when it stays clear."""
         margin = self.checker.margin
-        t = 0.0
         while True:
             self.n_checks += 1
-            d = self.checker.min_distance(q0 + t * (q1 - q0))
+            d = self.checker.min_distance(q0 + t * dq)
             if d < margin:
                 return False
             if t >= 1.0 or reach_per_t == 0.0:
                 return True
             t = min(1.0, t + (d - 0.5 * margin) / reach_per_t)  # clearance stays above margin / 2
+
+    def segments_clear(self, q0: np.ndarray, q1s: np.ndarray) -> np.ndarray:
+        """:meth:`segment_clear` of each segment from ``q0`` to a row of ``q1s`` (the env's masks check dozens
+        from one configuration): the same advancement, run in lockstep so each round's distance queries are one
+        batch (:meth:`RobotCollisionChecker.min_distances`); every segment takes the steps, and gets the answer,
+        it would alone (tested). The last segment left goes on alone: for one, the scalar loop is faster."""
+        q0 = np.asarray(q0, dtype=float)
+        dq = np.asarray(q1s, dtype=float) - q0
+        chain = self.checker.chain_reach()
+        reach_per_t = np.array([float(chain @ np.abs(row)) for row in dq])
+        margin = self.checker.margin
+        t = np.zeros(len(dq))
+        clear = np.zeros(len(dq), dtype=bool)
+        active = np.arange(len(dq))
+        while len(active) > 1:
+            self.n_checks += len(active)
+            d = self.checker.min_distances(q0 + t[active, None] * dq[active])
+            free = d >= margin
+            done = free & ((t[active] >= 1.0) | (reach_per_t[active] == 0.0))
+            clear[active[done]] = True
+            going = free & ~done
+            active = active[going]
+            t[active] = np.minimum(1.0, t[active] + (d[going] - 0.5 * margin) / reach_per_t[active])
+        if len(active):  # the last one goes on alone, from where it stands
+            k = int(active[0])
+            clear[k] = self._advance(q0, dq[k], float(reach_per_t[k]), float(t[k]))
+        return clear
 
     def path_valid(self, path) -> bool:
         path = np.asarray(path, dtype=float)

@@ -202,3 +202,39 @@ def exact_at(checker, q, g1, g2):
 
     checker.min_distance(q)  # poses the robot
     return mujoco.mj_geomDistance(checker.model, checker.data, g1, g2, 10.0, np.zeros(6))
+
+
+def test_batched_distances_and_lockstep_segments_answer_as_one_at_a_time():
+    """min_distances equals min_distance per configuration, and segments_clear (segments advanced in lockstep,
+    queries batched) equals conservative advancement run on each segment alone, query for query."""
+    from dresspack_gym.validity import MotionValidity
+
+    station = Station(load_station("default"))
+    validity = MotionValidity(station, 0, margin=0.005)
+    checker = validity.checker
+    home = station.config.robots[0].home
+    rng = np.random.default_rng(1)
+    qs = home + rng.uniform(-1.5, 1.5, size=(400, 6))
+    batched = checker.min_distances(qs)
+    np.testing.assert_array_equal(batched, [checker.min_distance(q) for q in qs])
+    assert (batched < 0).any() and (batched > 0.05).any()
+
+    def alone(q0, q1):  # conservative advancement of one segment, as the checker's contract states it
+        reach, t, queries = float(checker.chain_reach() @ np.abs(q1 - q0)), 0.0, 0
+        while True:
+            queries += 1
+            d = checker.min_distance(q0 + t * (q1 - q0))
+            if d < checker.margin:
+                return False, queries
+            if t >= 1.0 or reach == 0.0:
+                return True, queries
+            t = min(1.0, t + (d - 0.5 * checker.margin) / reach)
+
+    q0 = home.copy()
+    q1s = q0 + rng.uniform(-1.2, 1.2, size=(40, 6))
+    expected = [alone(q0, q1) for q1 in q1s]
+    n = validity.n_checks
+    np.testing.assert_array_equal(validity.segments_clear(q0, q1s), [ok for ok, _ in expected])
+    assert validity.n_checks - n == sum(k for _, k in expected)
+    assert 0 < sum(ok for ok, _ in expected) < len(expected)  # both outcomes occur
+    assert validity.segment_clear(q0, q1s[0]) == expected[0][0]

@@ -114,6 +114,7 @@ def test_unreachable_goal_fails_within_the_time_budget(curvature_station):
         return min(real(q), 0.1 * max(0.05 - r, r - 0.3))
 
     planner.validity.checker.min_distance = caged
+    planner.validity.checker.min_distances = lambda qs: np.array([caged(q) for q in np.atleast_2d(qs)])
     t0 = time.perf_counter()
     with pytest.raises(PlanningError, match="no collision-free path"):
         planner.plan(task)
