@@ -135,7 +135,33 @@ def collision_benchmark(station_ref: str = "default", repeats: int = 3, n_config
         "kinematics_us": round(best["kinematics"] * 1e6, 2),
         **{f"{k}_vs_kinematics": round(v / base, 2) for k, v in best.items() if k != "kinematics"},
         "collides_fraction": round(float(np.mean([checker.collides(q) for q in qs])), 4),
+        **_segments_benchmark(station, repeats),
     }
+
+
+def _segments_benchmark(station, repeats: int, n_starts: int = 8, n_segments: int = 48) -> dict:
+    """What the env's masks do: dozens of segments from one configuration checked one by one
+    (``segment_clear``) or in lockstep (``segments_clear``), the same answers; best of repeats."""
+    from .validity import PLANNER_MARGIN, MotionValidity
+
+    validity = MotionValidity(station, 0, margin=PLANNER_MARGIN)
+    rng = np.random.default_rng(1)
+    home = station.config.robots[0].home
+    starts = [home + rng.uniform(-0.2, 0.2, 6) for _ in range(n_starts)]
+    ends = [q + rng.uniform(-1.0, 1.0, size=(n_segments, 6)) for q in starts]
+    one, lockstep = np.inf, np.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        alone = [[validity.segment_clear(q, e) for e in es] for q, es in zip(starts, ends)]
+        t1 = time.perf_counter()
+        together = [validity.segments_clear(q, es).tolist() for q, es in zip(starts, ends)]
+        t2 = time.perf_counter()
+        if alone != together:
+            raise RuntimeError("segments_clear disagrees with segment_clear: a bug, please report it")
+        one, lockstep = min(one, t1 - t0), min(lockstep, t2 - t1)
+    return {"segments_one_by_one_ms_per_start": round(1e3 * one / n_starts, 2),
+            "segments_lockstep_vs_one_by_one": round(one / lockstep, 2),
+            "segments_clear_fraction": round(float(np.mean(together)), 3)}
 
 
 def env_benchmark(station_ref: str = "default", repeats: int = 3, env_steps: int = 60) -> dict:

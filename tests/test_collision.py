@@ -238,3 +238,10 @@ def test_batched_distances_and_lockstep_segments_answer_as_one_at_a_time():
     assert validity.n_checks - n == sum(k for _, k in expected)
     assert 0 < sum(ok for ok, _ in expected) < len(expected)  # both outcomes occur
     assert validity.segment_clear(q0, q1s[0]) == expected[0][0]
+
+
+def test_bench_collision_compares_lockstep_and_one_by_one_segment_checks_in_one_run():
+    from dresspack_gym.bench import collision_benchmark
+
+    out = collision_benchmark(repeats=1, n_configs=20)
+    assert out["segments_lockstep_vs_one_by_one"] > 0 and 0 < out["segments_clear_fraction"] < 1
