@@ -111,6 +111,13 @@ class RobotCollisionChecker:
         self._box_half = m.geom_size[boxes]
         self._box_cell = box_of_pair.reshape(-1) * len(own) + np.array([local[int(x)] for x in g[self.box]], dtype=int)
         self._box_radii = self.rbound[g[self.box]] + self.extra[self.box]
+        # Planes (the floor): a robot geom's bounding sphere is at least its centre's height above the plane
+        # less its radius away (without this bound every plane pair needed an exact query at every pose)
+        planes = self.pairs[self.plane, 1]
+        self._plane_normal = d.geom_xmat[planes].reshape(-1, 3, 3)[:, :, 2].copy()
+        self._plane_offset = np.einsum("pk,pk->p", self._plane_normal, d.geom_xpos[planes])
+        self._plane_own = np.array([local[int(x)] for x in g[self.plane]], dtype=int)
+        self._plane_radii = self.rbound[g[self.plane]] + self.extra[self.plane]
 
     def _pose(self, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pose the robot at ``q``; (robot geoms, obstacles, bounding-sphere lower bound) per pair."""
@@ -120,7 +127,9 @@ class RobotCollisionChecker:
         own = d.geom_xpos[self._own_geoms]
         gap = own[:, None, :] - np.concatenate([own, self._static_pos])[None, :, :]
         lb = np.sqrt(np.einsum("abk,abk->ab", gap, gap)).ravel().take(self._pair_cell) - self._radii
-        lb[self.plane] = -np.inf
+        if len(self._plane_own):
+            height = np.einsum("pk,pk->p", own[self._plane_own], self._plane_normal) - self._plane_offset
+            lb[self.plane] = np.where(height - self._plane_radii > 0.0, height - self._plane_radii, -np.inf)
         lb *= self.scale
         if len(self._box_cell):
             local = np.matmul(own[None] - self._box_centre[:, None], self._box_frame)  # each geom in each box frame
@@ -146,7 +155,9 @@ class RobotCollisionChecker:
         every = np.concatenate([pos, np.broadcast_to(self._static_pos, (len(qs), *self._static_pos.shape))], axis=1)
         gap = pos[:, :, None, :] - every[:, None, :, :]
         lb = np.sqrt(np.einsum("zabk,zabk->zab", gap, gap)).reshape(len(qs), -1)[:, self._pair_cell] - self._radii
-        lb[:, self.plane] = -np.inf
+        if len(self._plane_own):
+            height = np.einsum("zpk,pk->zp", pos[:, self._plane_own], self._plane_normal) - self._plane_offset
+            lb[:, self.plane] = np.where(height - self._plane_radii > 0.0, height - self._plane_radii, -np.inf)
         lb *= self.scale
         if len(self._box_cell):
             local = np.matmul(pos[:, None] - self._box_centre[None, :, None], self._box_frame[None])

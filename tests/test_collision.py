@@ -21,12 +21,12 @@ def test_collides_agrees_with_exact_min_distance():
 
 
 def test_pair_bounds_never_exceed_exact_distances_and_min_distance_is_the_brute_force_minimum():
-    """The per-pair lower bounds that let a query skip exact distances (spheres, boxes, parked robots, the
-    dresspack hardware against its own links) stay below every pair's exact distance, so the fast minimum equals
+    """The per-pair lower bounds that let a query skip exact distances (spheres, boxes, the floor, parked robots,
+    the dresspack hardware against its own links) stay below every pair's exact distance, so the fast minimum equals
     the minimum over every pair, on a station with parked robots and box parts; penetrating configurations
     included (their depth is the deepest pair's, not cut short by the pairs queried before it)."""
     import mujoco
-    checked = penetrating = 0
+    checked = penetrating = plane_bounded = 0
     for name, robot in (("side_framing_4r", 0), ("side_framing_4r", 3), ("default", 0)):
         station = Station(load_station(name))
         checker = RobotCollisionChecker(station, robot, margin=0.01)
@@ -42,7 +42,9 @@ def test_pair_bounds_never_exceed_exact_distances_and_min_distance_is_the_brute_
             assert checker.min_distance(q) == pytest.approx(exact.min(), abs=1e-9)
             checked += 1
             penetrating += exact.min() < 0.0
+            plane_bounded += int(np.isfinite(lb[checker.plane]).sum())
     assert checked == 180 and 20 <= penetrating <= 160
+    assert plane_bounded > 100  # the floor's pairs are bounded (not left to exact queries), and the bound holds
 
 
 def test_tool_pushed_into_an_obstacle_collides_and_margin_grows_the_robot():
