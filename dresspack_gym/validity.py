@@ -16,6 +16,9 @@ from .station import LINK_INDEX, Station, node_frames
 MIN_MARGIN = 0.002  # [m] conservative advancement needs a positive clearance to make progress
 # [m] robot-station clearance the planners keep (and the policy's masks, so its paths pass the planners' check)
 PLANNER_MARGIN = 0.005
+# segments_clear batches a round only while more segments than this are still advancing: a round's array work
+# costs about what a few one-at-a-time queries do (dresspack bench collision)
+LOCKSTEP_MIN = 4
 
 
 class MotionValidity:
@@ -100,7 +103,7 @@ class MotionValidity:
         """:meth:`segment_clear` of each segment from ``q0`` to a row of ``q1s`` (the env's masks check dozens
         from one configuration): the same advancement, run in lockstep so each round's distance queries are one
         batch (:meth:`RobotCollisionChecker.min_distances`); every segment takes the steps, and gets the answer,
-        it would alone (tested). The last segment left goes on alone: for one, the scalar loop is faster."""
+        it would alone (tested). The last few go on alone, where one-at-a-time queries are cheaper than a round."""
         q0 = np.asarray(q0, dtype=float)
         dq = np.asarray(q1s, dtype=float) - q0
         chain = self.checker.chain_reach()
@@ -109,7 +112,7 @@ class MotionValidity:
         t = np.zeros(len(dq))
         clear = np.zeros(len(dq), dtype=bool)
         active = np.arange(len(dq))
-        while len(active) > 1:
+        while len(active) > LOCKSTEP_MIN:
             self.n_checks += len(active)
             d = self.checker.min_distances(q0 + t[active, None] * dq[active])
             free = d >= margin
@@ -118,8 +121,7 @@ class MotionValidity:
             going = free & ~done
             active = active[going]
             t[active] = np.minimum(1.0, t[active] + (d[going] - 0.5 * margin) / reach_per_t[active])
-        if len(active):  # the last one goes on alone, from where it stands
-            k = int(active[0])
+        for k in active.tolist():  # the last few go on alone, each from where it stands
             clear[k] = self._advance(q0, dq[k], float(reach_per_t[k]), float(t[k]))
         return clear
 
