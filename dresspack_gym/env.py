@@ -542,19 +542,21 @@ class DresspackEnv(gym.Env):
             raise InvalidActionError(f"action must be an integer in [0, {self.n_actions - 1}], got {action!r}")
         return int(value)
 
-    def _target(self, q: np.ndarray, a: int) -> np.ndarray:
+    def _target(self, q: np.ndarray, a: int, goal: np.ndarray | None = None) -> np.ndarray:
+        """Where action ``a`` moves from ``q`` (toward ``goal``, default the current goal)."""
+        goal = self.goal if goal is None else goal
         target = q.copy()
         if a == self.stay_action:
             return target
         if self.action_set == "primitives":
             if a == TO_GOAL:
-                return self.goal.copy()
+                return goal.copy()
             fraction, j, offset = self._vias[a - 1]
-            target = q + fraction * (self.goal - q)
+            target = q + fraction * (goal - q)
             target[j] += offset
             return target
         if a == TOWARD_GOAL:
-            err = self.goal - q
+            err = goal - q
             return q + err * min(1.0, self.step_size / max(float(np.max(np.abs(err))), 1e-12))
         if a != STAY:
             target[a // 2] += self.step_size if a % 2 == 0 else -self.step_size

@@ -58,6 +58,11 @@ def test_here_anchored_vias_offset_the_current_configuration():
                 expected[j] += sign * math.radians(off)
                 np.testing.assert_allclose(e._target(q, here), expected, atol=1e-12)
                 assert e.describe_action(here) == f"via here with j{j + 1} {sign * off:+g} deg"
+    other = goal + 0.3  # any leg's end: what the reachability study (scripts/primitive_reach.py) asks
+    for a in (TO_GOAL, 1, 30):
+        expected = e._target(q, a)
+        np.testing.assert_allclose(e._target(q, a, other), expected + (other - goal) * (0.0 if a == 30 else
+                                                                                        1.0 if a == TO_GOAL else 0.5))
     # a here-anchored via leaves the other joints where they are: the segment moves one joint only
     a = int(next(a for a in range(25, e.n_actions - 1) if e.action_masks()[a]))
     _, _, _, _, info = e.step(a)

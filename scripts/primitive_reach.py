@@ -1,0 +1,84 @@
+"""Which held-out welds the env's planner-like actions can finish at all: a search over the action set alone
+(geometry and masks, no policy), per leg the fewest via actions after which "straight to the goal" is free.
+
+    PYTHONPATH=. .venv/bin/python scripts/primitive_reach.py --station default --drawn-tasks 30 \
+        --anchors midpoint --anchors midpoint,here --out docs/primitive_reach.json
+
+The tasks are `dresspack-eval --drawn-tasks N --seeds 0`'s (Home to one weld drawn on the parts, back Home). Each
+leg is searched breadth first: at most ``--vias`` actions (every unmasked via of the env: its own targets, masks and
+continuous check), then the straight segment to the leg's end must be free. A weld is reachable when both legs are.
+What a policy can finish is bounded by this (up to ``--vias`` per leg); which welds it does finish is the
+evaluation's business."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+# a leg's search keeps at most this many configurations per depth (the via tree grows ~40x per level)
+FRONTIER_CAP = 3000
+
+
+def fewest_vias(env, start: np.ndarray, end: np.ndarray, max_vias: int) -> int | None:
+    """The fewest via actions after which the straight segment from ``start`` reaches ``end``; None beyond
+    ``max_vias``. Uses the env's own action targets and segment check, with ``end`` as the goal."""
+    goal = np.asarray(end, dtype=float)
+    vias = [a for a in range(env.n_actions) if a not in (0, env.stay_action)]
+    frontier = [np.asarray(start, dtype=float)]
+    for depth in range(max_vias + 1):
+        if any(env._segment_valid(q, goal) for q in frontier):
+            return depth
+        if depth == max_vias:
+            return None
+        nxt = []
+        for q in frontier:
+            for a in vias:
+                target = env._target(q, a, goal)
+                if env._segment_valid(q, target):
+                    nxt.append(target)
+        frontier = nxt[:FRONTIER_CAP]
+    return None
+
+
+def main() -> None:
+    from dresspack.eval.runs import EvalSpec, build_tasks
+
+    from dresspack_gym.env import DresspackEnv
+    from dresspack_gym.loading import load_station
+    from dresspack_gym.station import Station
+    from dresspack_gym.validity import PLANNER_MARGIN
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--station", default="default")
+    ap.add_argument("--drawn-tasks", type=int, default=30)
+    ap.add_argument("--anchors", action="append", required=True,
+                    help="comma-separated via anchors of one action set (repeat to compare sets)")
+    ap.add_argument("--vias", type=int, default=2, help="via actions per leg before the straight segment")
+    ap.add_argument("--out", type=Path)
+    args = ap.parse_args()
+    station = Station(load_station(args.station))
+    tasks = build_tasks(station, EvalSpec(station=args.station, methods=("ompl",), seeds=(0,),
+                                          drawn_tasks=args.drawn_tasks))
+    result = {"station": args.station, "drawn_tasks": args.drawn_tasks, "vias_per_leg": args.vias, "sets": {}}
+    for anchors in args.anchors:
+        env = DresspackEnv(station=station, action_set="primitives", via_anchors=anchors.split(","),
+                           collision_margin=PLANNER_MARGIN)
+        per_task = {}
+        for (welds, _), task in tasks.items():
+            there = fewest_vias(env, task.start, task.goals[0], args.vias)
+            back = fewest_vias(env, task.goals[0], task.end, args.vias)
+            per_task[welds[0]] = {"to_weld": there, "back_home": back}
+            print(anchors, welds[0], there, back, flush=True)
+        reachable = sorted(k for k, v in per_task.items() if v["to_weld"] is not None and v["back_home"] is not None)
+        result["sets"][anchors] = {"actions": env.n_actions, "reachable": len(reachable),
+                                   "unreachable": sorted(set(per_task) - set(reachable)), "per_task": per_task}
+        print(f"{anchors}: {len(reachable)}/{len(per_task)} reachable")
+    if args.out:
+        args.out.write_text(json.dumps(result, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
