@@ -83,12 +83,17 @@ def _versions() -> dict:
     import stable_baselines3
     import torch
 
+    here = Path(__file__).parent
     try:
         commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10,
-                                cwd=Path(__file__).parent).stdout.strip() or None
-    except OSError:
-        commit = None
-    return {"dresspack_gym": __version__, "git_commit": commit, "python": platform.python_version(),
+                                cwd=here).stdout.strip() or None
+        # edits to tracked files not yet committed: the commit alone would not reproduce the run
+        status = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
+                                text=True, timeout=10, cwd=here)
+        dirty = bool(status.stdout.strip()) if commit and status.returncode == 0 else None
+    except (OSError, subprocess.TimeoutExpired):
+        commit = dirty = None
+    return {"dresspack_gym": __version__, "git_commit": commit, "git_dirty": dirty, "python": platform.python_version(),
             "torch": torch.__version__, "stable_baselines3": stable_baselines3.__version__,
             "sb3_contrib": sb3_contrib.__version__}
 
