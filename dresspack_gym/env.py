@@ -94,9 +94,9 @@ POSE_SCALE = 3.0
 N_JOINT_ACTIONS = 12
 STAY = 12
 TOWARD_GOAL = 13
-# The "primitives" action set: action 0 goes straight to the goal (a planner's segment), then per via offset,
-# joint and sign a via configuration (the midpoint toward the goal with that joint offset: a detour around an
-# obstacle with j1-j3, a wrist re-orientation with j4-j6), and last a wait. Every action is one straight,
+# The "primitives" action set: action 0 goes straight to the goal (a planner's segment), then per via anchor, via
+# offset, joint and sign a via configuration (the anchor, the midpoint toward the goal or where the robot is, with
+# that joint offset: a detour around an obstacle with j1-j3, a wrist re-orientation with j4-j6), and last a wait. Every action is one straight,
 # rest-to-rest segment timed by the time law, so a replayed episode is as smooth as a planner's via path.
 ACTION_SETS = ("joint_steps", "primitives")
 # where a via configuration is taken from, as the fraction of the way toward the goal
