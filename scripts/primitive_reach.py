@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 # a leg's search keeps at most this many configurations per depth (the via tree grows up to 48x per level): with
-# --vias 2 the expanded level holds at most 48 configurations, so the search is exhaustive and "unreachable" is
+# --vias 2 the deepest level holds at most 48 x 48 = 2,304, so the search is exhaustive and "unreachable" is
 # proven for the action set; deeper searches may cut the frontier, and then a miss proves nothing
 FRONTIER_CAP = 3000
 
