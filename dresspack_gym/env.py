@@ -15,7 +15,9 @@ With ``action_set="primitives"`` the actions are planner-like segments instead (
 goes to anchor ``b``'s configuration with joint ``j`` offset by ``+(-)via_offsets_deg[i]`` (a via configuration:
 around an obstacle with j1-j3, re-orienting the wrist with j4-j6). Anchors: ``"midpoint"``
 (halfway toward the goal) and ``"here"`` (the current configuration: backing out of a tight spot, e.g. away
-from the panel just welded, before heading anywhere); the last action waits. A replayed episode is then a via path whose
+from the panel just welded, before heading anywhere); the last action waits. An anchor in ``fallback_anchors``
+offers its vias only where no other move is free (so a policy keeps to the others and uses these to get out of a
+spot they cannot leave). A replayed episode is then a via path whose
 segments the time law times rest-to-rest, exactly like a planner's, and an episode takes a few decisions per leg.
 
 Tasks: ``welds`` (all of them, in order), or each episode ``n_welds`` of them (optionally shuffled), or one
@@ -189,6 +191,17 @@ def _check_arguments(kw: dict[str, Any]) -> None:
         check_choice(f"via_anchors[{i}]", anchor, list(VIA_ANCHORS))
     if len(set(anchors)) != len(anchors):
         raise ConfigError("via_anchors", f"each anchor at most once, got {list(anchors)}")
+    fallback = kw["fallback_anchors"]
+    if isinstance(fallback, (str, bytes)) or not isinstance(fallback, (list, tuple)):
+        raise ConfigError("fallback_anchors", f"expected a list of anchors from via_anchors {list(anchors)}, "
+                                              f"got {fallback!r}")
+    if fallback and kw["action_set"] != "primitives":
+        raise ConfigError("fallback_anchors", "applies to action_set primitives only (joint steps have no vias)")
+    for i, anchor in enumerate(fallback):
+        check_choice(f"fallback_anchors[{i}]", anchor, list(anchors))
+    if len(set(fallback)) != len(fallback) or len(set(fallback)) == len(anchors):
+        raise ConfigError("fallback_anchors", f"each anchor at most once, and at least one of via_anchors "
+                                              f"{list(anchors)} not a fallback, got {list(fallback)}")
     if kw["goal_action"] and kw["action_set"] == "primitives":
         raise ConfigError("goal_action", "applies to action_set joint_steps only (primitives always go to the goal "
                                          "with action 0)")
@@ -215,7 +228,7 @@ class DresspackEnv(gym.Env):
                  physics_profile: str = "accurate", part_welds: int = 0,
                  weld_tilt_deg: float = 20.0, action_set: str = "joint_steps",
                  via_offsets_deg: tuple[float, ...] = (30.0, 60.0), via_anchors: tuple[str, ...] = ("midpoint",),
-                 wear_reward_cap: float | None = None,
+                 fallback_anchors: tuple[str, ...] = (), wear_reward_cap: float | None = None,
                  render_mode: str | None = None,
                  render_size: tuple[int, int] = (480, 360)):
         self._kwargs = dict(locals())
@@ -285,10 +298,14 @@ class DresspackEnv(gym.Env):
                           for off in via_offsets_deg for j in range(6) for sign in (1.0, -1.0)]
             self.n_actions = 2 + len(self._vias)
             self.stay_action = self.n_actions - 1
+            # the fallback anchors' vias, offered only where nothing else moves (see action_masks)
+            self._fallback = np.array([False] + [anchor in fallback_anchors for anchor in via_anchors
+                                                 for _ in range(12 * len(via_offsets_deg))] + [False])
         else:
             self._vias = []
             self.n_actions = N_JOINT_ACTIONS + (2 if self.goal_action else 1)
             self.stay_action = STAY
+            self._fallback = np.zeros(self.n_actions, dtype=bool)
         self.action_space = gym.spaces.Discrete(self.n_actions)
         self._mask_cache: tuple[bytes, np.ndarray] | None = None
         self._setup_episode(list(self.task.weld_goals))
@@ -437,22 +454,39 @@ class DresspackEnv(gym.Env):
         key = q.tobytes() + bytes([self.goal_index])
         if self._mask_cache is not None and self._mask_cache[0] == key:
             return self._mask_cache[1].copy()
+        masks = self.masks_at(q, self.goal)
+        self._mask_cache = (key, masks)
+        return masks.copy()
+
+    def masks_at(self, q: np.ndarray, goal: np.ndarray) -> np.ndarray:
+        """The action mask at configuration ``q`` heading for ``goal`` (what ``action_masks`` returns there).
+        The fallback anchors' vias are allowed only where every other move is masked: a policy then keeps to
+        the other actions and uses these to get out of a spot nothing else leaves (e.g. the panel just welded)."""
         masks = np.ones(self.n_actions, dtype=bool)
+        moves = np.array([a for a in range(self.n_actions) if a != self.stay_action])
+        first = moves[~self._fallback[moves]]
+        masks[first] = self._moves_free(q, goal, first)
+        rest = moves[self._fallback[moves]]
+        masks[rest] = False if masks[first].any() else self._moves_free(q, goal, rest)
+        return masks
+
+    def _moves_free(self, q: np.ndarray, goal: np.ndarray, moves: np.ndarray) -> np.ndarray:
+        """Which of ``moves`` from ``q`` pass the limits, restrictions and the continuous collision check."""
+        if not len(moves):
+            return np.zeros(0, dtype=bool)
+        targets = np.array([self._target(q, a, goal) for a in moves])
+        free = np.array([self._segment_valid(q, target, check_collision=False) for target in targets])
         # Moves whose largest possible robot displacement stays below the clearance beyond the margin cannot
         # come closer than the margin anywhere: they skip the collision queries (a continuous guarantee that
         # implies MotionValidity.segment_valid, so planners accept every step a masked policy takes).
         clearance = self.checker.min_distance(q) - self.checker.margin
         reach = self.checker.chain_reach()
-        moves = [a for a in range(self.n_actions) if a != self.stay_action]
-        targets = np.array([self._target(q, a) for a in moves])
-        masks[moves] = [self._segment_valid(q, target, check_collision=False) for target in targets]
         # the moves that pass limits and restrictions and could come near an obstacle: their collision checks
         # advance together, each round's distance queries in one batch
-        near = np.flatnonzero(masks[moves] & np.array([reach @ np.abs(t - q) >= clearance for t in targets]))
+        near = np.flatnonzero(free & np.array([reach @ np.abs(t - q) >= clearance for t in targets]))
         if len(near):
-            masks[np.asarray(moves)[near]] = self.validity.segments_clear(q, targets[near])
-        self._mask_cache = (key, masks)
-        return masks.copy()
+            free[near] = self.validity.segments_clear(q, targets[near])
+        return free
 
     def render(self):
         if self.render_mode != "rgb_array":
@@ -574,6 +608,8 @@ class DresspackEnv(gym.Env):
         return not check_collision or self.validity.segment_clear(q0, q1)
 
     def _why_masked(self, a: int) -> str:
+        if self._fallback[a] and self.masks_at(self.q, self.goal)[~self._fallback].any():
+            return "a fallback via: offered only where no other move is free"
         qs = self._segment_configs(self.q, self._target(self.q, a))
         if not self.validity.within_limits(qs).all():
             return "joint limit"

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dresspack_gym import ConfigError
-from dresspack_gym.env import TO_GOAL, DresspackEnv, _cost_row
+from dresspack_gym.env import TO_GOAL, DresspackEnv, InvalidActionError, _cost_row
 
 
 FREE_WAY = {"welds": ["roof_rail_top"]}  # the straight way from Home to this weld is free
@@ -69,6 +69,37 @@ def test_here_anchored_vias_offset_the_current_configuration():
     moved = np.abs(info["moved_through"][0] - q) > 1e-12
     assert moved.sum() == 1
     e.close()
+
+
+# drawn_0 of `dresspack-eval --drawn-tasks 30 --seeds 0` on the default station: a weld on the body's panel that no
+# midpoint via leaves toward Home (docs/primitive_reach.json)
+STUCK_WELD = np.array([0.7407122213013433, 1.0980702748831073, -0.7737209529340379, 3.4157926055470913,
+                       -1.0514117569148649, 2.196833986149849])
+
+
+def test_fallback_vias_are_offered_only_where_nothing_else_moves():
+    kw = dict(station="default", action_set="primitives", via_anchors=["midpoint", "here"],
+              collision_margin=0.005, physics_profile="training")
+    always, fallback = DresspackEnv(**kw), DresspackEnv(**kw, fallback_anchors=["here"])
+    here = np.arange(25, 49)
+    home = always.task.home.copy()
+    # at the stuck weld heading Home nothing but here-vias moves: the fallback env offers the same ones
+    stuck = always.masks_at(STUCK_WELD, home)
+    assert not stuck[:25].any() and stuck[here].any()
+    np.testing.assert_array_equal(fallback.masks_at(STUCK_WELD, home), stuck)
+    # from Home toward that weld midpoint vias are free: the fallback env masks every here-via, the rest equal
+    free = always.masks_at(home, STUCK_WELD)
+    assert free[1:25].any() and free[here].any()
+    masks = fallback.masks_at(home, STUCK_WELD)
+    assert not masks[here].any()
+    np.testing.assert_array_equal(np.delete(masks, here), np.delete(free, here))
+    # taking a masked fallback via says why
+    strict = DresspackEnv(**kw, fallback_anchors=["here"], invalid_action="raise")
+    strict.reset(seed=0, options={"goals": {"stuck": STUCK_WELD}})
+    with pytest.raises(InvalidActionError, match="fallback via"):
+        strict.step(int(here[np.flatnonzero(free[here])[0]]))
+    for e in (always, fallback, strict):
+        e.close()
 
 
 def test_straight_to_the_goal_reaches_it_in_one_step_and_integrates_the_wear(env):
@@ -151,6 +182,16 @@ def test_primitive_env_pickles_mid_episode(env):
     ({"action_set": "primitives", "via_anchors": []}, "via_anchors"),
     ({"action_set": "primitives", "via_anchors": ["midpoint", "start"]}, "via_anchors[1]"),
     ({"action_set": "primitives", "via_anchors": ["here", "here"]}, "via_anchors"),
+    ({"action_set": "primitives", "via_anchors": ["midpoint", "here"], "fallback_anchors": "here"},
+     "fallback_anchors"),
+    ({"action_set": "primitives", "via_anchors": ["midpoint", "here"], "fallback_anchors": ["corner"]},
+     "fallback_anchors[0]"),
+    ({"action_set": "primitives", "fallback_anchors": ["here"]}, "fallback_anchors[0]"),  # not a via anchor
+    ({"action_set": "primitives", "via_anchors": ["midpoint", "here"], "fallback_anchors": ["here", "midpoint"]},
+     "fallback_anchors"),  # nothing left to fall back from
+    ({"action_set": "primitives", "via_anchors": ["midpoint", "here"], "fallback_anchors": ["here", "here"]},
+     "fallback_anchors"),
+    ({"fallback_anchors": ["here"]}, "fallback_anchors"),  # joint steps have no vias
     ({"wear_reward_cap": -1.0}, "wear_reward_cap"),
     ({"wear_reward_cap": float("nan")}, "wear_reward_cap"),
 ])
