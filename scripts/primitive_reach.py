@@ -2,11 +2,13 @@
 (geometry and masks, no policy), per leg the fewest via actions after which "straight to the goal" is free.
 
     PYTHONPATH=. .venv/bin/python scripts/primitive_reach.py --station default --drawn-tasks 30 \
-        --anchors midpoint --anchors midpoint,here --out docs/primitive_reach.json
+        --anchors midpoint --anchors midpoint,here --anchors midpoint,here/here --out docs/primitive_reach.json
 
 The tasks are `dresspack-eval --drawn-tasks N --seeds 0`'s (Home to one weld drawn on the parts, back Home). Each
 leg is searched breadth first: at most ``--vias`` actions (every unmasked via of the env: its own targets, masks and
-continuous check), then the straight segment to the leg's end must be free. A weld is reachable when both legs are.
+continuous check, ``DresspackEnv.masks_at``), then the straight segment to the leg's end must be free. A set
+``ANCHORS/FALLBACKS`` (e.g. ``midpoint,here/here``) makes the anchors after the slash fallbacks (the env's
+``fallback_anchors``: offered only where no other move is free). A weld is reachable when both legs are.
 What a policy can finish is bounded by this (up to ``--vias`` per leg); which welds it does finish is the
 evaluation's business."""
 
@@ -26,22 +28,17 @@ FRONTIER_CAP = 3000
 
 def fewest_vias(env, start: np.ndarray, end: np.ndarray, max_vias: int) -> int | None:
     """The fewest via actions after which the straight segment from ``start`` reaches ``end``; None beyond
-    ``max_vias``. Uses the env's own action targets and segment check, with ``end`` as the goal."""
+    ``max_vias``. Uses the env's own action targets and masks, with ``end`` as the goal."""
     goal = np.asarray(end, dtype=float)
-    vias = [a for a in range(env.n_actions) if a not in (0, env.stay_action)]
     frontier = [np.asarray(start, dtype=float)]
     for depth in range(max_vias + 1):
-        if any(env._segment_valid(q, goal) for q in frontier):
+        masks = [env.masks_at(q, goal) for q in frontier]
+        if any(m[0] for m in masks):  # action 0: straight to the goal
             return depth
         if depth == max_vias:
             return None
-        nxt = []
-        for q in frontier:
-            for a in vias:
-                target = env._target(q, a, goal)
-                if env._segment_valid(q, target):
-                    nxt.append(target)
-        frontier = nxt[:FRONTIER_CAP]
+        frontier = [env._target(q, a, goal) for q, m in zip(frontier, masks)
+                    for a in np.flatnonzero(m[1:env.stay_action]) + 1][:FRONTIER_CAP]
     return None
 
 
@@ -57,7 +54,8 @@ def main() -> None:
     ap.add_argument("--station", default="default")
     ap.add_argument("--drawn-tasks", type=int, default=30)
     ap.add_argument("--anchors", action="append", required=True,
-                    help="comma-separated via anchors of one action set (repeat to compare sets)")
+                    help="comma-separated via anchors of one action set, then optionally /fallback anchors "
+                         "(e.g. midpoint,here/here; repeat to compare sets)")
     ap.add_argument("--vias", type=int, default=2, help="via actions per leg before the straight segment")
     ap.add_argument("--out", type=Path)
     args = ap.parse_args()
@@ -66,8 +64,9 @@ def main() -> None:
                                           drawn_tasks=args.drawn_tasks))
     result = {"station": args.station, "drawn_tasks": args.drawn_tasks, "vias_per_leg": args.vias, "sets": {}}
     for anchors in args.anchors:
-        env = DresspackEnv(station=station, action_set="primitives", via_anchors=anchors.split(","),
-                           collision_margin=PLANNER_MARGIN)
+        names, _, fallback = anchors.partition("/")
+        env = DresspackEnv(station=station, action_set="primitives", via_anchors=names.split(","),
+                           fallback_anchors=fallback.split(",") if fallback else [], collision_margin=PLANNER_MARGIN)
         per_task = {}
         for (welds, _), task in tasks.items():
             there = fewest_vias(env, task.start, task.goals[0], args.vias)
