@@ -177,10 +177,10 @@ def env_benchmark(station_ref: str = "default", repeats: int = 3, env_steps: int
 
     envs = {name: DresspackEnv(station=station_ref, physics_profile=name) for name in PROFILES}
     rates = {name: _env_rate(e, repeats, env_steps) for name, e in envs.items()}  # in one run: fair ratios
-    # the goal-conditioned training setup: planner-like segments, welds drawn on the parts, training profile; a
-    # step is a whole segment, so simulated motion seconds per wall second compares the setups' work
-    primitives = DresspackEnv(station=station_ref, physics_profile="training", action_set="primitives",
-                              part_welds=1, settle_time=0.0, collision_margin=0.005)
+    # the goal-conditioned training setup, as its shipped training config builds it (planner-like segments, welds
+    # drawn on the parts, training profile, fallback vias); a step is a whole segment, so simulated motion
+    # seconds per wall second compares the setups' work
+    primitives = DresspackEnv(station=station_ref, **_training_env_kwargs("goal_conditioned"))
     prim_rate = _env_rate(primitives, repeats, max(1, env_steps // 3))
     env = envs["accurate"]
     m, d = env.station.model, env.sim.data
@@ -208,6 +208,15 @@ def env_benchmark(station_ref: str = "default", repeats: int = 3, env_steps: int
         "primitives_env_steps_per_s": round(prim_rate[0], 2),
         "primitives_vs_accurate_motion": round(prim_rate[3] / rates["accurate"][3], 2),
     }
+
+
+def _training_env_kwargs(name: str) -> dict:
+    """The env kwargs of a shipped training config (configs/training/<name>.yaml), read here rather than
+    restated, so the bench measures the setup that is trained."""
+    from .loading import read_yaml
+    from .shipped import find_shipped
+
+    return dict(read_yaml(find_shipped(name, "training", "training config"), "training config")["env_kwargs"])
 
 
 def _env_rate(env, repeats: int, env_steps: int):
