@@ -78,8 +78,8 @@ STUCK_WELD = np.array([0.7407122213013433, 1.0980702748831073, -0.77372095293403
 
 
 def test_fallback_vias_are_offered_only_where_nothing_else_moves():
-    kw = dict(station="default", action_set="primitives", via_anchors=["midpoint", "here"],
-              collision_margin=0.005, physics_profile="training")
+    kw = {"station": "default", "action_set": "primitives", "via_anchors": ["midpoint", "here"],
+          "collision_margin": 0.005, "physics_profile": "training"}
     always, fallback = DresspackEnv(**kw), DresspackEnv(**kw, fallback_anchors=["here"])
     here = np.arange(25, 49)
     home = always.task.home.copy()
