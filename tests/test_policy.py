@@ -75,3 +75,17 @@ def test_policy_errors(station, tmp_path):
     away = Task(0, base.start, base.weld_names, base.goals, base.goals[0])
     with pytest.raises(PlanningError, match="Home"):
         planner.plan(away)
+
+
+def test_goal_conditioned_policy_backs_out_of_a_weld_no_midpoint_via_leaves(station):
+    """drawn_0 of the held-out evaluation: every midpoint via toward Home is masked at the weld
+    (tests/test_env_primitives.py), so the policy leaves it with a fallback here-via (one joint moves)."""
+    from test_env_primitives import STUCK_WELD
+
+    planner = PolicyPlanner(station, 0, policy="goal_conditioned", time_budget=120)
+    home = station.config.robots[0].home
+    planner.seed = 0
+    result = planner.plan(Task(0, home.copy(), ("drawn_0",), (STUCK_WELD,), home.copy()))
+    waypoints, weld = result.trajectory.waypoints, result.trajectory.stops[0]
+    assert np.allclose(waypoints[weld], STUCK_WELD) and result.info["masked_actions"] == 0
+    assert np.count_nonzero(np.abs(waypoints[weld + 1] - waypoints[weld]) > 1e-9) == 1
