@@ -608,8 +608,11 @@ class DresspackEnv(gym.Env):
         return not check_collision or self.validity.segment_clear(q0, q1)
 
     def _why_masked(self, a: int) -> str:
-        if self._fallback[a] and self.masks_at(self.q, self.goal)[~self._fallback].any():
-            return "a fallback via: offered only where no other move is free"
+        if self._fallback[a]:
+            others = ~self._fallback
+            others[self.stay_action] = False  # waiting is not a move
+            if self.masks_at(self.q, self.goal)[others].any():
+                return "a fallback via: offered only where no other move is free"
         qs = self._segment_configs(self.q, self._target(self.q, a))
         if not self.validity.within_limits(qs).all():
             return "joint limit"

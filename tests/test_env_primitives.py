@@ -98,6 +98,12 @@ def test_fallback_vias_are_offered_only_where_nothing_else_moves():
     strict.reset(seed=0, options={"goals": {"stuck": STUCK_WELD}})
     with pytest.raises(InvalidActionError, match="fallback via"):
         strict.step(int(here[np.flatnonzero(free[here])[0]]))
+    # where the fallback vias are offered, one still masked is masked for what it hits
+    strict.reset(seed=0, options={"start": STUCK_WELD, "goals": {"home": home}})
+    np.testing.assert_array_equal(strict.action_masks(), stuck)
+    with pytest.raises(InvalidActionError) as err:
+        strict.step(int(here[np.flatnonzero(~stuck[here])[0]]))
+    assert "fallback" not in str(err.value)
     for e in (always, fallback, strict):
         e.close()
 
