@@ -298,7 +298,7 @@ class DresspackEnv(gym.Env):
                           for off in via_offsets_deg for j in range(6) for sign in (1.0, -1.0)]
             self.n_actions = 2 + len(self._vias)
             self.stay_action = self.n_actions - 1
-            # the fallback anchors' vias, offered only where nothing else moves (see action_masks)
+            # the fallback anchors' vias, offered only where nothing else moves (see masks_at)
             self._fallback = np.array([False] + [anchor in fallback_anchors for anchor in via_anchors
                                                  for _ in range(12 * len(via_offsets_deg))] + [False])
         else:
