@@ -98,8 +98,9 @@ STAY = 12
 TOWARD_GOAL = 13
 # The "primitives" action set: action 0 goes straight to the goal (a planner's segment), then per via anchor, via
 # offset, joint and sign a via configuration (the anchor, the midpoint toward the goal or where the robot is, with
-# that joint offset: a detour around an obstacle with j1-j3, a wrist re-orientation with j4-j6), and last a wait. Every action is one straight,
-# rest-to-rest segment timed by the time law, so a replayed episode is as smooth as a planner's via path.
+# that joint offset: a detour around an obstacle with j1-j3, a wrist re-orientation with j4-j6), and last a wait.
+# Every action is one straight, rest-to-rest segment timed by the time law, so a replayed episode is as smooth as a
+# planner's via path.
 ACTION_SETS = ("joint_steps", "primitives")
 # where a via configuration is taken from, as the fraction of the way toward the goal
 VIA_ANCHORS = {"midpoint": 0.5, "here": 0.0}
@@ -306,6 +307,9 @@ class DresspackEnv(gym.Env):
             self.n_actions = N_JOINT_ACTIONS + (2 if self.goal_action else 1)
             self.stay_action = STAY
             self._fallback = np.zeros(self.n_actions, dtype=bool)
+        # the moves (every action but the wait), split once: masks_at runs on every step
+        moves = np.array([a for a in range(self.n_actions) if a != self.stay_action])
+        self._first_moves, self._fallback_moves = moves[~self._fallback[moves]], moves[self._fallback[moves]]
         self.action_space = gym.spaces.Discrete(self.n_actions)
         self._mask_cache: tuple[bytes, np.ndarray] | None = None
         self._setup_episode(list(self.task.weld_goals))
@@ -463,10 +467,8 @@ class DresspackEnv(gym.Env):
         The fallback anchors' vias are allowed only where every other move is masked: a policy then keeps to
         the other actions and uses these to get out of a spot nothing else leaves (e.g. the panel just welded)."""
         masks = np.ones(self.n_actions, dtype=bool)
-        moves = np.array([a for a in range(self.n_actions) if a != self.stay_action])
-        first = moves[~self._fallback[moves]]
+        first, rest = self._first_moves, self._fallback_moves
         masks[first] = self._moves_free(q, goal, first)
-        rest = moves[self._fallback[moves]]
         masks[rest] = False if masks[first].any() else self._moves_free(q, goal, rest)
         return masks
 
@@ -608,11 +610,8 @@ class DresspackEnv(gym.Env):
         return not check_collision or self.validity.segment_clear(q0, q1)
 
     def _why_masked(self, a: int) -> str:
-        if self._fallback[a]:
-            others = ~self._fallback
-            others[self.stay_action] = False  # waiting is not a move
-            if self.masks_at(self.q, self.goal)[others].any():
-                return "a fallback via: offered only where no other move is free"
+        if self._fallback[a] and self.masks_at(self.q, self.goal)[self._first_moves].any():  # another move is free
+            return "a fallback via: offered only where no other move is free"
         qs = self._segment_configs(self.q, self._target(self.q, a))
         if not self.validity.within_limits(qs).all():
             return "joint limit"
