@@ -52,6 +52,9 @@ def test_train_smoke_writes_run_folder_reloads_and_resumes(tmp_path):
     assert summary["timesteps"] == 512 and summary["last_session"]["steps"] == 256
     assert (run / "command.txt").read_text().splitlines() == ["pytest smoke", "pytest resume"]
     assert latest_checkpoint(run).name == "ckpt_512_steps.zip"
+    # the evaluations of both sessions are kept (the stock callback overwrote the first session's on resume)
+    assert summary["evaluations"]["timesteps"] == [128, 256, 384, 512]
+    assert summary["best"]["timesteps"] in (128, 256, 384, 512) and summary["best"]["best_by"] == "reward"
 
 
 def test_a_run_folder_is_never_overwritten_silently(tmp_path):
@@ -71,6 +74,7 @@ def test_a_run_folder_is_never_overwritten_silently(tmp_path):
     ({"net_arch": [64, -1]}, "net_arch"),
     ({"activation": "gelu"}, "activation"),
     ({"timesteps": 5}, "timesteps"),
+    ({"best_by": "loss"}, "best_by"),
 ])
 def test_bad_training_config_names_the_field(data, field):
     with pytest.raises(ConfigError) as err:
@@ -140,3 +144,60 @@ def test_goal_conditioned_training_runs_and_evaluates_on_its_own_draws(tmp_path)
     summary = train(train_config_from_dict(smoke), tmp_path / "run", progress=False, command="pytest goal smoke")
     assert summary["timesteps"] == 256
     assert (tmp_path / "run" / "best" / "best_model.zip").is_file()  # the held-out evaluation ran
+
+
+def _callback(tmp_path, best_by, eval_seed=None, env=None):
+    import gymnasium as gym
+
+    from dresspack.training.eval_callback import HeldOutEvalCallback
+
+    return HeldOutEvalCallback(env if env is not None else gym.make("CartPole-v1"), best_by=best_by,
+                               eval_seed=eval_seed, log_path=str(tmp_path), best_model_save_path=str(tmp_path / "b"),
+                               verbose=0)
+
+
+@pytest.mark.parametrize("best_by, resumed_at, best", [
+    ("reward", 30, (5.0, 0.0)),    # step 20: the highest mean reward, though it finished fewer episodes
+    ("success", 30, (1.0, 2.0)),   # step 30: all episodes finished; of the full-success ones, the higher reward
+    ("success", 20, (1.0, -1.0)),  # resumed at 20: step 30 belonged to an abandoned continuation
+    ("reward", 0, None),           # a fresh run ignores whatever file is there
+])
+def test_eval_callback_restores_history_and_ranks_the_best_by_its_rule(tmp_path, best_by, resumed_at, best):
+    np.savez(tmp_path / "evaluations.npz", timesteps=[10, 20, 30], results=[[-1.0, -1.0], [5.0, 5.0], [2.0, 2.0]],
+             ep_lengths=[[3, 3], [3, 3], [3, 3]], successes=[[1.0, 1.0], [0.0, 1.0], [1.0, 1.0]])
+    cb = _callback(tmp_path, best_by)
+    cb._restore_history(resumed_at)
+    assert cb._best_score == best
+    assert cb.evaluations_timesteps == [t for t in (10, 20, 30) if t <= resumed_at] if resumed_at else True
+
+
+def test_eval_callback_judges_every_evaluation_on_the_same_episodes(tmp_path):
+    """Reseeded before each evaluation, the same model scores the same twice; the stock callback's continuing
+    random stream draws other welds the second time (so the test can fail)."""
+    from sb3_contrib import MaskablePPO
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.logger import configure
+
+    from dresspack_gym.env import DresspackEnv
+
+    cfg = load_train_config("goal_conditioned")
+    kwargs = {k: v for k, v in cfg.env_kwargs.items() if k != "max_steps"} | {"max_steps": 4}
+    rewards = {}
+    for eval_seed in (None, 7):
+        env = make_vec_env(DresspackEnv, n_envs=1, seed=0, env_kwargs=kwargs)
+        model = MaskablePPO("MlpPolicy", env, seed=0, device="cpu", policy_kwargs={"net_arch": [8]})
+        model.set_logger(configure(None, []))
+        eval_env = make_vec_env(DresspackEnv, n_envs=1, seed=7, env_kwargs=kwargs)  # as train.py makes it
+        cb = _callback(tmp_path / str(eval_seed), "success", eval_seed, eval_env)
+        cb.n_eval_episodes, cb.eval_freq = 2, 1
+        cb.init_callback(model)
+        runs = []
+        for _ in range(2):
+            cb.on_step()
+            runs.append(cb.evaluations_results[-1])
+        rewards[eval_seed] = runs
+        env.close()
+        eval_env.close()
+    assert rewards[7][0] == rewards[7][1]
+    assert rewards[None][0] != rewards[None][1]
+    assert rewards[None][0] == rewards[7][0]  # the first evaluation is the one the stock callback ran

@@ -16,6 +16,7 @@ from dresspack_gym.shipped import find_shipped
 from dresspack_gym.validation import Section
 
 ACTIVATIONS = ("tanh", "relu")
+BEST_BY = ("reward", "success")  # the evaluation callback's rules for the best model (eval_callback.py)
 MAX_ENVS = 64  # environment processes (one per core)
 MAX_TIMESTEPS = 10**9  # ~100 days of env steps at today's speed on 2 cores: more is a typo
 
@@ -54,6 +55,7 @@ class TrainConfig:
     eval_every: int = 20_000  # env steps; 0 disables the evaluation callback (no best model)
     eval_episodes: int = 10
     eval_seed: int = 10_000  # evaluation episodes use their own seeds, never the training ones
+    best_by: str = "reward"  # the best model: highest mean evaluation reward, or success rate (ties by reward)
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -109,6 +111,7 @@ def train_config_from_dict(data: dict, default_name: str = "run") -> TrainConfig
         eval_every=s.integer("eval_every", d.eval_every, lo=0),
         eval_episodes=s.integer("eval_episodes", d.eval_episodes, lo=1),
         eval_seed=s.integer("eval_seed", d.eval_seed, lo=0, hi=MAX_SEED),
+        best_by=s.string("best_by", d.best_by, choices=BEST_BY),
     )
     s.done()
     rollout = cfg.ppo.n_steps * cfg.n_envs

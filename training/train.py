@@ -4,7 +4,8 @@
     dresspack-train --resume runs/train/stud_welding               # continue after Ctrl-C or a crash
 
 Run folder: ``config.yaml`` (resolved), ``command.txt`` (every launch), ``versions.json``, ``tb/`` (TensorBoard),
-``checkpoints/`` (periodic + on Ctrl-C), ``best/best_model.zip`` (evaluation callback), ``final_model.zip``,
+``checkpoints/`` (periodic + on Ctrl-C), ``best/best_model.zip`` and ``best/best.json`` (evaluation callback, by
+``best_by``), ``eval/evaluations.npz`` (every evaluation, kept across resumes), ``final_model.zip``,
 ``summary.json`` (wall time, steps/s, last evaluation).
 """
 
@@ -138,10 +139,10 @@ def train(cfg: TrainConfig, run_dir: Path, *, resume: bool = False, progress: bo
     """Train (or continue) the run in ``run_dir``; returns the summary written to ``summary.json``."""
     import torch
     from sb3_contrib import MaskablePPO
-    from sb3_contrib.common.maskable.callbacks import MaskableEvalCallback
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
 
     from .callbacks import EpisodeMetricsCallback, ProgressBarCallback
+    from .eval_callback import HeldOutEvalCallback
 
     torch.set_num_threads(1)  # the env subprocesses need the cores; a small MLP gains nothing from threads
     run_dir.mkdir(parents=True, exist_ok=True)
@@ -168,10 +169,11 @@ def train(cfg: TrainConfig, run_dir: Path, *, resume: bool = False, progress: bo
     warnings.filterwarnings("ignore", message="Training and eval env are not of the same type")
     if cfg.eval_every > 0:
         eval_env = make_vec_env(cfg, seed=cfg.eval_seed, n_envs=1)
-        callbacks.append(MaskableEvalCallback(eval_env, n_eval_episodes=cfg.eval_episodes,
-                                              eval_freq=max(1, cfg.eval_every // cfg.n_envs),
-                                              best_model_save_path=str(run_dir / "best"),
-                                              log_path=str(run_dir / "eval"), deterministic=True, verbose=0))
+        callbacks.append(HeldOutEvalCallback(eval_env, n_eval_episodes=cfg.eval_episodes,
+                                             eval_freq=max(1, cfg.eval_every // cfg.n_envs),
+                                             best_model_save_path=str(run_dir / "best"),
+                                             log_path=str(run_dir / "eval"), deterministic=True, verbose=0,
+                                             best_by=cfg.best_by, eval_seed=cfg.eval_seed))
     if progress:  # PPO collects whole rollouts, so the run ends on a rollout boundary
         per_rollout = cfg.ppo.n_steps * cfg.n_envs
         callbacks.append(ProgressBarCallback(-(-cfg.total_timesteps // per_rollout) * per_rollout))
@@ -232,6 +234,9 @@ def _summary(run_dir: Path, cfg: TrainConfig, total_steps: int, steps: int, wall
                             "mean_reward": data["results"].mean(axis=1).round(3).tolist()}
         if "successes" in data and len(data["successes"]):
             s["evaluations"]["success_rate"] = data["successes"].mean(axis=1).round(3).tolist()
+    best = run_dir / "best" / "best.json"
+    if best.is_file():
+        s["best"] = json.loads(best.read_text())
     return s
 
 
