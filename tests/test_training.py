@@ -148,7 +148,6 @@ def test_goal_conditioned_training_runs_and_evaluates_on_its_own_draws(tmp_path)
 
 def _callback(tmp_path, best_by, eval_seed=None, env=None):
     import gymnasium as gym
-
     from dresspack.training.eval_callback import HeldOutEvalCallback
 
     return HeldOutEvalCallback(env if env is not None else gym.make("CartPole-v1"), best_by=best_by,
