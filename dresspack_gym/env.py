@@ -60,7 +60,7 @@ its way, so a changed station changes what it observes.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import gymnasium as gym
@@ -122,6 +122,25 @@ def _trapezoid(times: list[float], rows: list[np.ndarray]) -> np.ndarray:
     """Per term of COST_TERMS, the integral over a step from its samples (start, on the way, end)."""
     t, c = np.asarray(times, dtype=float), np.asarray(rows, dtype=float)
     return np.sum(0.5 * (c[1:] + c[:-1]) * np.diff(t)[:, None], axis=0)
+
+
+@dataclass(frozen=True)
+class EnvSnapshot:
+    """Everything an episode's continuation depends on, from :meth:`DresspackEnv.snapshot`: restored into the same
+    env (or a pickled copy), the next steps give the same observations, rewards and infos as without the detour."""
+
+    sim: np.ndarray  # CableSimulator.get_state(): MuJoCo state with the DER frames, commanded q, motion time
+    last_settle: Any  # the simulator's last settle, so a restored step reports only a settle it made itself
+    goal_names: tuple[str, ...]  # the episode's welds in order (Home follows)
+    episode_goals: dict  # drawn or given weld configurations of this episode
+    goal_index: int
+    steps: int
+    cycle_time: float
+    needs_reset: bool
+    episode_path: tuple[np.ndarray, ...]
+    cost_now: np.ndarray  # cost terms at the current state: where the next step's wear integral starts
+    damage: tuple  # (per-segment damage so far, its current rate, the episode's segment states)
+    rng: dict | None  # the env's random generator state
 
 
 class InvalidActionError(DresspackError, ValueError):
@@ -517,27 +536,40 @@ class DresspackEnv(gym.Env):
         self._damage_rate = rate
 
     # ----------------------------------------------------------------------------- pickling
+    # ----------------------------------------------------------------------------- snapshots and pickling
+    def snapshot(self) -> EnvSnapshot:
+        """The episode's state now (for search over action sequences: ``restore`` it and try another action)."""
+        damage = (self._damage.copy(), self._damage_rate.copy(), list(self._episode_states))
+        return EnvSnapshot(
+            sim=self.sim.get_state(), last_settle=self.sim.last_settle, goal_names=tuple(self.task.goal_names[:-1]),
+            episode_goals={k: v.copy() for k, v in self.task.episode_goals.items()}, goal_index=self.goal_index,
+            steps=self.steps, cycle_time=self.cycle_time, needs_reset=self._needs_reset,
+            episode_path=tuple(q.copy() for q in self._episode_path), cost_now=self._cost_now.copy(), damage=damage,
+            rng=self._np_random.bit_generator.state if self._np_random is not None else None)
+
+    def restore(self, snap: EnvSnapshot) -> None:
+        """Return to a state from :meth:`snapshot` (of this env or one built with the same arguments)."""
+        if not isinstance(snap, EnvSnapshot):
+            raise ConfigError("snapshot", f"expected an EnvSnapshot from DresspackEnv.snapshot(), got {type(snap).__name__}")
+        self.sim.set_state(snap.sim)
+        self.sim.last_settle = snap.last_settle
+        self.task.episode_goals = {k: v.copy() for k, v in snap.episode_goals.items()}
+        self._setup_episode(list(snap.goal_names), snap.goal_index)
+        self.steps, self.cycle_time, self._needs_reset = snap.steps, snap.cycle_time, snap.needs_reset
+        self._episode_path = [q.copy() for q in snap.episode_path]
+        self._cost_now = snap.cost_now.copy()
+        damage, rate, states = snap.damage
+        self._damage, self._damage_rate, self._episode_states = damage.copy(), rate.copy(), list(states)
+        if snap.rng is not None:
+            self._np_random = np.random.Generator(np.random.PCG64())
+            self._np_random.bit_generator.state = snap.rng
+
     def __getstate__(self) -> dict[str, Any]:
-        return {"kwargs": self._kwargs, "sim": self.sim.get_state(), "goal_names": self.task.goal_names[:-1],
-                "episode_goals": self.task.episode_goals,
-                "goal_index": self.goal_index, "steps": self.steps, "cycle_time": self.cycle_time,
-                "needs_reset": self._needs_reset, "episode_path": self._episode_path,
-                "damage": (self._damage, self._damage_rate, self._episode_states), "rng": self._np_random.bit_generator.state if self._np_random is not None else None}
+        return {"kwargs": self._kwargs, "snapshot": self.snapshot()}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__init__(**state["kwargs"])
-        self.sim.set_state(state["sim"])
-        self._cost_now = _cost_row(self.task.cost(self.sim.measures()))
-        self.task.episode_goals = dict(state.get("episode_goals", {}))
-        self._setup_episode(state["goal_names"], state["goal_index"])
-        self.steps, self.cycle_time = state["steps"], state["cycle_time"]
-        self._needs_reset = state.get("needs_reset", False)
-        self._episode_path = list(state.get("episode_path", [self.q]))
-        if "damage" in state:
-            self._damage, self._damage_rate, self._episode_states = state["damage"]
-        if state["rng"] is not None:
-            self._np_random = np.random.Generator(np.random.PCG64())
-            self._np_random.bit_generator.state = state["rng"]
+        self.restore(state["snapshot"])
 
     def _check_goals(self, options: dict) -> None:
         goals = options["goals"]

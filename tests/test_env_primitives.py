@@ -178,6 +178,43 @@ def test_primitive_env_pickles_mid_episode(env):
     assert r1 == r2
 
 
+def test_snapshot_and_restore_continue_an_episode_exactly(env):
+    """Searching over action sequences: after a detour and a restore, the same actions give the same steps, to
+    the bit, as a fresh episode does (observation, reward, cost integral, settle report, the final fatigue life)."""
+    def run(e):
+        """Straight on where that is free, else the first free action, to the episode's end."""
+        out, done = [], False
+        while not done:
+            masks = e.action_masks()
+            obs, reward, term, trunc, info = e.step(0 if masks[0] else int(np.flatnonzero(masks)[0]))
+            done = term or trunc
+            out.append((obs, reward, term, trunc, info["integral_cost"], info["settle_converged"], info["cycle_time"],
+                        info.get("life_cycles")))
+        return out
+
+    env.reset(seed=4, options={"welds": ["sill_front"]})
+    first = int(np.flatnonzero(env.action_masks())[1])
+    env.step(first)
+    snap = env.snapshot()
+    detour = int(np.flatnonzero(env.action_masks())[-2])
+    env.step(detour)
+    env.restore(snap)
+    restored = run(env)  # to the weld (settling there), off the panel by a via, Home
+    env.restore(snap)
+    again = run(env)
+    env.reset(seed=4, options={"welds": ["sill_front"]})
+    env.step(first)
+    fresh = run(env)
+    assert len(restored) == len(again) == len(fresh) == 3
+    for a, b, c in zip(restored, again, fresh):
+        for x, y, z in zip(a, b, c):
+            np.testing.assert_array_equal(x, y)
+            np.testing.assert_array_equal(x, z)
+    assert restored[-1][2] and restored[-1][7] is not None  # finished: the episode's fatigue life compared too
+    with pytest.raises(ConfigError, match="snapshot"):
+        env.restore({"sim": None})
+
+
 @pytest.mark.parametrize("kwargs, field", [
     ({"action_set": "segments"}, "action_set"),
     ({"action_set": "primitives", "via_offsets_deg": []}, "via_offsets_deg"),
