@@ -204,6 +204,7 @@ def env_benchmark(station_ref: str = "default", repeats: int = 3, env_steps: int
         "raw_resting_steps_per_s": round(resting, 1),
         "profiles_env_steps_per_s": {k: round(v[0], 2) for k, v in rates.items()},
         "training_vs_accurate": round(rates["training"][0] / rates["accurate"][0], 2),
+        "coarse_step_vs_accurate": round(rates["coarse_step"][0] / rates["accurate"][0], 2),
         "motion_s_per_s": {**{k: round(v[3], 2) for k, v in rates.items()}, "training_primitives": round(prim_rate[3], 2)},
         "primitives_env_steps_per_s": round(prim_rate[0], 2),
         "primitives_vs_accurate_motion": round(prim_rate[3] / rates["accurate"][3], 2),
