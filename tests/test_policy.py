@@ -37,6 +37,14 @@ def test_shipped_policy_matches_its_training_config():
     assert HELD_OUT[0] not in config["env_kwargs"]["tasks"] and HELD_OUT[1] not in config["env_kwargs"]["tasks"]
 
 
+def test_shipped_goal_conditioned_policy_is_what_its_training_command_trains():
+    """`dresspack-train goal_conditioned` must train the shipped policy's env and hyperparameters."""
+    _, config = resolve_policy("goal_conditioned")
+    cfg = load_train_config("goal_conditioned")
+    assert config["env_kwargs"] == cfg.env_kwargs and config["seed"] == cfg.seed
+    assert config["ppo"] == cfg.to_dict()["ppo"] and config["net_arch"] == list(cfg.net_arch)
+
+
 @pytest.mark.parametrize("welds", HELD_OUT)
 def test_policy_completes_held_out_tasks_from_unseen_starts_with_valid_motion(station, planner, welds):
     base = make_task(station, 0, planner.validity.checker.collides, welds)
