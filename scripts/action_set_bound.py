@@ -100,7 +100,8 @@ def search_leg(env, root: Node, limits, beam: int, leg_steps: int, patience: int
         ranked = sorted(children.values(), key=lambda n: n.cost + (1.0 + rate) * straight_time(limits, n.q, goal))
         frontier = ranked[:beam]
         found = min((n.cost for n in completions), default=math.inf)
-        stale = 0 if found < best - 1e-9 else stale + 1
+        if completions:  # patience counts only once the leg can be finished at all
+            stale = 0 if found < best - 1e-9 else stale + 1
         best = min(best, found)
     return sorted(completions, key=lambda n: n.cost)
 
@@ -133,7 +134,8 @@ def main() -> None:
     ap.add_argument("--leg-steps", type=int, default=600, help="env steps a leg's search may take (work budget)")
     ap.add_argument("--leg-starts", type=int, default=2, help="ends of one leg from which the next is searched")
     ap.add_argument("--patience", type=int, default=2, help="depths without a cheaper leg end before a leg stops")
-    ap.add_argument("--compare", nargs="*", default=[], metavar="LABEL=RESULTS_JSON")
+    ap.add_argument("--compare", nargs="*", default=[], metavar="METHOD=RESULTS_JSON",
+                    help="put that method's rows of an evaluation's results.json beside the search's")
     ap.add_argument("--out", default="docs/action_set_bound.json")
     args = ap.parse_args()
 
@@ -147,7 +149,8 @@ def main() -> None:
     compare = {}
     for item in args.compare:
         label, path = item.split("=", 1)
-        compare[label] = {(r["task"], r["seed"]): r for r in json.loads(Path(path).read_text())["rows"]}
+        compare[label] = {(r["task"], r["seed"]): r for r in json.loads(Path(path).read_text())["rows"]
+                          if r["method"] == label}  # an evaluation's rows of that method
     out = Path(args.out)
     done = json.loads(out.read_text())["tasks"] if out.is_file() else {}  # resumable: finished tasks are kept
     names = [f"drawn_{k}" for k in (args.tasks if args.tasks is not None else range(args.drawn_tasks))]
