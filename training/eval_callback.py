@@ -9,6 +9,8 @@ from pathlib import Path
 import numpy as np
 from sb3_contrib.common.maskable.callbacks import MaskableEvalCallback
 
+from dresspack_gym.errors import ConfigError
+
 from .config import BEST_BY
 
 
@@ -31,7 +33,7 @@ class HeldOutEvalCallback(MaskableEvalCallback):
 
     def __init__(self, *args, best_by: str = "reward", eval_seed: int | None = None, **kwargs):
         if best_by not in BEST_BY:
-            raise ValueError(f"best_by must be one of {BEST_BY}, got {best_by!r}")
+            raise ConfigError("best_by", f"{best_by!r} is not one of the allowed values {list(BEST_BY)}")
         self.best_by = best_by
         self.eval_seed = eval_seed
         self._best_path = kwargs.pop("best_model_save_path", None)
