@@ -535,7 +535,6 @@ class DresspackEnv(gym.Env):
         self._damage += 0.5 * (self._damage_rate + rate) * step_time
         self._damage_rate = rate
 
-    # ----------------------------------------------------------------------------- pickling
     # ----------------------------------------------------------------------------- snapshots and pickling
     def snapshot(self) -> EnvSnapshot:
         """The episode's state now (for search over action sequences: ``restore`` it and try another action)."""
