@@ -154,11 +154,40 @@ class ClearanceProbe:
         self.obstacles = station.obstacle_geoms
         self.rbound = m.geom_rbound[self.obstacles].copy()
         self.is_plane = m.geom_type[self.obstacles] == mujoco.mjtGeom.mjGEOM_PLANE
+        # Boxes (the station's panels, fixtures and floor plates, some 4 m long): their bounding spheres bound
+        # nothing near them, so an edge's distance to the box itself bounds them (most exact queries were boxes')
+        self.box_cols = np.flatnonzero(m.geom_type[self.obstacles] == mujoco.mjtGeom.mjGEOM_BOX)
+        self.box_half = m.geom_size[self.obstacles[self.box_cols]].copy()
         self.names = [m.geom(g).name.removeprefix("obstacle/") for g in self.obstacles]
         self.plane_names = frozenset(n for n, p in zip(self.names, self.is_plane) if p)
         self._fromto = np.zeros(6)
         self._quat = np.zeros(4)
         self._rot = np.zeros(9)
+
+    def lower_bounds(self, data: mujoco.MjData, cable: CableIndex, points: np.ndarray) -> np.ndarray:
+        """(edges, obstacles): a lower bound on each edge capsule's signed distance to each obstacle (a plane's
+        is exact), what orders and prunes :meth:`min_distance`'s exact queries."""
+        mids = 0.5 * (points[1:] + points[:-1])
+        half = 0.5 * np.linalg.norm(points[1:] - points[:-1], axis=1)
+        centers = data.geom_xpos[self.obstacles]
+        lb = np.linalg.norm(mids[:, None, :] - centers[None, :, :], axis=2)
+        lb = lb - half[:, None] - self.rbound[None, :] - cable.radius
+        if len(self.box_cols):
+            # an edge's bounding sphere (centre mid, radius half + r) outside a box: the gap from its centre to
+            # the box less that radius bounds the capsule's distance; a positive one only (a sphere reaching into
+            # the box bounds no penetration depth), else the sphere-sphere bound stays
+            frames = data.geom_xmat[self.obstacles[self.box_cols]].reshape(-1, 3, 3)
+            local = np.einsum("ebk,bkj->ebj", mids[:, None, :] - centers[None, self.box_cols], frames)
+            outside = np.maximum(np.abs(local) - self.box_half[None], 0.0)
+            box_lb = np.sqrt(np.einsum("ebk,ebk->eb", outside, outside)) - half[:, None] - cable.radius
+            lb[:, self.box_cols] = np.maximum(lb[:, self.box_cols], np.where(box_lb > 0.0, box_lb, -np.inf))
+        plane_cols = np.flatnonzero(self.is_plane)
+        if len(plane_cols):  # a plane's exact distance is cheap: the nearer end's height less the radius
+            normals = data.geom_xmat[self.obstacles[plane_cols]].reshape(-1, 3, 3)[:, :, 2]
+            offs = np.einsum("pk,pk->p", normals, centers[plane_cols])
+            vd = points @ normals.T - offs[None, :] - cable.radius  # (n+1, planes)
+            lb[:, plane_cols] = np.minimum(vd[1:], vd[:-1])
+        return lb
 
     def min_distance(self, data: mujoco.MjData, cable: CableIndex, points: np.ndarray, *,
                      signed: bool = False, planes: bool = True) -> tuple[float, int, str]:
@@ -171,19 +200,7 @@ class ClearanceProbe:
         m = self.station.model
         mids = 0.5 * (points[1:] + points[:-1])
         half = 0.5 * np.linalg.norm(points[1:] - points[:-1], axis=1)
-        centers = data.geom_xpos[self.obstacles]
-        lb = np.linalg.norm(mids[:, None, :] - centers[None, :, :], axis=2)
-        lb = lb - half[:, None] - self.rbound[None, :] - cable.radius
-        lb[:, self.is_plane] = -np.inf  # planes are unbounded: always check them exactly
-        plane_cols = np.where(self.is_plane)[0]
-        if len(plane_cols):  # a plane's exact distance is cheap; compute it in numpy
-            normals = data.geom_xmat[self.obstacles[plane_cols]].reshape(-1, 3, 3)[:, :, 2]
-            offs = np.einsum("pk,pk->p", normals, centers[plane_cols])
-            vd = points @ normals.T - offs[None, :] - cable.radius  # (n+1, planes)
-            lb[:, plane_cols] = np.minimum(vd[1:], vd[:-1])
-            exact_plane = True
-        else:
-            exact_plane = False
+        lb = self.lower_bounds(data, cable, points)
         if not planes:
             lb[:, self.is_plane] = np.inf
         order = np.argsort(lb, axis=None)
@@ -193,7 +210,7 @@ class ClearanceProbe:
             e, o = divmod(int(flat), len(self.obstacles))
             if lb[e, o] >= best:
                 break
-            if exact_plane and self.is_plane[o]:
+            if self.is_plane[o]:  # its bound is its exact distance
                 dist = lb[e, o]
             else:
                 data.geom_xpos[self.probe] = mids[e]

@@ -128,6 +128,62 @@ def test_clearance_matches_brute_force_point_sampling():
     assert sim.measures().min_clearance == pytest.approx(max(brute, 0.0), abs=1e-3)
 
 
+@pytest.mark.parametrize("signed", [False, True])
+def test_clearance_search_equals_every_pair_queried_exactly(signed):
+    """The probe's bounds only prune: on cable shapes moved about the default station (into its panels too),
+    its distance equals the smallest of every (edge, obstacle) pair's exact distance, signed or not, and its edge
+    and obstacle are at that distance (a box's own bound, not its bounding sphere's, prunes most pairs);
+    unsigned, in contact, an edge in contact."""
+    import mujoco
+
+    from dresspack_gym.loading import load_station
+    from dresspack_gym.measures import ClearanceProbe, cable_points
+    from dresspack_gym.simulation import CableSimulator
+    from dresspack_gym.station import Station
+
+    station = Station(load_station("default"))
+    sim = CableSimulator(station)
+    probe, cable, m, d = ClearanceProbe(station), station.cables[0], station.model, sim.data
+    home = cable_points(d, cable)
+    quat, rot, size = np.zeros(4), np.zeros(9), m.geom_size[probe.probe]
+
+    def exact(pts, e, o):
+        if probe.is_plane[o]:
+            normal = d.geom_xmat[probe.obstacles[o]].reshape(3, 3)[:, 2]
+            return float(np.min((pts[e:e + 2] - d.geom_xpos[probe.obstacles[o]]) @ normal)) - cable.radius
+        d.geom_xpos[probe.probe] = 0.5 * (pts[e] + pts[e + 1])
+        mujoco.mju_quatZ2Vec(quat, pts[e + 1] - pts[e])
+        mujoco.mju_quat2Mat(rot, quat)
+        d.geom_xmat[probe.probe] = rot
+        size[0], size[1] = cable.radius, max(0.5 * np.linalg.norm(pts[e + 1] - pts[e]), 1e-6)
+        return mujoco.mj_geomDistance(m, d, probe.probe, int(probe.obstacles[o]), 10.0, np.zeros(6))
+
+    rng = np.random.default_rng(3)
+    penetrating = tight = 0
+    boxes = [o for o in range(len(probe.obstacles)) if not probe.is_plane[o]]
+    for i in range(60):
+        pts = home + rng.normal(0.0, 0.3, 3) + rng.normal(0.0, 0.05, home.shape)
+        if i % 2:  # every other shape moved so that one of its vertices lies near an obstacle's surface
+            o = int(probe.obstacles[boxes[i % len(boxes)]])
+            corner = d.geom_xpos[o] + d.geom_xmat[o].reshape(3, 3) @ (m.geom_size[o] * rng.uniform(0.9, 1.1, 3))
+            pts = pts - pts[rng.integers(len(pts))] + corner
+        every = np.array([[exact(pts, e, o) for o in range(len(probe.obstacles))] for e in range(len(pts) - 1)])
+        bounds = probe.lower_bounds(d, cable, pts)
+        assert (bounds <= every + 1e-12).all()  # bounds, planes' exact
+        np.testing.assert_allclose(bounds[:, probe.is_plane], every[:, probe.is_plane], atol=1e-12)
+        tight += int(((bounds > every - 0.02) & ~probe.is_plane[None, :]).sum())
+        dist, edge, name = probe.min_distance(d, cable, pts, signed=signed)
+        expected = every.min() if signed else max(every.min(), 0.0)
+        assert dist == pytest.approx(expected, abs=1e-12)
+        at = every[edge, probe.names.index(name)]
+        if signed or every.min() > 0.0:
+            assert at == pytest.approx(every.min(), abs=1e-12)
+        else:  # unsigned, in contact: an edge in contact (how deep does not count)
+            assert at <= 0.0
+        penetrating += every.min() < 0.0
+    assert penetrating >= 5  # the shapes reach into obstacles, where only exact queries decide
+    assert tight >= 100  # box bounds within 2 cm of the distance: a bound 2 cm too high would have failed
+
 def test_clearance_to_a_mesh_obstacle(tmp_path):
     """Mesh obstacles (e.g. a car body) load from a file next to the station and count for clearance."""
     verts = [(x, y, z) for x in (0.35, 0.65) for y in (-0.5, 0.5) for z in (1.0, 3.0)]
