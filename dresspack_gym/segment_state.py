@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from .measures import cable_points, edge_tensions, vertex_curvatures, vertex_twists
+from .measures import cable_points, cross, edge_tensions, vertex_curvatures, vertex_twists
 from .station import CableIndex
 
 SLIP_SPEED = 1e-3  # [m/s] below this a contact sticks (relaxation creep, not sliding)
@@ -35,12 +35,6 @@ class SegmentState:
     def friction_power(self) -> np.ndarray:
         """Friction force x sliding speed [W]: the rate of sliding wear (zero while sticking or free)."""
         return self.friction_force * self.slip_speed
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise cross product of (n, 3) arrays (np.cross's generic axis handling costs more than the math here)."""
-    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
-                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
 
 
 class SegmentStateReader:
@@ -75,12 +69,12 @@ class SegmentStateReader:
         twist = np.zeros(n)
         d1 = self._material_d1(data)
         e0, e1 = points[1:-1] - points[:-2], points[2:] - points[1:-1]
-        kb = _cross(e0, e1)  # the curvature binormal's direction
+        kb = cross(e0, e1)  # the curvature binormal's direction
         norm = np.linalg.norm(kb, axis=1)
         axis = np.divide(kb, norm[:, None], out=np.zeros_like(kb), where=norm[:, None] > 1e-15)
         t = e0 / np.linalg.norm(e0, axis=1)[:, None]
         d1v = d1[:-1]  # the material frame of the edge entering each interior vertex
-        d2v = _cross(t, d1v)
+        d2v = cross(t, d1v)
         bend[1:-1, 0] = kappa[1:-1] * np.einsum("ij,ij->i", axis, d1v)
         bend[1:-1, 1] = kappa[1:-1] * np.einsum("ij,ij->i", axis, d2v)
         for p, tw in zip(cable.pieces, vertex_twists(m, data, cable)):
@@ -107,7 +101,7 @@ class SegmentStateReader:
             # d1 = cos(theta) d1_ref + sin(theta) (t x d1_ref): checked against the clamps of a twisted rod, whose
             # material frame turns continuously from one clamp's frame to the other's.
             d1[np.asarray(p.piece.vertices[:-1], dtype=int)] = (np.cos(theta)[:, None] * ref
-                                                                + np.sin(theta)[:, None] * _cross(tan, ref))
+                                                                + np.sin(theta)[:, None] * cross(tan, ref))
         return d1
 
     def _contacts(self, data: mujoco.MjData, live: mujoco.MjData | None, n: int):
@@ -156,7 +150,7 @@ class SegmentStateReader:
     def _velocity_at(self, data: mujoco.MjData, body: int, point: np.ndarray) -> np.ndarray:
         """Linear velocity of ``body``'s material point at ``point`` (world frame)."""
         mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_BODY, int(body), self._vel, 0)
-        return self._vel[3:] + np.cross(self._vel[:3], point - data.xipos[body])
+        return self._vel[3:] + cross(self._vel[:3], point - data.xipos[body])
 
     def _other_velocity(self, data: mujoco.MjData, c, side: int) -> np.ndarray:
         """Velocity of what the cable touches at the contact: a geom's body, or a flex vertex / edge (another
