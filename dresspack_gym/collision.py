@@ -105,12 +105,22 @@ class RobotCollisionChecker:
         self._pair_cell = np.array([local[int(g)] * width + row[int(o)] for g, o in self.pairs], dtype=int)
         g, o = self.pairs[:, 0], self.pairs[:, 1]
         self._radii = self.rbound[g] + self.rbound[o] + self.extra
+        # the pairs only bounding spheres bound (not a box's or a plane's own bound): their rows of [own; static]
+        self._sphere = np.flatnonzero(~self.box & ~self.plane)
+        self._sphere_own = np.array([local[int(x)] for x in g[self._sphere]], dtype=int)
+        self._sphere_other = np.array([row[int(x)] for x in o[self._sphere]], dtype=int)
         boxes, box_of_pair = np.unique(self.pairs[self.box, 1], return_inverse=True)
         self._box_centre = d.geom_xpos[boxes].copy()
         self._box_frame = d.geom_xmat[boxes].reshape(-1, 3, 3).copy()
         self._box_half = m.geom_size[boxes]
         self._box_cell = box_of_pair.reshape(-1) * len(own) + np.array([local[int(x)] for x in g[self.box]], dtype=int)
         self._box_radii = self.rbound[g[self.box]] + self.extra[self.box]
+        # for batches: all boxes' frames side by side, one (3, 3 * boxes) product for every geom of every pose,
+        # and each box pair's cell of the (geom, box) layout that gives
+        self._box_frames_side = self._box_frame.transpose(1, 0, 2).reshape(3, -1)
+        self._box_centre_local = np.einsum("bk,bkj->bj", self._box_centre, self._box_frame)
+        self._box_cell_by_geom = np.array([local[int(x)] for x in g[self.box]], dtype=int) * len(boxes) + \
+            box_of_pair.reshape(-1)
         # Planes (the floor): a robot geom's bounding sphere is at least its centre's height above the plane
         # less its radius away (without this bound every plane pair needed an exact query at every pose)
         planes = self.pairs[self.plane, 1]
@@ -152,18 +162,23 @@ class RobotCollisionChecker:
             mujoco.mj_kinematics(self.model, d)
             pos[b] = d.geom_xpos[own]
             mat[b] = d.geom_xmat[own]
+        # every pair's bound as _pose computes it, but only where it is used: the boxes' and planes' own bounds
+        # replace the bounding spheres' for most pairs (all pairs in one dense array was most of a batch's time)
+        lb = np.empty((len(qs), len(self.pairs)))
         every = np.concatenate([pos, np.broadcast_to(self._static_pos, (len(qs), *self._static_pos.shape))], axis=1)
-        gap = pos[:, :, None, :] - every[:, None, :, :]
-        lb = np.sqrt(np.einsum("zabk,zabk->zab", gap, gap)).reshape(len(qs), -1)[:, self._pair_cell] - self._radii
+        gap = pos[:, self._sphere_own] - every[:, self._sphere_other]
+        lb[:, self._sphere] = np.sqrt(np.einsum("zpk,zpk->zp", gap, gap)) - self._radii[self._sphere]
         if len(self._plane_own):
             height = np.einsum("zpk,pk->zp", pos[:, self._plane_own], self._plane_normal) - self._plane_offset
             lb[:, self.plane] = np.where(height - self._plane_radii > 0.0, height - self._plane_radii, -np.inf)
         lb *= self.scale
         if len(self._box_cell):
-            local = np.matmul(pos[:, None] - self._box_centre[None, :, None], self._box_frame[None])
-            outside = np.maximum(np.abs(local) - self._box_half[None, :, None], 0.0)
-            box_lb = (np.sqrt(np.einsum("zbgk,zbgk->zbg", outside, outside)).reshape(len(qs), -1)[:, self._box_cell]
-                      - self._box_radii)
+            n_box = len(self._box_centre)
+            local = (pos.reshape(-1, 3) @ self._box_frames_side).reshape(len(qs), len(own), n_box, 3) \
+                - self._box_centre_local  # each geom in each box's frame, (B, G, boxes, 3)
+            outside = np.maximum(np.abs(local) - self._box_half, 0.0)
+            box_lb = (np.sqrt(np.einsum("zgbk,zgbk->zgb", outside, outside)).reshape(len(qs), -1)
+                      [:, self._box_cell_by_geom] - self._box_radii)
             lb[:, self.box] = np.where(box_lb > 0.0, box_lb, -np.inf)
         return pos, mat, lb
 

@@ -111,7 +111,16 @@ class MotionValidity:
         margin = self.checker.margin
         t = np.zeros(len(dq))
         clear = np.zeros(len(dq), dtype=bool)
-        active = np.arange(len(dq))
+        if len(dq) > LOCKSTEP_MIN:  # every segment's first query is q0's: made once, the first round for all
+            self.n_checks += 1
+            d0 = float(self.checker.min_distances(q0[None])[0])
+            if d0 < margin:
+                return clear
+            clear[reach_per_t == 0.0] = True
+            active = np.flatnonzero(reach_per_t > 0.0)
+            t[active] = np.minimum(1.0, (d0 - 0.5 * margin) / reach_per_t[active])
+        else:
+            active = np.arange(len(dq))
         while len(active) > LOCKSTEP_MIN:
             self.n_checks += len(active)
             d = self.checker.min_distances(q0 + t[active, None] * dq[active])

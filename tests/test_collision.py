@@ -208,7 +208,7 @@ def exact_at(checker, q, g1, g2):
 
 def test_batched_distances_and_lockstep_segments_answer_as_one_at_a_time():
     """min_distances equals min_distance per configuration, and segments_clear (segments advanced in lockstep,
-    queries batched) equals conservative advancement run on each segment alone, query for query."""
+    queries batched) equals conservative advancement run on each segment alone, query for query (their common first query once)."""
     from dresspack_gym.validity import MotionValidity
 
     station = Station(load_station("default"))
@@ -219,6 +219,8 @@ def test_batched_distances_and_lockstep_segments_answer_as_one_at_a_time():
     qs = home + rng.uniform(-1.5, 1.5, size=(400, 6))
     batched = checker.min_distances(qs)
     np.testing.assert_array_equal(batched, [checker.min_distance(q) for q in qs])
+    # the batch's lower bounds are the one-configuration ones (same pairs pruned and ordered, up to rounding)
+    np.testing.assert_allclose(checker._pose_batch(qs)[2], [checker._pose(q)[2] for q in qs], rtol=0, atol=1e-12)
     assert (batched < 0).any() and (batched > 0.05).any()
 
     def alone(q0, q1):  # conservative advancement of one segment, as the checker's contract states it
@@ -237,9 +239,14 @@ def test_batched_distances_and_lockstep_segments_answer_as_one_at_a_time():
     expected = [alone(q0, q1) for q1 in q1s]
     n = validity.n_checks
     np.testing.assert_array_equal(validity.segments_clear(q0, q1s), [ok for ok, _ in expected])
-    assert validity.n_checks - n == sum(k for _, k in expected)
+    # query for query, except that the segments' shared first query (q0's) is made once
+    assert validity.n_checks - n == sum(k for _, k in expected) - (len(q1s) - 1)
     assert 0 < sum(ok for ok, _ in expected) < len(expected)  # both outcomes occur
     assert validity.segment_clear(q0, q1s[0]) == expected[0][0]
+    hit = qs[int(np.argmin(batched))]  # from a configuration in collision no segment is clear, after one query
+    n = validity.n_checks
+    assert not validity.segments_clear(hit, hit + rng.uniform(-0.3, 0.3, size=(10, 6))).any()
+    assert validity.n_checks - n == 1
 
 
 def test_bench_collision_compares_lockstep_and_one_by_one_segment_checks_in_one_run():
