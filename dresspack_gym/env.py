@@ -17,7 +17,9 @@ around an obstacle with j1-j3, re-orienting the wrist with j4-j6). Anchors: ``"m
 (halfway toward the goal) and ``"here"`` (the current configuration: backing out of a tight spot, e.g. away
 from the panel just welded, before heading anywhere); the last action waits. An anchor in ``fallback_anchors``
 offers its vias only where no other move is free (so a policy keeps to the others and uses these to get out of a
-spot they cannot leave). A replayed episode is then a via path whose
+spot they cannot leave). ``via_postures_deg`` adds one action per given configuration, after the vias: go to that
+posture (a cell's travel positions, where the cable hangs easy; a wear-aware planner's routes pass through such
+postures, see ``scripts/travel_postures.py``). A replayed episode is then a via path whose
 segments the time law times rest-to-rest, exactly like a planner's, and an episode takes a few decisions per leg.
 
 Tasks: ``welds`` (all of them, in order), or each episode ``n_welds`` of them (optionally shuffled), or one
@@ -71,6 +73,7 @@ from .cost_variants import COST_VARIANTS
 from .damage import damage_rate
 from .errors import ConfigError, DresspackError, EnvUsageError
 from .fatigue import fatigue_life
+from .joint_limits import check_within_limits
 from .segment_state import SegmentState
 from .loading import load_station
 from .physics_profiles import PROFILES, with_profile
@@ -81,7 +84,7 @@ from .station import Station
 from .tasks import random_start
 from .time_law import segment_durations
 from .trajectory import Trajectory
-from .validation import check_choice, check_integer, check_number
+from .validation import check_choice, check_integer, check_number, check_vector
 from .validity import MotionValidity
 from .weld_cycle import REWARD_TERMS, WeldCycleTask
 from .weld_sampling import WeldSampling
@@ -222,6 +225,14 @@ def _check_arguments(kw: dict[str, Any]) -> None:
     if len(set(fallback)) != len(fallback) or len(set(fallback)) == len(anchors):
         raise ConfigError("fallback_anchors", f"each anchor at most once, and at least one of via_anchors "
                                               f"{list(anchors)} not a fallback, got {list(fallback)}")
+    postures = kw["via_postures_deg"]
+    if isinstance(postures, (str, bytes)) or not isinstance(postures, (list, tuple)):
+        raise ConfigError("via_postures_deg", f"expected a list of joint configurations (6 angles each) [deg], "
+                                              f"got {postures!r}")
+    if postures and kw["action_set"] != "primitives":
+        raise ConfigError("via_postures_deg", "applies to action_set primitives only (joint steps have no vias)")
+    for i, posture in enumerate(postures):
+        check_vector(posture, f"via_postures_deg[{i}]", 6, unit="deg")
     if kw["goal_action"] and kw["action_set"] == "primitives":
         raise ConfigError("goal_action", "applies to action_set joint_steps only (primitives always go to the goal "
                                          "with action 0)")
@@ -248,8 +259,8 @@ class DresspackEnv(gym.Env):
                  physics_profile: str = "accurate", part_welds: int = 0,
                  weld_tilt_deg: float = 20.0, action_set: str = "joint_steps",
                  via_offsets_deg: tuple[float, ...] = (30.0, 60.0), via_anchors: tuple[str, ...] = ("midpoint",),
-                 fallback_anchors: tuple[str, ...] = (), wear_reward_cap: float | None = None,
-                 render_mode: str | None = None,
+                 fallback_anchors: tuple[str, ...] = (), via_postures_deg: tuple[tuple[float, ...], ...] = (),
+                 wear_reward_cap: float | None = None, render_mode: str | None = None,
                  render_size: tuple[int, int] = (480, 360)):
         self._kwargs = dict(locals())
         for k in ("self", "__class__"):
@@ -307,7 +318,8 @@ class DresspackEnv(gym.Env):
         if part_welds:  # goals change every episode: the goal's tool pose too (position, approach)
             self.observation_structure["goal_pose"] = 6
         if action_set == "primitives":  # which segments are free: probes of the geometry along each candidate
-            self.observation_structure["action_masks"] = 2 + 12 * len(via_offsets_deg) * len(via_anchors)
+            self.observation_structure["action_masks"] = 2 + 12 * len(via_offsets_deg) * len(via_anchors) + \
+                len(via_postures_deg)
         n_obs = sum(self.observation_structure.values())
         self.observation_space = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(n_obs,), dtype=np.float32)
         self.action_set = action_set
@@ -316,13 +328,19 @@ class DresspackEnv(gym.Env):
             # the last action
             self._vias = [(VIA_ANCHORS[anchor], j, sign * math.radians(off)) for anchor in via_anchors
                           for off in via_offsets_deg for j in range(6) for sign in (1.0, -1.0)]
-            self.n_actions = 2 + len(self._vias)
+            # the travel postures' actions follow the vias: action 1 + len(vias) + k goes to posture k
+            self._postures = np.radians(np.array(via_postures_deg, dtype=float).reshape(-1, 6))
+            for k, posture in enumerate(self._postures):
+                check_within_limits(posture, self.placement.robot.joint_limits, f"via_postures_deg[{k}]")
+            self.n_actions = 2 + len(self._vias) + len(self._postures)
             self.stay_action = self.n_actions - 1
             # the fallback anchors' vias, offered only where nothing else moves (see masks_at)
             self._fallback = np.array([False] + [anchor in fallback_anchors for anchor in via_anchors
-                                                 for _ in range(12 * len(via_offsets_deg))] + [False])
+                                                 for _ in range(12 * len(via_offsets_deg))]
+                                      + [False] * len(self._postures) + [False])
         else:
             self._vias = []
+            self._postures = np.zeros((0, 6))
             self.n_actions = N_JOINT_ACTIONS + (2 if self.goal_action else 1)
             self.stay_action = STAY
             self._fallback = np.zeros(self.n_actions, dtype=bool)
@@ -591,6 +609,8 @@ class DresspackEnv(gym.Env):
         if self.action_set == "primitives":
             if a == TO_GOAL:
                 return "straight to the goal"
+            if a > len(self._vias):
+                return f"via travel posture {a - 1 - len(self._vias)}"
             fraction, j, offset = self._vias[a - 1]
             anchor = "the midpoint" if fraction else "here"
             return f"via {anchor} with j{j + 1} {math.degrees(offset):+g} deg"
@@ -618,6 +638,8 @@ class DresspackEnv(gym.Env):
         if self.action_set == "primitives":
             if a == TO_GOAL:
                 return goal.copy()
+            if a > len(self._vias):  # a travel posture: where it is, wherever the robot and the goal are
+                return self._postures[a - 1 - len(self._vias)].copy()
             fraction, j, offset = self._vias[a - 1]
             target = q + fraction * (goal - q)
             target[j] += offset

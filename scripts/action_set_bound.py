@@ -27,6 +27,7 @@ import numpy as np
 from dresspack.agents.planning import make_planner
 from dresspack.eval.runs import EvalSpec, build_tasks
 
+from dresspack_gym.env import DresspackEnv
 from dresspack_gym.loading import load_station
 from dresspack_gym.simulation import CableSimulator
 from dresspack_gym.station import Station
@@ -136,6 +137,9 @@ def main() -> None:
     ap.add_argument("--patience", type=int, default=2, help="depths without a cheaper leg end before a leg stops")
     ap.add_argument("--compare", nargs="*", default=[], metavar="METHOD=RESULTS_JSON",
                     help="put that method's rows of an evaluation's results.json beside the search's")
+    ap.add_argument("--env-kwargs", type=json.loads, default={}, metavar="JSON",
+                    help='changes to the policy\'s env, e.g. \'{"via_postures_deg": [[-93, -46, -108, 52, 14, 223]]}\' '
+                         "(what a changed action set could do)")
     ap.add_argument("--out", default="docs/action_set_bound.json")
     args = ap.parse_args()
 
@@ -144,6 +148,8 @@ def main() -> None:
     station = Station(load_station(args.station))
     tasks = build_tasks(station, spec)
     env = make_planner("ppo", station, 0, seed=args.seed, policy=args.policy).env
+    if args.env_kwargs:
+        env = DresspackEnv(**{**env._kwargs, **args.env_kwargs})
     limits = station.config.robots[0].robot.joint_motion_limits.at_speed(station.config.simulation.speed_fraction)
     judge = CableSimulator(station)  # the evaluation's replay, at the station's own (accurate) physics
     compare = {}

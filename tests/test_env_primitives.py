@@ -71,6 +71,41 @@ def test_here_anchored_vias_offset_the_current_configuration():
     e.close()
 
 
+TUCK_DEG = [-93.2, -46.3, -107.9, 51.7, 14.1, 223.0]  # a travel posture of the wear-aware planner's routes
+
+
+def test_travel_postures_are_actions_after_the_vias():
+    """Each of ``via_postures_deg`` is one action, after the vias and before the wait: it goes to that posture
+    from anywhere, masked as any segment, and the observation's mask grows with it."""
+    postures = [TUCK_DEG, [0.0, -20.0, 10.0, 180.0, -60.0, 180.0]]
+    e = DresspackEnv(station="default", action_set="primitives", via_anchors=["midpoint", "here"],
+                     fallback_anchors=["here"], via_postures_deg=postures, physics_profile="training",
+                     wear_integral=True, settle_time=0.0, collision_margin=0.005, part_welds=1)
+    plain = DresspackEnv(station="default", action_set="primitives", via_anchors=["midpoint", "here"],
+                         fallback_anchors=["here"], physics_profile="training", part_welds=1)
+    assert e.n_actions == plain.n_actions + 2 and e.stay_action == e.n_actions - 1
+    assert e.observation_structure["action_masks"] == e.n_actions
+    assert e.observation_space.shape == (plain.observation_space.shape[0] + 2,)
+    first = 1 + 12 * 2 * 2
+    e.reset(seed=0)
+    q = e.q
+    for k, posture in enumerate(postures):
+        assert e.describe_action(first + k) == f"via travel posture {k}"
+        np.testing.assert_allclose(e._target(q, first + k), np.radians(posture), atol=1e-12)
+        np.testing.assert_allclose(e._target(q + 0.2, first + k, q), np.radians(posture), atol=1e-12)
+    assert not e._fallback[first:first + 2].any()  # offered like any other move
+    masks = e.action_masks()
+    np.testing.assert_array_equal(masks[:first], plain.masks_at(q, e.goal)[:first])
+    assert masks[first] == e._segment_valid(q, np.radians(postures[0]))
+    # taken: the robot stands at the posture, and the motion's wear is integrated as for any segment
+    _, _, _, _, info = e.step(first)
+    np.testing.assert_allclose(e.q, np.radians(TUCK_DEG), atol=1e-12)
+    np.testing.assert_allclose(info["moved_through"], np.radians([TUCK_DEG]), atol=1e-12)
+    assert info["integral_cost"] > 0.0 and info["step_time"] > 1.0
+    e.close()
+    plain.close()
+
+
 # drawn_0 of `dresspack-eval --drawn-tasks 30 --seeds 0` on the default station: a weld on the body's panel that no
 # midpoint via leaves toward Home (docs/primitive_reach.json)
 STUCK_WELD = np.array([0.7407122213013433, 1.0980702748831073, -0.7737209529340379, 3.4157926055470913,
@@ -235,6 +270,13 @@ def test_snapshot_and_restore_continue_an_episode_exactly(env):
     ({"action_set": "primitives", "via_anchors": ["midpoint", "here"], "fallback_anchors": ["here", "here"]},
      "fallback_anchors"),
     ({"fallback_anchors": ["here"]}, "fallback_anchors"),  # joint steps have no vias
+    ({"action_set": "primitives", "via_postures_deg": "tuck"}, "via_postures_deg"),
+    ({"action_set": "primitives", "via_postures_deg": [[0, -20, 10, 180, -60]]}, "via_postures_deg[0]"),
+    ({"action_set": "primitives", "via_postures_deg": [[0, -20, 10, 180, -60, 180], [0, 0, 0, 0, 200, 0]]},
+     "via_postures_deg[1][4]"),  # beyond joint 5's limits
+    ({"action_set": "primitives", "via_postures_deg": [[0, -20, 10, 180, float("nan"), 180]]},
+     "via_postures_deg[0][4]"),
+    ({"via_postures_deg": [[0, -20, 10, 180, -60, 180]]}, "via_postures_deg"),  # joint steps have no vias
     ({"wear_reward_cap": -1.0}, "wear_reward_cap"),
     ({"wear_reward_cap": float("nan")}, "wear_reward_cap"),
 ])
