@@ -15,7 +15,7 @@ spec.loader.exec_module(travel_postures)
 def test_the_posture_most_plans_pass_near_comes_first_and_its_plans_are_then_set_aside():
     tuck, side, lone = np.radians([-90, -50, -100, 50, 10, 220]), np.radians([50, -20, 0, 120, -40, 180]), np.zeros(6)
     rng = np.random.default_rng(0)
-    jitter = lambda: np.radians(rng.uniform(-5, 5, 6))  # noqa: E731
+    jitter = lambda: np.radians(rng.uniform(-5, 5, 6))
     candidates = [(f"plan{k}", tuck + jitter()) for k in range(4)]  # four plans pass near the tuck
     candidates += [("plan0", side + jitter()), ("plan4", side + jitter()), ("plan5", side + jitter())]
     candidates += [("plan6", lone)]  # one plan alone: no shared posture
