@@ -177,6 +177,16 @@ VIA_OFFSET_RANGE_DEG = (1.0, 180.0)
 _BOOL_ARGS = ("shuffle_welds", "goal_action", "wear_integral")
 
 
+def _primitives_list(kw: dict[str, Any], name: str, expected: str) -> list | tuple:
+    """Argument ``name``: a list (``expected`` says of what), and empty unless the action set is primitives."""
+    value = kw[name]
+    if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple)):
+        raise ConfigError(name, f"expected {expected}, got {value!r}")
+    if value and kw["action_set"] != "primitives":
+        raise ConfigError(name, "applies to action_set primitives only (joint steps have no vias)")
+    return value
+
+
 def _check_arguments(kw: dict[str, Any]) -> None:
     """Every keyword argument typed, finite and in range, or a ConfigError naming it and what it allows."""
     if not isinstance(kw["station"], (str, Station)):
@@ -214,23 +224,13 @@ def _check_arguments(kw: dict[str, Any]) -> None:
         check_choice(f"via_anchors[{i}]", anchor, list(VIA_ANCHORS))
     if len(set(anchors)) != len(anchors):
         raise ConfigError("via_anchors", f"each anchor at most once, got {list(anchors)}")
-    fallback = kw["fallback_anchors"]
-    if isinstance(fallback, (str, bytes)) or not isinstance(fallback, (list, tuple)):
-        raise ConfigError("fallback_anchors", f"expected a list of anchors from via_anchors {list(anchors)}, "
-                                              f"got {fallback!r}")
-    if fallback and kw["action_set"] != "primitives":
-        raise ConfigError("fallback_anchors", "applies to action_set primitives only (joint steps have no vias)")
+    fallback = _primitives_list(kw, "fallback_anchors", f"a list of anchors from via_anchors {list(anchors)}")
     for i, anchor in enumerate(fallback):
         check_choice(f"fallback_anchors[{i}]", anchor, list(anchors))
     if len(set(fallback)) != len(fallback) or len(set(fallback)) == len(anchors):
         raise ConfigError("fallback_anchors", f"each anchor at most once, and at least one of via_anchors "
                                               f"{list(anchors)} not a fallback, got {list(fallback)}")
-    postures = kw["via_postures_deg"]
-    if isinstance(postures, (str, bytes)) or not isinstance(postures, (list, tuple)):
-        raise ConfigError("via_postures_deg", f"expected a list of joint configurations (6 angles each) [deg], "
-                                              f"got {postures!r}")
-    if postures and kw["action_set"] != "primitives":
-        raise ConfigError("via_postures_deg", "applies to action_set primitives only (joint steps have no vias)")
+    postures = _primitives_list(kw, "via_postures_deg", "a list of joint configurations (6 angles each) [deg]")
     for i, posture in enumerate(postures):
         check_vector(posture, f"via_postures_deg[{i}]", 6, unit="deg")
     if kw["goal_action"] and kw["action_set"] == "primitives":
