@@ -147,6 +147,11 @@ def vertex_twists(model: mujoco.MjModel, data: mujoco.MjData, cable: CableIndex)
     return out
 
 
+def _edge_capsules(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each cable edge's midpoint and half length: its capsule's centre and half axis."""
+    return 0.5 * (points[1:] + points[:-1]), 0.5 * np.linalg.norm(points[1:] - points[:-1], axis=1)
+
+
 class ClearanceProbe:
     """Exact capsule-to-geometry distances with MuJoCo's own narrow phase (``mj_geomDistance``).
 
@@ -174,8 +179,10 @@ class ClearanceProbe:
     def lower_bounds(self, data: mujoco.MjData, cable: CableIndex, points: np.ndarray) -> np.ndarray:
         """(edges, obstacles): a lower bound on each edge capsule's signed distance to each obstacle (a plane's
         is exact), what orders and prunes :meth:`min_distance`'s exact queries."""
-        mids = 0.5 * (points[1:] + points[:-1])
-        half = 0.5 * np.linalg.norm(points[1:] - points[:-1], axis=1)
+        return self._lower_bounds(data, cable, points, *_edge_capsules(points))
+
+    def _lower_bounds(self, data: mujoco.MjData, cable: CableIndex, points: np.ndarray, mids: np.ndarray,
+                      half: np.ndarray) -> np.ndarray:
         centers = data.geom_xpos[self.obstacles]
         lb = np.linalg.norm(mids[:, None, :] - centers[None, :, :], axis=2)
         lb = lb - half[:, None] - self.rbound[None, :] - cable.radius
@@ -205,9 +212,8 @@ class ClearanceProbe:
         if len(self.obstacles) == 0 or (not planes and self.is_plane.all()):
             return MAX_CLEARANCE, -1, ""
         m = self.station.model
-        mids = 0.5 * (points[1:] + points[:-1])
-        half = 0.5 * np.linalg.norm(points[1:] - points[:-1], axis=1)
-        lb = self.lower_bounds(data, cable, points)
+        mids, half = _edge_capsules(points)
+        lb = self._lower_bounds(data, cable, points, mids, half)
         if not planes:
             lb[:, self.is_plane] = np.inf
         order = np.argsort(lb, axis=None)
