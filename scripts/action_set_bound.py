@@ -158,7 +158,14 @@ def main() -> None:
         compare[label] = {(r["task"], r["seed"]): r for r in json.loads(Path(path).read_text())["rows"]
                           if r["method"] == label}  # an evaluation's rows of that method
     out = Path(args.out)
-    done = json.loads(out.read_text())["tasks"] if out.is_file() else {}  # resumable: finished tasks are kept
+    done = {}
+    if out.is_file():  # resumable: finished tasks are kept, if they were searched in the same env and tasks
+        before = json.loads(out.read_text())
+        same = ("station", "policy", "drawn_tasks", "seed", "start_noise_deg", "env_kwargs")
+        changed = [k for k in same if before["args"].get(k, {} if k == "env_kwargs" else None) != vars(args)[k]]
+        if changed:
+            raise SystemExit(f"{out} holds a search with other {', '.join(changed)}: give another --out")
+        done = before["tasks"]
     names = [f"drawn_{k}" for k in (args.tasks if args.tasks is not None else range(args.drawn_tasks))]
     for name in names:
         if name in done:
