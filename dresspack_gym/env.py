@@ -19,7 +19,10 @@ from the panel just welded, before heading anywhere); the last action waits. An 
 offers its vias only where no other move is free (so a policy keeps to the others and uses these to get out of a
 spot they cannot leave). ``via_postures_deg`` adds one action per given configuration, after the vias: go to that
 posture (a cell's travel positions, where the cable hangs easy; a wear-aware planner's routes pass through such
-postures, see ``scripts/travel_postures.py``). A replayed episode is then a via path whose
+postures, see ``scripts/travel_postures.py``). ``approach_vias`` adds that many more: via an approach configuration
+of the current goal (:mod:`approach`: free configurations within ``approach_range_deg`` of the goal from which the
+straight segment into it is free, drawn from the goal itself, so they are the same in any run); a weld in a pocket of
+the body admits only a narrow cone of straight entries, which no offset of the midpoint finds. A replayed episode is then a via path whose
 segments the time law times rest-to-rest, exactly like a planner's, and an episode takes a few decisions per leg.
 
 Tasks: ``welds`` (all of them, in order), or each episode ``n_welds`` of them (optionally shuffled), or one
@@ -54,7 +57,8 @@ order; the space's size is their sum): joints scaled by their limits (6), goal s
 the goal / pi (6), task progress (1), ``cable_samples`` cable points in the TCP frame divided by the cable length
 (3 each), and the measures κ/κ0, F/``tension_scale``, d/c (3); with ``part_welds`` (each episode draws that many
 weld points on the station's parts, :mod:`weld_sampling`) also the goal's tool position from the base /
-``POSE_SCALE`` and its approach direction (6); with ``action_set="primitives"`` also the action mask (+1 allowed,
+``POSE_SCALE`` and its approach direction (6); with ``approach_vias`` each approach configuration's joint change
+from where the robot is / pi (6 each, zeros for an approach the goal does not have); with ``action_set="primitives"`` also the action mask (+1 allowed,
 -1 masked, one per action): whether each candidate segment is free is what the policy sees of the geometry around
 its way, so a changed station changes what it observes.
 """
@@ -68,6 +72,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from .approach import approach_configurations
 from .collision import RobotCollisionChecker
 from .cost_variants import COST_VARIANTS
 from .damage import damage_rate
@@ -111,6 +116,7 @@ TO_GOAL = 0
 # [s] with wear_integral the cost is sampled this often along a motion and integrated (trapezoid): a primitive
 # segment lasts seconds, its end state alone would miss what the cable went through on the way
 WEAR_SAMPLE_TIME = 0.05
+APPROACH_CACHE = 16  # goals whose approach configurations are kept (a search revisits an episode's few goals)
 
 
 COST_TERMS = ("total", "curvature", "tension", "distance", "twist", "damage")
@@ -172,6 +178,8 @@ _NUMBER_ARGS = {
     "part_welds": (0, 100, True),
     "weld_tilt_deg": (0.0, 80.0, False),
     "wear_reward_cap": (1e-6, 1e12, False),
+    "approach_vias": (0, 16, True),
+    "approach_range_deg": (1.0, 180.0, False),
 }
 VIA_OFFSET_RANGE_DEG = (1.0, 180.0)
 _BOOL_ARGS = ("shuffle_welds", "goal_action", "wear_integral")
@@ -233,6 +241,8 @@ def _check_arguments(kw: dict[str, Any]) -> None:
     postures = _primitives_list(kw, "via_postures_deg", "a list of joint configurations (6 angles each) [deg]")
     for i, posture in enumerate(postures):
         check_vector(posture, f"via_postures_deg[{i}]", 6, unit="deg")
+    if kw["approach_vias"] and kw["action_set"] != "primitives":
+        raise ConfigError("approach_vias", "applies to action_set primitives only (joint steps have no vias)")
     if kw["goal_action"] and kw["action_set"] == "primitives":
         raise ConfigError("goal_action", "applies to action_set joint_steps only (primitives always go to the goal "
                                          "with action 0)")
@@ -260,7 +270,7 @@ class DresspackEnv(gym.Env):
                  weld_tilt_deg: float = 20.0, action_set: str = "joint_steps",
                  via_offsets_deg: tuple[float, ...] = (30.0, 60.0), via_anchors: tuple[str, ...] = ("midpoint",),
                  fallback_anchors: tuple[str, ...] = (), via_postures_deg: tuple[tuple[float, ...], ...] = (),
-                 wear_reward_cap: float | None = None, render_mode: str | None = None,
+                 approach_vias: int = 0, approach_range_deg: float = 45.0, wear_reward_cap: float | None = None, render_mode: str | None = None,
                  render_size: tuple[int, int] = (480, 360)):
         self._kwargs = dict(locals())
         for k in ("self", "__class__"):
@@ -317,9 +327,11 @@ class DresspackEnv(gym.Env):
                                       "cable_points": 3 * self.cable_samples, "measures": 3}
         if part_welds:  # goals change every episode: the goal's tool pose too (position, approach)
             self.observation_structure["goal_pose"] = 6
+        if approach_vias:  # where the goal's approach configurations are, from here
+            self.observation_structure["approaches"] = 6 * approach_vias
         if action_set == "primitives":  # which segments are free: probes of the geometry along each candidate
             self.observation_structure["action_masks"] = 2 + 12 * len(via_offsets_deg) * len(via_anchors) + \
-                len(via_postures_deg)
+                len(via_postures_deg) + approach_vias
         n_obs = sum(self.observation_structure.values())
         self.observation_space = gym.spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(n_obs,), dtype=np.float32)
         self.action_set = action_set
@@ -332,15 +344,20 @@ class DresspackEnv(gym.Env):
             self._postures = np.radians(np.array(via_postures_deg, dtype=float).reshape(-1, 6))
             for k, posture in enumerate(self._postures):
                 check_within_limits(posture, self.placement.robot.joint_limits, f"via_postures_deg[{k}]")
-            self.n_actions = 2 + len(self._vias) + len(self._postures)
+            # the approach vias follow the postures: action 1 + len(vias) + len(postures) + k goes to the current
+            # goal's approach configuration k
+            self._approach_count, self._approach_reach = int(approach_vias), math.radians(approach_range_deg)
+            self._first_approach = 1 + len(self._vias) + len(self._postures)
+            self.n_actions = 2 + len(self._vias) + len(self._postures) + self._approach_count
             self.stay_action = self.n_actions - 1
             # the fallback anchors' vias, offered only where nothing else moves (see masks_at)
             self._fallback = np.array([False] + [anchor in fallback_anchors for anchor in via_anchors
                                                  for _ in range(12 * len(via_offsets_deg))]
-                                      + [False] * len(self._postures) + [False])
+                                      + [False] * (len(self._postures) + self._approach_count) + [False])
         else:
             self._vias = []
             self._postures = np.zeros((0, 6))
+            self._approach_count, self._approach_reach, self._first_approach = 0, 0.0, 0
             self.n_actions = N_JOINT_ACTIONS + (2 if self.goal_action else 1)
             self.stay_action = STAY
             self._fallback = np.zeros(self.n_actions, dtype=bool)
@@ -349,6 +366,7 @@ class DresspackEnv(gym.Env):
         self._first_moves, self._fallback_moves = moves[~self._fallback[moves]], moves[self._fallback[moves]]
         self.action_space = gym.spaces.Discrete(self.n_actions)
         self._mask_cache: tuple[bytes, np.ndarray] | None = None
+        self._approach_cache: dict[bytes, np.ndarray] = {}  # goal -> its approach configurations
         self._setup_episode(list(self.task.weld_goals))
         self._needs_reset = True  # Gymnasium's order: reset() before the first step()
         self._begin_damage(self.sim.segment_states()[self.robot_index])
@@ -515,6 +533,8 @@ class DresspackEnv(gym.Env):
             return np.zeros(0, dtype=bool)
         targets = np.array([self._target(q, a, goal) for a in moves])
         free = np.array([self._segment_valid(q, target, check_collision=False) for target in targets])
+        if self._approach_count:  # a goal with fewer approach configurations than slots: the rest are masked
+            free &= (moves < self._first_approach + len(self.approaches(goal))) | (moves == self.stay_action)
         # Moves whose largest possible robot displacement stays below the clearance beyond the margin cannot
         # come closer than the margin anywhere: they skip the collision queries (a continuous guarantee that
         # implies MotionValidity.segment_valid, so planners accept every step a masked policy takes).
@@ -609,6 +629,8 @@ class DresspackEnv(gym.Env):
         if self.action_set == "primitives":
             if a == TO_GOAL:
                 return "straight to the goal"
+            if a >= self._first_approach:
+                return f"via approach configuration {a - self._first_approach} of the goal"
             if a > len(self._vias):
                 return f"via travel posture {a - 1 - len(self._vias)}"
             fraction, j, offset = self._vias[a - 1]
@@ -638,6 +660,10 @@ class DresspackEnv(gym.Env):
         if self.action_set == "primitives":
             if a == TO_GOAL:
                 return goal.copy()
+            if a >= self._first_approach:  # an approach configuration of the goal (none: no move, and masked)
+                found = self.approaches(goal)
+                k = a - self._first_approach
+                return found[k].copy() if k < len(found) else target
             if a > len(self._vias):  # a travel posture: where it is, wherever the robot and the goal are
                 return self._postures[a - 1 - len(self._vias)].copy()
             fraction, j, offset = self._vias[a - 1]
@@ -650,6 +676,17 @@ class DresspackEnv(gym.Env):
         if a != STAY:
             target[a // 2] += self.step_size if a % 2 == 0 else -self.step_size
         return target
+
+    def approaches(self, goal: np.ndarray | None = None) -> np.ndarray:
+        """The approach configurations of ``goal`` (default the current goal), (k, 6) with k <= approach_vias."""
+        goal = self.goal if goal is None else np.asarray(goal, dtype=float)
+        key = goal.tobytes()
+        if key not in self._approach_cache:
+            if len(self._approach_cache) >= APPROACH_CACHE:  # goals change every episode: keep the latest few
+                self._approach_cache.pop(next(iter(self._approach_cache)))
+            self._approach_cache[key] = approach_configurations(self.validity, goal, self._approach_count,
+                                                                self._approach_reach)
+        return self._approach_cache[key]
 
     def _segment_configs(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
         n = max(self.substeps, int(math.ceil(np.max(np.abs(q1 - q0)) / (self.step_size / self.substeps))))
@@ -665,6 +702,9 @@ class DresspackEnv(gym.Env):
     def _why_masked(self, a: int) -> str:
         if self._fallback[a] and self.masks_at(self.q, self.goal)[self._first_moves].any():  # another move is free
             return "a fallback via: offered only where no other move is free"
+        if self._approach_count and a >= self._first_approach and a != self.stay_action \
+                and a - self._first_approach >= len(self.approaches()):
+            return f"the goal has {len(self.approaches())} approach configuration(s) within approach_range_deg"
         qs = self._segment_configs(self.q, self._target(self.q, a))
         if not self.validity.within_limits(qs).all():
             return "joint limit"
@@ -712,6 +752,11 @@ class DresspackEnv(gym.Env):
             goal_tcp = self.robot.kinematics.tcp_pose(self.goal)
             base = np.asarray(self.placement.base_pos)
             parts["goal_pose"] = np.concatenate([(goal_tcp[:3, 3] - base) / POSE_SCALE, goal_tcp[:3, 2]])
+        if "approaches" in self.observation_structure:
+            rows = np.zeros((self._approach_count, 6))
+            found = self.approaches(self.goal)
+            rows[:len(found)] = (found - q) / np.pi
+            parts["approaches"] = rows.ravel()
         if "action_masks" in self.observation_structure:
             parts["action_masks"] = np.where(self.action_masks(), 1.0, -1.0)
         obs = np.concatenate([parts[k] for k in self.observation_structure])
