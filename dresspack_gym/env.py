@@ -681,12 +681,13 @@ class DresspackEnv(gym.Env):
         """The approach configurations of ``goal`` (default the current goal), (k, 6) with k <= approach_vias."""
         goal = self.goal if goal is None else np.asarray(goal, dtype=float)
         key = goal.tobytes()
-        if key not in self._approach_cache:
-            if len(self._approach_cache) >= APPROACH_CACHE:  # goals change every episode: keep the latest few
+        found = self._approach_cache.pop(key, None)  # reinserted below: the least recently used goes first
+        if found is None:
+            if len(self._approach_cache) >= APPROACH_CACHE:  # goals change every episode (Home stays)
                 self._approach_cache.pop(next(iter(self._approach_cache)))
-            self._approach_cache[key] = approach_configurations(self.validity, goal, self._approach_count,
-                                                                self._approach_reach)
-        return self._approach_cache[key]
+            found = approach_configurations(self.validity, goal, self._approach_count, self._approach_reach)
+        self._approach_cache[key] = found
+        return found
 
     def _segment_configs(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
         n = max(self.substeps, int(math.ceil(np.max(np.abs(q1 - q0)) / (self.step_size / self.substeps))))
