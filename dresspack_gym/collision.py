@@ -164,7 +164,7 @@ class RobotCollisionChecker:
             mat[b] = d.geom_xmat[own]
         # every pair's bound as _pose computes it, but only where it is used: the boxes' and planes' own bounds
         # replace the bounding spheres' for most pairs (all pairs in one dense array was most of a batch's time)
-        lb = np.empty((len(qs), len(self.pairs)))
+        lb = np.zeros((len(qs), len(self.pairs)))  # not empty: the box columns, set last, are scaled with the rest
         every = np.concatenate([pos, np.broadcast_to(self._static_pos, (len(qs), *self._static_pos.shape))], axis=1)
         gap = pos[:, self._sphere_own] - every[:, self._sphere_other]
         lb[:, self._sphere] = np.sqrt(np.einsum("zpk,zpk->zp", gap, gap)) - self._radii[self._sphere]
