@@ -87,8 +87,9 @@ def test_policy_errors(station, tmp_path):
 
 def test_goal_conditioned_policy_backs_out_of_a_weld_no_midpoint_via_leaves(station):
     """drawn_0 of the held-out evaluation: every midpoint via toward Home is masked at the weld
-    (tests/test_env_primitives.py), so the policy leaves it another way: to a travel posture (the shipped policy
-    has them, and then the fallback here-vias are not offered) or with a here-via (one joint moves)."""
+    (tests/test_env_primitives.py), so the policy leaves it another way: to a travel posture or one of Home's
+    approach configurations (the shipped policy has them, and then the fallback here-vias are not offered) or with
+    a here-via (one joint moves)."""
     from test_env_primitives import STUCK_WELD
 
     planner = PolicyPlanner(station, 0, policy="goal_conditioned", time_budget=120)
@@ -98,6 +99,7 @@ def test_goal_conditioned_policy_backs_out_of_a_weld_no_midpoint_via_leaves(stat
     waypoints, weld = result.trajectory.waypoints, result.trajectory.stops[0]
     assert np.allclose(waypoints[weld], STUCK_WELD) and result.info["masked_actions"] == 0
     out = waypoints[weld + 1]
-    postures = np.radians(planner.env._kwargs["via_postures_deg"])
-    assert np.count_nonzero(np.abs(out - waypoints[weld]) > 1e-9) == 1 or np.abs(postures - out).max(axis=1).min() < 1e-9
+    vias = np.concatenate([np.radians(planner.env._kwargs["via_postures_deg"]).reshape(-1, 6),
+                           planner.env.approaches(home)])
+    assert np.count_nonzero(np.abs(out - waypoints[weld]) > 1e-9) == 1 or np.abs(vias - out).max(axis=1).min() < 1e-9
     np.testing.assert_allclose(waypoints[-1], home, atol=1e-9)  # and back Home (a failed plan raises)
