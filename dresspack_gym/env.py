@@ -22,8 +22,9 @@ posture (a cell's travel positions, where the cable hangs easy; a wear-aware pla
 postures, see ``scripts/travel_postures.py``). ``approach_vias`` adds that many more: via an approach configuration
 of the current goal (:mod:`approach`: free configurations within ``approach_range_deg`` of the goal from which the
 straight segment into it is free, drawn from the goal itself, so they are the same in any run); a weld in a pocket of
-the body admits only a narrow cone of straight entries, which no offset of the midpoint finds. A replayed episode is then a via path whose
-segments the time law times rest-to-rest, exactly like a planner's, and an episode takes a few decisions per leg.
+the body admits only a narrow cone of straight entries, which no offset of the midpoint finds. A replayed episode
+is then a via path whose segments the time law times rest-to-rest, exactly like a planner's, and an episode takes
+a few decisions per leg.
 
 Tasks: ``welds`` (all of them, in order), or each episode ``n_welds`` of them (optionally shuffled), or one
 of the weld lists in ``tasks``; ``reset(options={"welds": [...], "start": q})`` sets both explicitly. With
@@ -58,9 +59,10 @@ the goal / pi (6), task progress (1), ``cable_samples`` cable points in the TCP 
 (3 each), and the measures κ/κ0, F/``tension_scale``, d/c (3); with ``part_welds`` (each episode draws that many
 weld points on the station's parts, :mod:`weld_sampling`) also the goal's tool position from the base /
 ``POSE_SCALE`` and its approach direction (6); with ``approach_vias`` each approach configuration's joint change
-from where the robot is / pi (6 each, zeros for an approach the goal does not have); with ``action_set="primitives"`` also the action mask (+1 allowed,
--1 masked, one per action): whether each candidate segment is free is what the policy sees of the geometry around
-its way, so a changed station changes what it observes.
+from where the robot is / pi (6 each, zeros for an approach the goal does not have); with
+``action_set="primitives"`` also the action mask (+1 allowed, -1 masked, one per action): whether each candidate
+segment is free is what the policy sees of the geometry around its way, so a changed station changes what it
+observes.
 """
 
 from __future__ import annotations
@@ -270,8 +272,8 @@ class DresspackEnv(gym.Env):
                  weld_tilt_deg: float = 20.0, action_set: str = "joint_steps",
                  via_offsets_deg: tuple[float, ...] = (30.0, 60.0), via_anchors: tuple[str, ...] = ("midpoint",),
                  fallback_anchors: tuple[str, ...] = (), via_postures_deg: tuple[tuple[float, ...], ...] = (),
-                 approach_vias: int = 0, approach_range_deg: float = 45.0, wear_reward_cap: float | None = None, render_mode: str | None = None,
-                 render_size: tuple[int, int] = (480, 360)):
+                 approach_vias: int = 0, approach_range_deg: float = 45.0, wear_reward_cap: float | None = None,
+                 render_mode: str | None = None, render_size: tuple[int, int] = (480, 360)):
         self._kwargs = dict(locals())
         for k in ("self", "__class__"):
             self._kwargs.pop(k, None)
@@ -534,7 +536,7 @@ class DresspackEnv(gym.Env):
         targets = np.array([self._target(q, a, goal) for a in moves])
         free = np.array([self._segment_valid(q, target, check_collision=False) for target in targets])
         if self._approach_count:  # a goal with fewer approach configurations than slots: the rest are masked
-            free &= (moves < self._first_approach + len(self.approaches(goal))) | (moves == self.stay_action)
+            free &= moves < self._first_approach + len(self.approaches(goal))  # (the wait is not a move)
         # Moves whose largest possible robot displacement stays below the clearance beyond the margin cannot
         # come closer than the margin anywhere: they skip the collision queries (a continuous guarantee that
         # implies MotionValidity.segment_valid, so planners accept every step a masked policy takes).
