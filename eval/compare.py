@@ -39,6 +39,9 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
     p.add_argument("--policy", default=None, help="ppo/random: run folder, model .zip or shipped policy name")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default=defaults.cost_variant,
                    help="wear cost the wear-aware planners minimise and the tables report (default: thesis)")
+    p.add_argument("--time-weight", type=number(0, 1000, lo_open=True, unit="per s"), default=defaults.time_weight,
+                   help="wear-aware planners: cost of one second of cycle time against one unit of ∫C dt in "
+                        "their leg cost (default: 1; larger trades wear for speed)")
     p.add_argument("--robustness-map", default=None, help="robustness map folder to include in the report")
     p.add_argument("--no-render", action="store_true", help="skip the rendered worst-wear frames")
     p.add_argument("--out", type=output_dir, default="out/eval",
@@ -52,6 +55,7 @@ def spec_from_args(args) -> EvalSpec:
                     iterations=args.iterations, evaluations=args.evaluations, routes=args.routes,
                     time_budget=args.time_budget,
                     start_noise_deg=args.start_noise_deg, policy=args.policy, cost_variant=args.cost_variant,
+                    time_weight=args.time_weight,
                     drawn_tasks=args.drawn_tasks, drawn_seed=args.drawn_seed)
 
 

@@ -50,6 +50,8 @@ class EvalSpec:
     time_budget: float | None = None  # optional wall-time cap per plan [s] (a capped plan depends on load)
     start_noise_deg: float = 0.0  # > 0: each seed starts at its own valid configuration near Home
     cost_variant: str = "thesis"  # the wear cost the wear-aware planners minimise and every replay reports
+    # the wear-aware planners' leg cost: time_weight x seconds + ∫C dt (+ peak term); > 1 trades wear for speed
+    time_weight: float = 1.0
     policy: str | None = None  # run folder / model / shipped name for ppo (and the random floor's env)
     robot: int = 0
     # > 0: the tasks are this many single welds drawn on the station's parts (weld_sampling), weld k from
@@ -71,6 +73,10 @@ class EvalSpec:
             raise ConfigError("seeds", "give at least one seed")
         Budget(self.iterations, self.evaluations, self.routes, self.time_budget)  # checks them, naming the field
         cost_function(self.cost_variant)  # names the field if unknown
+        weight = self.time_weight
+        if isinstance(weight, bool) or not isinstance(weight, (int, float)) or not 0 < weight <= 1000:
+            raise ConfigError("time_weight", f"must be a number in (0, 1000] (cost per second of cycle time "
+                                             f"against one unit of ∫C dt), got {weight!r}")
         if not 0 <= self.start_noise_deg <= 90:
             raise ConfigError("start_noise_deg", f"must be in [0, 90] deg, got {self.start_noise_deg}")
 
@@ -129,9 +135,14 @@ def load_trajectory(out: Path, row: dict) -> Trajectory | None:
     return Trajectory(data["waypoints"], tuple(int(i) for i in data["stops"]))
 
 
+# settings added after evaluations were already stored, with the value those evaluations used
+_ADDED_SETTINGS = {"time_weight": 1.0}
+
+
 def _extends(stored: dict, new: dict) -> bool:
     """Whether ``new`` is ``stored`` or adds methods to it: the finished rows of the stored methods stay valid
     (same tasks, seeds and settings; the policy may be set only if no stored method used it)."""
+    stored = {**_ADDED_SETTINGS, **stored}
     free = {"methods"} | ({"policy"} if not set(stored["methods"]) & set(POLICY_METHODS) else set())
     same = all(stored.get(k) == v for k, v in new.items() if k not in free) and set(stored) == set(new)
     return same and set(stored["methods"]) <= set(new["methods"])
@@ -174,6 +185,7 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) ->
         kwargs = {"policy": spec.policy} if method in POLICY_METHODS else {}
         if method in WEAR_AWARE:
             kwargs["cost_variant"] = spec.cost_variant
+            kwargs["time_weight"] = spec.time_weight
         if (method, seed) not in planners:  # loading a policy or building a validity checker once per seed
             planners[(method, seed)] = make_planner(method, station, spec.robot, seed=seed,
                                                     iterations=spec.iterations, evaluations=spec.evaluations,

@@ -161,3 +161,41 @@ def test_an_evaluation_folder_takes_added_methods_but_no_other_change():
     assert not _extends(more, base)  # a stored method dropped
     assert not _extends(more, more | {"policy": "elsewhere"})  # the stored ppo rows came from another policy
     assert not _extends(base, more | {"seeds": [0, 1]}) and not _extends(base, more | {"iterations": 10})
+
+
+def test_time_weight_is_checked_stored_and_older_folders_still_resume(capsys):
+    from dresspack.eval.runs import _extends
+
+    for bad in (0, -1.0, 1001, float("nan"), float("inf"), True, "2"):
+        with pytest.raises(ConfigError, match="time_weight"):
+            EvalSpec(methods=("ompl-wear",), time_weight=bad)
+    with pytest.raises(SystemExit):
+        main(["--methods", "ompl-wear", "--time-weight", "0"])
+    assert "--time-weight" in capsys.readouterr().err
+    base = EvalSpec(methods=("ompl-wear",), tasks=(("roof_rail_top",),), seeds=(0,)).to_dict()
+    faster = base | {"time_weight": 10.0}
+    older = {k: v for k, v in base.items() if k != "time_weight"}  # written before the setting existed (weight 1)
+    assert _extends(older, base) and not _extends(older, faster) and not _extends(base, faster)
+
+
+def test_time_weight_reaches_the_wear_aware_leg_cost(monkeypatch, tmp_path):
+    """The weight is the planners' LegCost's (J = weight x seconds + ∫C dt): the one place it acts."""
+    import dresspack.eval.runs as runs
+    from dresspack_gym.loading import load_station
+    from dresspack_gym.station import Station
+
+    made = {}
+    real = runs.make_planner
+
+    def spy(method, *args, **kwargs):
+        made[method] = kwargs.get("time_weight")
+        raise ConfigError("methods", "stopped by the test after the planner's arguments were seen")
+
+    monkeypatch.setattr(runs, "make_planner", spy)
+    spec = EvalSpec(methods=("ompl-wear",), tasks=(("roof_rail_top",),), seeds=(0,), time_weight=7.5)
+    with pytest.raises(ConfigError, match="stopped by the test"):
+        runs.run_evaluation(spec, tmp_path / "tw", progress=False)
+    assert made == {"ompl-wear": 7.5}
+    planner = real("ompl-wear", Station(load_station("default")), 0, seed=0, time_weight=7.5, routes=1,
+                   evaluations=1, iterations=100)
+    assert planner.leg_cost.time_weight == 7.5
