@@ -180,7 +180,8 @@ def test_time_weight_is_checked_stored_and_older_folders_still_resume(capsys):
 
 def test_time_weight_reaches_the_wear_aware_leg_cost(monkeypatch, tmp_path):
     """The weight is the planners' LegCost's (J = weight x seconds + ∫C dt): the one place it acts."""
-    import dresspack.eval.runs as runs
+    from dresspack.eval import runs
+
     from dresspack_gym.loading import load_station
     from dresspack_gym.station import Station
 
