@@ -10,6 +10,7 @@ from dresspack_gym.errors import ConfigError
 
 from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, MAX_WALL_TIME, MAX_WORK
 from .tension_peak import MAX_TENSION_PEAK_TIME, TENSION_PEAK_TIME
+from .time_weight import MAX_TIME_WEIGHT
 
 WORK = number(1, MAX_WORK, integer=True)
 
@@ -48,6 +49,9 @@ def add_plan_command(sub) -> None:
                    help="ompl-wear and ompl-wear-fmt only: charge each leg's highest tension term w_F F² as if it "
                         f"lasted this long, on top of (4.10)'s integral (default {TENSION_PEAK_TIME:g}; 0: the "
                         "integral alone)")
+    p.add_argument("--time-weight", type=number(0, MAX_TIME_WEIGHT, lo_open=True, unit="per s"), default=None,
+                   help="wear-aware planners only: cost of one second of cycle time against one unit of ∫C dt in "
+                        "their leg cost (default 1; larger trades wear for speed)")
     p.add_argument("--policy", default=None, help="ppo only: run folder, model .zip or shipped policy name "
                                                   "(default: stud_welding)")
     p.add_argument("--plot", type=output_file, default=None,
@@ -62,7 +66,7 @@ def cmd_plan(args) -> int:
     from dresspack_gym.replay_plot import plot_replays
 
     from .base import PlanningError
-    from .planning import PEAK_AWARE, POLICY_METHODS, plan_station
+    from .planning import PEAK_AWARE, POLICY_METHODS, WEAR_AWARE, plan_station
 
     extra = {"policy": args.policy} if args.planner in POLICY_METHODS else {}
     if args.tension_peak_time is not None:
@@ -70,6 +74,11 @@ def cmd_plan(args) -> int:
             raise ConfigError("tension_peak_time", f"--tension-peak-time applies to {' and '.join(PEAK_AWARE)} "
                                                    f"only, not {args.planner}")
         extra["tension_peak_time"] = args.tension_peak_time
+    if args.time_weight is not None:
+        if args.planner not in WEAR_AWARE:
+            raise ConfigError("time_weight", f"--time-weight applies to {', '.join(WEAR_AWARE)} only, not "
+                                             f"{args.planner}")
+        extra["time_weight"] = args.time_weight
     try:
         run = plan_station(args.station, args.planner, seed=args.seed, iterations=args.iterations,
                            evaluations=args.evaluations, routes=args.routes, time_budget=args.time_budget,

@@ -11,6 +11,7 @@ from dresspack_gym.station import Station
 from dresspack_gym.trajectory import Trajectory, replay
 
 from .tension_peak import check_tension_peak_time
+from .time_weight import check_time_weight
 
 
 class LegCost:
@@ -28,7 +29,7 @@ class LegCost:
                  tension_peak_time: float = 0.0, cost_variant: str = "thesis", record_every: float = 0.05):
         self.sim = CableSimulator(station)
         self.robot = robot
-        self.time_weight, self.wear_weight = float(time_weight), float(wear_weight)
+        self.time_weight, self.wear_weight = check_time_weight(time_weight), float(wear_weight)
         self.tension_peak_time = check_tension_peak_time(tension_peak_time)
         cost_function(cost_variant)  # a bad name fails here, naming the field, not in the first replay
         self.cost_variant = cost_variant

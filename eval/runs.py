@@ -16,6 +16,7 @@ from tqdm.auto import tqdm
 
 from dresspack.agents.base import PlanningError
 from dresspack.agents.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Budget
+from dresspack.agents.time_weight import check_time_weight
 from dresspack.agents.planning import PLANNERS, POLICY_METHODS, WEAR_AWARE, make_planner
 from dresspack_gym.cost_variants import cost_function
 from dresspack_gym.errors import ConfigError
@@ -73,10 +74,7 @@ class EvalSpec:
             raise ConfigError("seeds", "give at least one seed")
         Budget(self.iterations, self.evaluations, self.routes, self.time_budget)  # checks them, naming the field
         cost_function(self.cost_variant)  # names the field if unknown
-        weight = self.time_weight
-        if isinstance(weight, bool) or not isinstance(weight, (int, float)) or not 0 < weight <= 1000:
-            raise ConfigError("time_weight", f"must be a number in (0, 1000] (cost per second of cycle time "
-                                             f"against one unit of ∫C dt), got {weight!r}")
+        check_time_weight(self.time_weight)
         if not 0 <= self.start_noise_deg <= 90:
             raise ConfigError("start_noise_deg", f"must be in [0, 90] deg, got {self.start_noise_deg}")
 

@@ -218,6 +218,41 @@ def test_plan_cli_tension_peak_time_only_for_the_global_wear_planners(capsys):
     assert "must be a number in [0, 60.0] s" in capsys.readouterr().err
 
 
+def test_leg_cost_time_weight_charges_each_second_that_much_more():
+    """J(w) - J(1) = (w - 1) · T of the leg, T its replayed cycle time; the wear terms are the same."""
+    from dresspack.agents.leg_cost import LegCost
+
+    station = Station(load_station("thesis_tension"))
+    task = make_task(station, 0, RobotCollisionChecker(station).collides)
+    leg = task.goals[:2]
+    plain, faster = LegCost(station), LegCost(station, time_weight=12.5)
+    state = plain.start_state(leg[0])
+    j1, _, s1 = plain.cost(state, leg)
+    j12, _, _ = faster.cost(state, leg)
+    assert s1["cycle_time"] > 1.0
+    assert j12 - j1 == pytest.approx(11.5 * s1["cycle_time"], rel=1e-9)
+
+
+@pytest.mark.parametrize("planner", ["ompl-wear", "thesis-local"])
+@pytest.mark.parametrize("bad", [0.0, -1.0, 1000.5, float("nan"), float("inf"), True, "2"])
+def test_a_bad_time_weight_is_an_error_naming_it(planner, bad):
+    from dresspack.agents.planning import make_planner
+
+    from dresspack_gym.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r"^time_weight: must be a number in \(0, 1000\]"):
+        make_planner(planner, Station(load_station("thesis_curvature")), time_weight=bad)
+
+
+def test_plan_cli_time_weight_only_for_the_wear_aware_planners(capsys):
+    assert cli_main(["plan", "thesis_curvature", "--planner", "ompl", "--time-weight", "5"]) == 2
+    assert "time_weight: --time-weight applies to thesis-local, ompl-wear, ompl-wear-fmt only, not ompl" \
+        in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        cli_main(["plan", "thesis_curvature", "--planner", "ompl-wear", "--time-weight", "0"])
+    assert "must be a number in (0, 1000.0] per s" in capsys.readouterr().err
+
+
 def test_a_wall_cap_that_cuts_the_wear_aware_search_returns_the_route_found_with_a_flag(curvature_station):
     """A cap already used up when the search starts: no via route, no refinement, yet a valid answer (the first
     candidate, the wear-unaware route) flagged ``wall_cap_reached``; without a cap the flag is False."""
