@@ -200,3 +200,38 @@ def test_eval_callback_judges_every_evaluation_on_the_same_episodes(tmp_path):
     assert rewards[7][0] == rewards[7][1]
     assert rewards[None][0] != rewards[None][1]
     assert rewards[None][0] == rewards[7][0]  # the first evaluation is the one the stock callback ran
+
+
+def test_select_model_validates_every_saved_model_on_the_same_episodes_and_resumes(tmp_path, capsys):
+    from dresspack.training.select import select_model
+
+    from dresspack_gym.cli import main as cli_main
+
+    run = tmp_path / "run"
+    train(train_config_from_dict({**SMOKE, "eval_every": 0}), run, progress=False, command="pytest select")
+    result = select_model(run, episodes=2, first_seed=5, jobs=2, progress=lambda *_: None)
+    rows = result["models"]
+    assert [(r["steps"], r["model"]) for r in rows] == [(128, "ckpt_128_steps.zip"), (256, "ckpt_256_steps.zip"),
+                                                        (256, "final_model.zip")]
+    # (the 256-step checkpoint is saved while its rollout is collected, before the update the final model has)
+
+    def key(r):
+        return r["success_rate"], r["mean_return"]
+
+    assert key(result["best"]) == max(map(key, rows))
+    assert result["best"] == next(r for r in rows if key(r) == max(map(key, rows)))  # ties: the earlier model
+    log = run / "select_5_2.jsonl"
+    assert len(log.read_text().splitlines()) == 3
+    # resumed: nothing runs again; one worker gives the rows the two workers gave
+    assert select_model(run, episodes=2, first_seed=5, progress=lambda *_: None) == result
+    assert len(log.read_text().splitlines()) == 3
+    log.unlink()
+    again = select_model(run, episodes=2, first_seed=5, from_steps=256, progress=lambda *_: None)
+    assert again["models"] == rows[1:]
+    assert json.loads((run / "select_5_2.json").read_text())["best"] == again["best"]
+    with pytest.raises(ConfigError, match="^from_steps"):
+        select_model(run, episodes=2, from_steps=10_000)
+    assert cli_main(["select-model", str(tmp_path), "--episodes", "2"]) == 2
+    assert "is not a training run folder" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        cli_main(["select-model", str(run), "--episodes", "0"])

@@ -1,0 +1,151 @@
+"""``dresspack select-model RUN``: every saved model of a training run rolled out on the same held-out episodes,
+more of them than the evaluation callback affords, and the best picked by success, then by mean return."""
+
+from __future__ import annotations
+
+import json
+import math
+import multiprocessing
+from pathlib import Path
+
+from dresspack_gym.cli_args import number, seed
+from dresspack_gym.errors import ConfigError
+from dresspack_gym.loading import read_yaml
+
+# Episode k of a selection resets the env with seed + k: these seeds are apart from the training envs' (seed,
+# seed + 1, ...), the callback's (eval_seed, 10,000 by default) and the evaluation's weld draws (1,000,000).
+SELECT_SEED = 20_000
+SELECT_EPISODES = 90
+MAX_EPISODES = 1000
+
+
+def run_models(run_dir: Path) -> list[tuple[int, Path]]:
+    """The run's checkpoints and its final model as (env steps, file), in order of steps."""
+    models = []
+    for path in sorted((run_dir / "checkpoints").glob("ckpt_*_steps.zip")):
+        models.append((int(path.stem.split("_")[1]), path))
+    final = run_dir / "final_model.zip"
+    if final.is_file():
+        summary = run_dir / "summary.json"
+        steps = json.loads(summary.read_text())["timesteps"] if summary.is_file() else math.inf
+        models.append((steps, final))
+    return sorted(models, key=lambda m: m[0])
+
+
+def validate(model_path: Path, run_dir: Path, episodes: int, first_seed: int) -> dict:
+    """Roll the model out (most probable allowed action each step) on episodes first_seed .. + episodes - 1."""
+    import gymnasium as gym
+    import numpy as np
+    import torch
+    from sb3_contrib import MaskablePPO
+
+    import dresspack_gym  # noqa: F401  (registers the env ids)
+
+    from .config import train_config_from_dict
+
+    torch.set_num_threads(1)  # one process per core
+    cfg = train_config_from_dict(read_yaml(run_dir / "config.yaml", "run"))
+    env = gym.make(cfg.env_id, **cfg.env_kwargs).unwrapped
+    model = MaskablePPO.load(model_path, device="cpu")
+    returns, successes, cycles, wears = [], [], [], []
+    for k in range(episodes):
+        obs, _ = env.reset(seed=first_seed + k)
+        total, wear, done = 0.0, 0.0, False
+        while not done:
+            action, _ = model.predict(obs, action_masks=env.action_masks(), deterministic=True)
+            obs, reward, terminated, truncated, info = env.step(int(action))
+            total += reward
+            wear += info["integral_cost"]
+            done = terminated or truncated
+        returns.append(total)
+        successes.append(bool(info["is_success"]))
+        if info["is_success"]:
+            cycles.append(info["cycle_time"])
+            wears.append(wear)
+    return {"model": model_path.name, "success_rate": float(np.mean(successes)), "mean_return": float(np.mean(returns)),
+            "mean_cycle_time": float(np.mean(cycles)) if cycles else None,
+            "mean_integral_cost": float(np.mean(wears)) if wears else None}
+
+
+def _validate_job(job) -> dict:
+    steps, path, run_dir, episodes, first_seed = job
+    return {"steps": steps, **validate(path, run_dir, episodes, first_seed)}
+
+
+def select_model(run_dir: str | Path, *, episodes: int = SELECT_EPISODES, first_seed: int = SELECT_SEED,
+                 from_steps: int = 0, jobs: int = 1, progress=print) -> dict:
+    """Validate every model of the run from ``from_steps`` on (results kept in ``select_<seed>_<episodes>.jsonl``
+    of the run folder: an interrupted selection resumes); returns the table and the pick (success first, ties by
+    mean return, then the earlier model), also written to ``select_<seed>_<episodes>.json``."""
+    run_dir = Path(run_dir)
+    if not (run_dir / "config.yaml").is_file():
+        raise ConfigError("run", f"{run_dir} is not a training run folder (no config.yaml)")
+    models = [(s, p) for s, p in run_models(run_dir) if s >= from_steps]
+    if not models:
+        raise ConfigError("from_steps", f"{run_dir} has no checkpoint or final model from {from_steps} steps on")
+    log = run_dir / f"select_{first_seed}_{episodes}.jsonl"
+    done = {}
+    if log.is_file():
+        for line in log.read_text().splitlines():
+            row = json.loads(line)
+            done[row["model"]] = row
+    todo = [(s, p, run_dir, episodes, first_seed) for s, p in models if p.name not in done]
+    if todo:
+        progress(f"validating {len(todo)} models on {episodes} episodes (seeds {first_seed}..{first_seed + episodes - 1})"
+                 f", {jobs} at a time")
+    context = multiprocessing.get_context("forkserver")
+    with context.Pool(min(jobs, len(todo))) if jobs > 1 and len(todo) > 1 else _InProcess() as pool:
+        for row in pool.imap(_validate_job, todo):
+            done[row["model"]] = row
+            with log.open("a") as f:
+                f.write(json.dumps(row, default=float) + "\n")
+            progress(_line(row))
+    rows = sorted((done[p.name] for _, p in models), key=lambda r: r["steps"])
+    best = max(rows, key=lambda r: (r["success_rate"], r["mean_return"]))
+    result = {"run": str(run_dir), "episodes": episodes, "first_seed": first_seed, "rule": "success, then mean return",
+              "models": rows, "best": best}
+    (run_dir / f"select_{first_seed}_{episodes}.json").write_text(json.dumps(result, indent=2, default=float) + "\n")
+    return result
+
+
+class _InProcess:
+    """The Pool interface for one job at a time in this process (no workers to start)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    @staticmethod
+    def imap(fn, jobs):
+        return map(fn, jobs)
+
+
+def _line(row: dict) -> str:
+    def num(v, f):
+        return "-" if v is None else format(v, f)
+
+    return (f"{row['model']:>24s}  success {100 * row['success_rate']:5.1f} %  return {row['mean_return']:7.2f}  "
+            f"cycle {num(row['mean_cycle_time'], '.2f')} s  ∫C {num(row['mean_integral_cost'], '.1f')}")
+
+
+def add_select_command(sub) -> None:
+    p = sub.add_parser("select-model", help="pick a training run's best model on more held-out episodes",
+                       description="Rolls every checkpoint and the final model of RUN out on the same held-out "
+                                   "episodes (their own seeds) and picks the best: success first, ties by mean "
+                                   "return. Resumable; writes select_<seed>_<episodes>.json into the run folder.")
+    p.add_argument("run", help="training run folder (runs/train/<name>)")
+    p.add_argument("--episodes", type=number(1, MAX_EPISODES, integer=True), default=SELECT_EPISODES)
+    p.add_argument("--seed", type=seed, default=SELECT_SEED, help=f"first episode's seed (default {SELECT_SEED})")
+    p.add_argument("--from-steps", type=number(0, None, integer=True), default=0,
+                   help="only models saved at this many env steps or later")
+    p.add_argument("--jobs", type=number(1, 64, integer=True), default=1, help="processes (one per core)")
+    p.set_defaults(func=cmd_select)
+
+
+def cmd_select(args) -> int:
+    result = select_model(args.run, episodes=args.episodes, first_seed=args.seed, from_steps=args.from_steps,
+                          jobs=args.jobs)
+    print(f"best: {_line(result['best'])}  ({result['rule']})")
+    return 0
