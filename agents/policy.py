@@ -20,6 +20,7 @@ from .base import Planner, PlanningError, out_of_time_error
 
 POLICY_DIR = shipped_root(__package__) / "policies"  # package data: agents/policies/<name>/
 DEFAULT_POLICY = "stud_welding"
+ATTEMPTS = 3  # rollouts per task: the most probable action each step, then actions sampled (see PolicyPlanner)
 # Only the episode-sampling arguments differ between training and acting on a given task.
 _TRAINING_ONLY = ("tasks", "n_welds", "shuffle_welds", "welds", "start_noise_deg", "station", "render_mode")
 
@@ -97,7 +98,7 @@ class PolicyPlanner(Planner):
     uses_policy = True
 
     def __init__(self, station: Station, robot: int = 0, *, policy: str | Path | None = None,
-                 deterministic: bool = False, sample: bool = False, attempts: int = 3, **kwargs):
+                 deterministic: bool = False, sample: bool = False, attempts: int = ATTEMPTS, **kwargs):
         super().__init__(station, robot, **kwargs)
         if deterministic and sample:
             raise ConfigError("deterministic", "choose deterministic=True or sample=True, not both")

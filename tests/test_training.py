@@ -208,8 +208,9 @@ def test_select_model_validates_every_saved_model_on_the_same_episodes_and_resum
     from dresspack_gym.cli import main as cli_main
 
     run = tmp_path / "run"
-    train(train_config_from_dict({**SMOKE, "eval_every": 0}), run, progress=False, command="pytest select")
-    result = select_model(run, episodes=2, first_seed=5, jobs=2, progress=lambda *_: None)
+    short = {**SMOKE, "eval_every": 0, "env_kwargs": {**SMOKE["env_kwargs"], "max_steps": 10}}  # short rollouts
+    train(train_config_from_dict(short), run, progress=False, command="pytest select")
+    result = select_model(run, episodes=2, first_seed=5, attempts=2, jobs=2, progress=lambda *_: None)
     rows = result["models"]
     assert [(r["steps"], r["model"]) for r in rows] == [(128, "ckpt_128_steps.zip"), (256, "ckpt_256_steps.zip"),
                                                         (256, "final_model.zip")]
@@ -220,15 +221,16 @@ def test_select_model_validates_every_saved_model_on_the_same_episodes_and_resum
 
     assert key(result["best"]) == max(map(key, rows))
     assert result["best"] == next(r for r in rows if key(r) == max(map(key, rows)))  # ties: the earlier model
-    log = run / "select_5_2.jsonl"
+    log = run / "select_5_2_2.jsonl"
     assert len(log.read_text().splitlines()) == 3
     # resumed: nothing runs again; one worker gives the rows the two workers gave
-    assert select_model(run, episodes=2, first_seed=5, progress=lambda *_: None) == result
+    assert select_model(run, episodes=2, first_seed=5, attempts=2, progress=lambda *_: None) == result
     assert len(log.read_text().splitlines()) == 3
     log.unlink()
-    again = select_model(run, episodes=2, first_seed=5, from_steps=256, progress=lambda *_: None)
+    again = select_model(run, episodes=2, first_seed=5, attempts=2, from_steps=256, progress=lambda *_: None)
     assert again["models"] == rows[1:]
-    assert json.loads((run / "select_5_2.json").read_text())["best"] == again["best"]
+    assert json.loads((run / "select_5_2_2.json").read_text())["best"] == again["best"]
+    assert all(r["argmax_success_rate"] <= r["success_rate"] for r in rows)
     with pytest.raises(ConfigError, match="^from_steps"):
         select_model(run, episodes=2, from_steps=10_000)
     assert cli_main(["select-model", str(tmp_path), "--episodes", "2"]) == 2
