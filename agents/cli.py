@@ -49,7 +49,7 @@ def add_plan_command(sub) -> None:
                    help="ompl-wear and ompl-wear-fmt only: charge each leg's highest tension term w_F F² as if it "
                         f"lasted this long, on top of (4.10)'s integral (default {TENSION_PEAK_TIME:g}; 0: the "
                         "integral alone)")
-    p.add_argument("--time-weight", type=number(0, MAX_TIME_WEIGHT, lo_open=True, unit="per s"), default=None,
+    p.add_argument("--time-weight", type=number(0, MAX_TIME_WEIGHT, unit="per s"), default=None,
                    help="wear-aware planners only: cost of one second of cycle time against one unit of ∫C dt in "
                         "their leg cost (default 1; larger trades wear for speed)")
     p.add_argument("--policy", default=None, help="ppo only: run folder, model .zip or shipped policy name "

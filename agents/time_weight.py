@@ -11,7 +11,7 @@ MAX_TIME_WEIGHT = 1000.0
 
 def check_time_weight(value) -> float:
     """``time_weight`` as a float, or a ConfigError naming the field and the allowed range."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 < value <= MAX_TIME_WEIGHT:
-        raise ConfigError("time_weight", f"must be a number in (0, {MAX_TIME_WEIGHT:g}] (cost of one second of "
-                                         f"cycle time against one unit of ∫C dt), got {value!r}")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= MAX_TIME_WEIGHT:
+        raise ConfigError("time_weight", f"must be a number in [0, {MAX_TIME_WEIGHT:g}] (cost of one second of "
+                                         f"cycle time against one unit of ∫C dt; 0: wear alone), got {value!r}")
     return float(value)

@@ -40,7 +40,7 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
     p.add_argument("--policy", default=None, help="ppo/random: run folder, model .zip or shipped policy name")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default=defaults.cost_variant,
                    help="wear cost the wear-aware planners minimise and the tables report (default: thesis)")
-    p.add_argument("--time-weight", type=number(0, MAX_TIME_WEIGHT, lo_open=True, unit="per s"), default=defaults.time_weight,
+    p.add_argument("--time-weight", type=number(0, MAX_TIME_WEIGHT, unit="per s"), default=defaults.time_weight,
                    help="wear-aware planners: cost of one second of cycle time against one unit of ∫C dt in "
                         "their leg cost (default: 1; larger trades wear for speed)")
     p.add_argument("--robustness-map", default=None, help="robustness map folder to include in the report")

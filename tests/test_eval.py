@@ -166,11 +166,11 @@ def test_an_evaluation_folder_takes_added_methods_but_no_other_change():
 def test_time_weight_is_checked_stored_and_older_folders_still_resume(capsys):
     from dresspack.eval.runs import _extends
 
-    for bad in (0, -1.0, 1001, float("nan"), float("inf"), True, "2"):
+    for bad in (-0.5, -1.0, 1001, float("nan"), float("inf"), True, "2"):
         with pytest.raises(ConfigError, match="time_weight"):
             EvalSpec(methods=("ompl-wear",), time_weight=bad)
     with pytest.raises(SystemExit):
-        main(["--methods", "ompl-wear", "--time-weight", "0"])
+        main(["--methods", "ompl-wear", "--time-weight", "-1"])
     assert "--time-weight" in capsys.readouterr().err
     base = EvalSpec(methods=("ompl-wear",), tasks=(("roof_rail_top",),), seeds=(0,)).to_dict()
     faster = base | {"time_weight": 10.0}
