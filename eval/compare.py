@@ -12,8 +12,8 @@ import sys
 from pathlib import Path
 
 from dresspack.agents.cli import add_budget_arguments
-from dresspack.agents.time_weight import MAX_TIME_WEIGHT
 from dresspack.agents.planning import PLANNERS
+from dresspack.agents.time_weight import MAX_TIME_WEIGHT
 from dresspack_gym.cli_args import number, output_dir, seed
 from dresspack_gym.cost_variants import COST_VARIANTS
 from dresspack_gym.errors import DresspackError

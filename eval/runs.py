@@ -16,8 +16,8 @@ from tqdm.auto import tqdm
 
 from dresspack.agents.base import PlanningError
 from dresspack.agents.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Budget
-from dresspack.agents.time_weight import check_time_weight
 from dresspack.agents.planning import PLANNERS, POLICY_METHODS, WEAR_AWARE, make_planner
+from dresspack.agents.time_weight import check_time_weight
 from dresspack_gym.cost_variants import cost_function
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.loading import load_station

@@ -74,6 +74,7 @@ def validate(model_path: Path, run_dir: Path, episodes: int, first_seed: int, at
         if info["is_success"]:
             cycles.append(info["cycle_time"])
             wears.append(wear)
+    env.close()
     return {"model": model_path.name, "success_rate": float(np.mean(successes)), "mean_return": float(np.mean(returns)),
             "argmax_success_rate": float(np.mean(first_tries)),
             "mean_cycle_time": float(np.mean(cycles)) if cycles else None,
