@@ -3,6 +3,7 @@ more of them than the evaluation callback affords, and the best picked by succes
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import multiprocessing
@@ -108,9 +109,9 @@ def select_model(run_dir: str | Path, *, episodes: int = SELECT_EPISODES, first_
     if todo:
         progress(f"validating {len(todo)} models on {episodes} episodes (seeds {first_seed}..{first_seed + episodes - 1})"
                  f", {jobs} at a time")
-    context = multiprocessing.get_context("forkserver")
-    with context.Pool(min(jobs, len(todo))) if jobs > 1 and len(todo) > 1 else _InProcess() as pool:
-        for row in pool.imap(_validate_job, todo):
+    pool = multiprocessing.get_context("forkserver").Pool(min(jobs, len(todo))) if jobs > 1 and len(todo) > 1 else None
+    with pool or contextlib.nullcontext():
+        for row in (pool.imap if pool else map)(_validate_job, todo):
             done[row["model"]] = row
             with log.open("a") as f:
                 f.write(json.dumps(row, default=float) + "\n")
@@ -121,20 +122,6 @@ def select_model(run_dir: str | Path, *, episodes: int = SELECT_EPISODES, first_
               "rule": "success, then mean return", "models": rows, "best": best}
     (run_dir / f"{name}.json").write_text(json.dumps(result, indent=2, default=float) + "\n")
     return result
-
-
-class _InProcess:
-    """The Pool interface for one job at a time in this process (no workers to start)."""
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-    @staticmethod
-    def imap(fn, jobs):
-        return map(fn, jobs)
 
 
 def _line(row: dict) -> str:
