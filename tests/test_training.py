@@ -237,3 +237,59 @@ def test_select_model_validates_every_saved_model_on_the_same_episodes_and_resum
     assert "is not a training run folder" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         cli_main(["select-model", str(run), "--episodes", "0"])
+
+
+def test_self_imitation_keeps_each_episodes_best_rollout_fits_the_actor_alone_and_resumes(tmp_path, capsys):
+    import torch
+    from sb3_contrib import MaskablePPO
+
+    from dresspack.agents.policy import resolve_policy
+    from dresspack.training.self_imitation import self_imitate
+
+    from dresspack_gym.cli import main as cli_main
+
+    run, out = "goal_conditioned", tmp_path / "si"  # the shipped policy: it finishes most episodes
+    shipped = resolve_policy(run)[0]
+    summary = self_imitate(run, out, episodes=2, samples=3, first_seed=11, epochs=3, learning_rate=1e-3, jobs=2,
+                           progress=lambda *_: None)
+    rows = [json.loads(line) for line in (out / "rollouts.jsonl").read_text().splitlines()]
+    assert sorted(r["seed"] for r in rows) == [11, 12] and all(len(r["rollouts"]) == 3 for r in rows)
+    for r in rows:  # the best is the finishing rollout with the highest return
+        finished = [k for k, x in enumerate(r["rollouts"]) if x["success"]]
+        assert r["best"] == (max(finished, key=lambda k: r["rollouts"][k]["return"]) if finished else None)
+    kept = [r for r in rows if r["best"] is not None]
+    assert kept, "the shipped policy finished no episode: the test needs one"
+    assert summary["fit"]["samples"] == sum(r["rollouts"][r["best"]]["steps"] for r in kept)
+    assert summary["best_mean_return"] >= summary["argmax_mean_return"]
+    losses = summary["fit"]["loss_by_epoch"]
+    assert len(losses) == 4 and losses[-1] < losses[0]  # the actor moved toward its best rollouts
+    before, after = (MaskablePPO.load(p, device="cpu").policy.state_dict() for p in (shipped, out / "model.zip"))
+    value = [k for k in before if "value_net" in k]
+    assert value and all(torch.equal(before[k], after[k]) for k in value)  # the critic is untouched
+    assert any(not torch.equal(before[k], after[k]) for k in before if "policy_net" in k or "action_net" in k)
+    assert resolve_policy(out)[0] == out / "model.zip"  # the folder is a policy
+    # the first rollout is the most probable actions: the same as a fresh deterministic rollout
+    import gymnasium as gym
+
+    import dresspack_gym  # noqa: F401
+
+    cfg = yaml.safe_load((shipped.parent / "config.yaml").read_text())
+    env = gym.make(cfg["env_id"], **cfg["env_kwargs"]).unwrapped
+    model = MaskablePPO.load(shipped, device="cpu")
+    obs, _ = env.reset(seed=11)
+    total, done = 0.0, False
+    while not done:
+        action, _ = model.predict(obs, action_masks=env.action_masks(), deterministic=True)
+        obs, reward, terminated, truncated, _ = env.step(int(action))
+        total, done = total + reward, terminated or truncated
+    env.close()
+    assert total == rows[[r["seed"] for r in rows].index(11)]["rollouts"][0]["return"]
+    # resumed: nothing rolls out again, and one worker refits the same model
+    again = self_imitate(run, out, episodes=2, samples=3, first_seed=11, epochs=3, learning_rate=1e-3,
+                         progress=lambda *_: None)
+    assert len((out / "rollouts.jsonl").read_text().splitlines()) == 2 and again == summary
+    with pytest.raises(ConfigError, match="^samples"):
+        self_imitate(run, out, episodes=2, samples=4, first_seed=11)
+    with pytest.raises(SystemExit):
+        cli_main(["self-imitate", run, "--out", str(out), "--samples", "1"])
+    assert "--samples" in capsys.readouterr().err
