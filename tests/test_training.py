@@ -241,10 +241,9 @@ def test_select_model_validates_every_saved_model_on_the_same_episodes_and_resum
 
 def test_self_imitation_keeps_each_episodes_best_rollout_fits_the_actor_alone_and_resumes(tmp_path, capsys):
     import torch
-    from sb3_contrib import MaskablePPO
-
     from dresspack.agents.policy import resolve_policy
     from dresspack.training.self_imitation import self_imitate
+    from sb3_contrib import MaskablePPO
 
     from dresspack_gym.cli import main as cli_main
 

@@ -131,7 +131,7 @@ def fit(model_path: Path, rows: list[dict], out: Path, *, epochs: int, learning_
         with torch.no_grad():
             losses.append(float(loss_of(np.arange(len(actions)))))
     model.save(out / "model.zip")
-    return {"samples": int(len(actions)), "episodes": len(arrays), "loss_by_epoch": losses}
+    return {"samples": len(actions), "episodes": len(arrays), "loss_by_epoch": losses}
 
 
 def self_imitate(policy: str | Path, out: str | Path, *, episodes: int = IMITATION_EPISODES, samples: int = SAMPLES,
