@@ -266,7 +266,7 @@ def test_self_imitation_keeps_each_episodes_best_rollout_fits_the_actor_alone_an
     value = [k for k in before if "value_net" in k]
     assert value and all(torch.equal(before[k], after[k]) for k in value)  # the critic is untouched
     assert any(not torch.equal(before[k], after[k]) for k in before if "policy_net" in k or "action_net" in k)
-    assert resolve_policy(out)[0] == out / "model.zip"  # the folder is a policy
+    assert resolve_policy(out) == (out / "model.zip", resolve_policy(run)[1])  # a policy folder, the base's env
     # the first rollout is the most probable actions: the same as a fresh deterministic rollout
     import gymnasium as gym
 

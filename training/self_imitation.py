@@ -6,10 +6,10 @@ from __future__ import annotations
 import contextlib
 import json
 import multiprocessing
-import shutil
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from dresspack_gym.cli_args import number, seed
 from dresspack_gym.errors import ConfigError
@@ -159,8 +159,9 @@ def self_imitate(policy: str | Path, out: str | Path, *, episodes: int = IMITATI
                    progress=progress)
     fitted = fit(model_path, rows, out, epochs=epochs, learning_rate=learning_rate, batch_size=batch_size,
                  fit_seed=first_seed)
-    shutil.copyfile(model_path.parent / "config.yaml" if (model_path.parent / "config.yaml").is_file()
-                    else model_path.parent.parent / "config.yaml", out / "config.yaml")
+    # the base policy's training config (its env is this policy's), headed by where the model came from
+    (out / "config.yaml").write_text(f"# model.zip: `dresspack self-imitate` of {model_path} (self_imitation.json)\n"
+                                     + yaml.safe_dump(config, sort_keys=False))
     summary = {**settings, **_figures(rows), "fit": fitted}
     (out / "self_imitation.json").write_text(json.dumps(summary, indent=2) + "\n")
     return summary
