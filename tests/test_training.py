@@ -287,6 +287,12 @@ def test_self_imitation_keeps_each_episodes_best_rollout_fits_the_actor_alone_an
     again = self_imitate(run, out, episodes=2, samples=3, first_seed=11, epochs=3, learning_rate=1e-3,
                          progress=lambda *_: None)
     assert len((out / "rollouts.jsonl").read_text().splitlines()) == 2 and again == summary
+    # interrupted while writing the second episode's row: that episode alone rolls out again, to the same row
+    lines = (out / "rollouts.jsonl").read_text().splitlines()
+    (out / "rollouts.jsonl").write_text(lines[0] + "\n" + lines[1][:40])
+    assert self_imitate(run, out, episodes=2, samples=3, first_seed=11, epochs=3, learning_rate=1e-3,
+                        progress=lambda *_: None) == summary
+    assert (out / "rollouts.jsonl").read_text().splitlines() == lines
     with pytest.raises(ConfigError, match="^samples"):
         self_imitate(run, out, episodes=2, samples=4, first_seed=11)
     with pytest.raises(SystemExit):

@@ -69,11 +69,7 @@ def collect(model_path: Path, config: dict, out: Path, *, episodes: int, samples
     interrupted collection resumes where it stopped."""
     log, folder = out / "rollouts.jsonl", out / "episodes"
     folder.mkdir(parents=True, exist_ok=True)
-    done = {}
-    if log.is_file():
-        for line in log.read_text().splitlines():
-            row = json.loads(line)
-            done[row["seed"]] = row
+    done = {row["seed"]: row for row in _read_log(log)}
     seeds = [first_seed + k for k in range(episodes)]
     todo = [(str(model_path), config["env_id"], dict(config.get("env_kwargs") or {}), s, samples)
             for s in seeds if s not in done]
@@ -91,6 +87,22 @@ def collect(model_path: Path, config: dict, out: Path, *, episodes: int, samples
             if n % 10 == 0 or n == len(todo):
                 progress(f"  {n}/{len(todo)} episodes")
     return [done[s] for s in seeds]
+
+
+def _read_log(log: Path) -> list[dict]:
+    """The log's complete rows. A row cut short by an interrupt (only the last can be) is dropped from the file
+    too, so the rows appended on resume start on a line of their own."""
+    if not log.is_file():
+        return []
+    rows, lines = [], log.read_text().splitlines()
+    for line in lines:
+        try:
+            rows.append(json.loads(line))
+        except json.JSONDecodeError:
+            break
+    if len(rows) < len(lines) or not log.read_text().endswith("\n"):
+        log.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    return rows
 
 
 def fit(model_path: Path, rows: list[dict], out: Path, *, epochs: int, learning_rate: float, batch_size: int,
