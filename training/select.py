@@ -47,26 +47,18 @@ def validate(model_path: Path, run_dir: Path, episodes: int, first_seed: int, at
     import dresspack_gym  # noqa: F401  (registers the env ids)
 
     from .config import train_config_from_dict
+    from .rollouts import roll_out
 
     torch.set_num_threads(1)  # one process per core
     cfg = train_config_from_dict(read_yaml(run_dir / "config.yaml", "run"))
     env = gym.make(cfg.env_id, **cfg.env_kwargs).unwrapped
     model = MaskablePPO.load(model_path, device="cpu")
 
-    def rollout(episode_seed: int, deterministic: bool) -> tuple[float, float, dict]:
-        obs, _ = env.reset(seed=episode_seed)
-        total, wear, done = 0.0, 0.0, False
-        while not done:
-            action, _ = model.predict(obs, action_masks=env.action_masks(), deterministic=deterministic)
-            obs, reward, terminated, truncated, info = env.step(int(action))
-            total, wear, done = total + reward, wear + info["integral_cost"], terminated or truncated
-        return total, wear, info
-
     returns, successes, first_tries, cycles, wears = [], [], [], [], []
     for k in range(episodes):
         torch.manual_seed(first_seed + k)
         for attempt in range(attempts):
-            total, wear, info = rollout(first_seed + k, deterministic=attempt == 0)
+            total, wear, info, _ = roll_out(env, model, first_seed + k, deterministic=attempt == 0)
             if info["is_success"]:
                 break
         returns.append(total)

@@ -35,6 +35,8 @@ def _episode(job) -> dict:
 
     import dresspack_gym  # noqa: F401  (registers the env ids)
 
+    from .rollouts import roll_out
+
     model_path, env_id, env_kwargs, episode_seed, samples = job
     torch.set_num_threads(1)  # one process per core
     env = gym.make(env_id, **env_kwargs).unwrapped
@@ -42,14 +44,7 @@ def _episode(job) -> dict:
     torch.manual_seed(episode_seed)
     rollouts, best = [], None
     for k in range(samples):
-        obs, _ = env.reset(seed=episode_seed)
-        seen, total, wear, done = [], 0.0, 0.0, False
-        while not done:
-            masks = env.action_masks()
-            action, _ = model.predict(obs, action_masks=masks, deterministic=k == 0)
-            seen.append((obs, masks, int(action)))
-            obs, reward, terminated, truncated, info = env.step(int(action))
-            total, wear, done = total + reward, wear + info["integral_cost"], terminated or truncated
+        total, wear, info, seen = roll_out(env, model, episode_seed, deterministic=k == 0, record=True)
         row = {"return": total, "success": bool(info["is_success"]), "cycle_time": info.get("cycle_time"),
                "integral_cost": wear, "steps": len(seen)}
         rollouts.append(row)
