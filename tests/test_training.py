@@ -298,3 +298,18 @@ def test_self_imitation_keeps_each_episodes_best_rollout_fits_the_actor_alone_an
     with pytest.raises(SystemExit):
         cli_main(["self-imitate", run, "--out", str(out), "--samples", "1"])
     assert "--samples" in capsys.readouterr().err
+
+
+def test_self_imitation_refuses_a_policy_whose_env_config_is_wrong_before_rolling_out(tmp_path):
+    from dresspack.agents.policy import resolve_policy
+    from dresspack.training.self_imitation import self_imitate
+
+    model, config = resolve_policy("goal_conditioned")
+    bad = tmp_path / "policy"
+    bad.mkdir()
+    (bad / "model.zip").write_bytes(model.read_bytes())
+    config = {**config, "env_kwargs": {**config["env_kwargs"], "physics_profile": "fast"}}
+    (bad / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+    with pytest.raises(ConfigError, match="^env_kwargs.physics_profile: 'fast' is not one of the allowed values"):
+        self_imitate(bad, tmp_path / "si", episodes=1, samples=2)
+    assert not (tmp_path / "si").exists()  # nothing was started

@@ -148,7 +148,12 @@ def self_imitate(policy: str | Path, out: str | Path, *, episodes: int = IMITATI
     ``self_imitation.json`` (the settings, the rollouts' figures and the fit's losses)."""
     from dresspack.agents.policy import resolve_policy
 
+    from .config import check_env_kwargs, train_config_from_dict
+
     model_path, config = resolve_policy(policy)
+    # the policy's training config read and its env built here, as training reads them: a bad field is refused
+    # by name before any rollout, not inside a worker
+    check_env_kwargs(train_config_from_dict(config))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     settings = {"policy": str(model_path), "episodes": episodes, "samples": samples, "first_seed": first_seed,
