@@ -74,5 +74,6 @@ def test_bench_collision_json(capsys):
     out = json.loads(capsys.readouterr().out)
     # a query poses the robot (one kinematics pass) and then does more: its cost is a ratio above 1
     assert out["pairs"] > 0 and out["kinematics_us"] > 0
-    assert 1.0 < out["pose_and_bounds_vs_kinematics"] < out["min_distance_vs_kinematics"]
+    # (each is tens of kinematics passes; how the two compare is timing, which a loaded machine can swap)
+    assert out["pose_and_bounds_vs_kinematics"] > 1.0 and out["min_distance_vs_kinematics"] > 1.0
     assert 0.0 < out["collides_fraction"] < 1.0

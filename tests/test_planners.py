@@ -52,7 +52,9 @@ def brute_force_valid(station, waypoints, step_deg=0.5):
 
 
 def test_ompl_baseline_is_valid_visits_the_stops_and_respects_speed_limits(default_station):
-    planner = OmplPlanner(default_station, time_budget=20, seed=0)
+    # bounded by its work budget alone: a wall cap is what a loaded machine runs out of (a 20 s cap failed a
+    # CI run with a third process on the two cores)
+    planner = OmplPlanner(default_station, seed=0)
     task = make_task(default_station, 0, planner.validity.checker.collides)
     res = planner.plan(task)
     traj = res.trajectory
