@@ -66,7 +66,8 @@ def policy_cycles(policy: str, episodes: int) -> list[dict]:
 def worst_cycles(station, cycles: list[dict], named_map, count: int, every: int) -> list[dict]:
     """Where the map goes wrong: on the ``count`` cycles whose map ∫C falls furthest below the accurate one, each
     cost term integrated both ways, and the mean cost rate at every ``every``-th sample three ways: the accurate
-    replay, the cable settled afresh at that configuration (the shape a map sample holds) and the map."""
+    replay, the cable settled afresh at that configuration (the shape a map sample holds; how many of those settles
+    reached the equilibrium residual, and the largest residual, are in the row) and the map."""
     from dresspack_gym.cost_variants import cost_function
 
     name, cost = named_map
@@ -80,17 +81,21 @@ def worst_cycles(station, cycles: list[dict], named_map, count: int, every: int)
             for k, v in cost.terms(q).items():
                 terms.setdefault(k, []).append(v)
         picked = np.arange(0, len(r.q), every)
-        settled = []
+        settled, residuals = [], []
         for j in picked:
             settle_sim.reset(r.q[j][None])
-            settle_sim.settle()
+            eq = settle_sim.settle().equilibrium  # each settle's residual is reported with the row, converged or not
+            residuals.append((eq.converged, eq.force_residual, eq.torque_residual))
             settled.append(cost_fn(settle_sim.measures(), cfg).total)
         rows.append({"seed": c["seed"], "map": name, "accurate": round(c["accurate"], 2), "map_cost": round(c[name], 2),
                      "accurate_terms": {k: round(float(np.trapezoid(v, r.time)), 2) for k, v in r.cost_terms.items()},
                      "map_terms": {k: round(float(np.trapezoid(np.array(v), r.time)), 2) for k, v in terms.items()},
                      "mean_rate_at_samples": {"accurate": round(float(r.cost[picked].mean()), 2),
                                               "settled_afresh": round(float(np.mean(settled)), 2),
-                                              "map": round(float(np.mean([cost.cost(r.q[j]) for j in picked])), 2)}})
+                                              "map": round(float(np.mean([cost.cost(r.q[j]) for j in picked])), 2)},
+                     "settled_afresh_converged": f"{sum(c for c, _, _ in residuals)} of {len(residuals)}",
+                     "settled_afresh_max_residual": {"force": round(max(f for _, f, _ in residuals), 4),
+                                                     "torque": round(max(t for _, _, t in residuals), 4)}})
     return rows
 
 
