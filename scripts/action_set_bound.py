@@ -109,6 +109,12 @@ def search_leg(env, root: Node, limits, beam: int, leg_steps: int, patience: int
 
 def search_task(env, task, seed: int, limits, args) -> tuple[Node | None, int]:
     env.reset(seed=seed, options={"goals": dict(zip(task.weld_names, task.goals)), "start": task.start})
+    return search_episode(env, limits, args)
+
+
+def search_episode(env, limits, args) -> tuple[Node | None, int]:
+    """The cheapest finished sequence of the episode ``env`` was just reset to (None if none), and how many legs
+    finished (the wear-rate samples)."""
     root = Node((), env.snapshot(), 0.0, 0.0, (env.q,), (), env.goal_index, env.q)
     rates: list[float] = []
     finished = []
