@@ -79,6 +79,11 @@ def _teach(job) -> dict:
 def collect(args) -> None:
     out = Path(args.out)
     (out / "episodes").mkdir(parents=True, exist_ok=True)
+    settings = {"policy": args.policy, "beam": args.beam, "leg_steps": args.leg_steps}
+    spec = out / "spec.json"
+    if spec.is_file() and json.loads(spec.read_text()) != settings:  # resuming: the same search, or another folder
+        raise SystemExit(f"{out} holds a teacher searched with {spec.read_text().strip()}: give another --out")
+    spec.write_text(json.dumps(settings) + "\n")
     log = out / "teacher.jsonl"
     done = {json.loads(line)["seed"] for line in log.read_text().splitlines()} if log.is_file() else set()
     todo = [(args.policy, TEACHER_SEED + k, args.beam, args.leg_steps, str(out)) for k in range(args.episodes)
@@ -104,6 +109,9 @@ def fit_and_compare(args) -> None:
 
     torch.set_num_threads(1)
     teacher = Path(args.teacher)
+    spec = teacher / "spec.json"
+    if spec.is_file() and json.loads(spec.read_text())["policy"] != args.policy:
+        raise SystemExit(f"{teacher} teaches {json.loads(spec.read_text())['policy']}, not {args.policy}")
     rows = [json.loads(line) for line in (teacher / "teacher.jsonl").read_text().splitlines()]
     rows.sort(key=lambda r: r["seed"])
     better = [r for r in rows if r["found"] and (not r["policy"]["success"] or r["time"] + r["wear"] < _objective(r["policy"]))]
