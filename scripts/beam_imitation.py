@@ -59,21 +59,36 @@ def _teach(job) -> dict:
                                                           patience=PATIENCE))
     row["found"] = best is not None
     if best is not None:
-        obs, _ = env.reset(seed=seed)
-        seen, ret, replay_wear = [], 0.0, 0.0
-        for a in best.actions:  # the env is deterministic: the replay is the searched sequence (checked below)
-            masks = env.action_masks()
-            seen.append((obs, masks, a))
-            obs, reward, _, _, info = env.step(a)
-            ret, replay_wear = ret + reward, replay_wear + info["integral_cost"]
-        if not (info["is_success"] and abs(replay_wear - best.wear) <= 1e-6 * max(1.0, best.wear)):
+        seen, replay = replay_actions(env, seed, best.actions)
+        if not (replay["success"] and abs(replay["wear"] - best.wear) <= 1e-6 * max(1.0, best.wear)):
             raise RuntimeError(f"episode {seed}: the replay of the searched actions differs from the search")
         o, m, a = zip(*seen)
         np.savez(Path(out) / "episodes" / f"{seed}.npz", obs=np.array(o, dtype=np.float32),
                  masks=np.array(m, dtype=bool), actions=np.array(a, dtype=np.int64))
-        row.update(actions=[int(x) for x in best.actions], time=best.time, wear=best.wear, return_=ret)
+        row.update(actions=[int(x) for x in best.actions], time=best.time, wear=best.wear, return_=replay["return"],
+                   weld_settles=replay["weld_settles"])
     env.close()
     return row
+
+
+def replay_actions(env, seed: int, actions) -> tuple[list, dict]:
+    """``actions`` taken from ``env.reset(seed)``: each step's (observation, masks, action), and the return, ∫C dt,
+    success and the settles at the welds (the env settles each to equilibrium: how many did not converge, and the
+    largest residual left)."""
+    obs, _ = env.reset(seed=seed)
+    seen, ret, wear, residuals, unconverged = [], 0.0, 0.0, [], 0
+    for a in actions:  # the env is deterministic: the replay is the searched sequence (the caller checks)
+        masks = env.action_masks()
+        seen.append((obs, masks, a))
+        before = env.goal_index
+        obs, reward, _, _, info = env.step(a)
+        ret, wear = ret + reward, wear + info["integral_cost"]
+        if env.goal_index > before:
+            residuals.append(float(info["equilibrium_residual"]))
+            unconverged += not info["settle_converged"]
+    return seen, {"return": ret, "wear": wear, "success": bool(info["is_success"]),
+                  "weld_settles": {"count": len(residuals), "unconverged": unconverged,
+                                   "max_residual": max(residuals, default=float("nan"))}}
 
 
 def collect(args) -> None:
