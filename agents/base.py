@@ -8,10 +8,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dresspack_gym.errors import ConfigError, DresspackError
-from dresspack_gym.station import Station
-from dresspack_gym.tasks import Task
-from dresspack_gym.trajectory import Trajectory
-from dresspack_gym.validity import PLANNER_MARGIN, MotionValidity
+from dresspack_gym.physics.trajectory import Trajectory
+from dresspack_gym.stations.station import Station
+from dresspack_gym.stations.tasks import Task
+from dresspack_gym.stations.validity import PLANNER_MARGIN, MotionValidity
 
 from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Allowance, Budget
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import json
 
-from dresspack_gym.cli_args import ensure_parent, number, output_file, seed
-from dresspack_gym.cost_variants import COST_VARIANTS
+from dresspack_gym.cli.args import ensure_parent, number, output_file, seed
 from dresspack_gym.errors import ConfigError
+from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
 from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, MAX_WALL_TIME, MAX_WORK
 from .tension_peak import MAX_TENSION_PEAK_TIME, TENSION_PEAK_TIME
@@ -63,7 +63,7 @@ def add_plan_command(sub) -> None:
 
 
 def cmd_plan(args) -> int:
-    from dresspack_gym.replay_plot import plot_replays
+    from dresspack_gym.plots.replay import plot_replays
 
     from .base import PlanningError
     from .planning import PEAK_AWARE, POLICY_METHODS, WEAR_AWARE, plan_station
@@ -91,7 +91,7 @@ def cmd_plan(args) -> int:
         return 1
     s = run.summary()
     if args.out:
-        from dresspack_gym.trajectory import save_trajectory
+        from dresspack_gym.physics.trajectory import save_trajectory
 
         station = run.station
         save_trajectory(ensure_parent(args.out), run.plan.trajectory, station=str(args.station),

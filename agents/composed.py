@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from dresspack_gym.tasks import Task
-from dresspack_gym.trajectory import Trajectory
+from dresspack_gym.physics.trajectory import Trajectory
+from dresspack_gym.stations.tasks import Task
 
 from .base import Planner
 from .leg_cost import LegCost

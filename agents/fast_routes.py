@@ -24,8 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from dresspack_gym import time_law
-from dresspack_gym.validity import MotionValidity
+from dresspack_gym.robots import time_law
+from dresspack_gym.stations.validity import MotionValidity
 
 from .budget import Allowance
 from .composed import ComposedPlanner

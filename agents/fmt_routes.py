@@ -9,7 +9,7 @@ Why FMT* and how the objective is written (both measured on thesis_tension, see 
   joint-space length, and in the ompl 2.0.1 bindings its C++ ``motionCost`` does not call a ``stateCost``
   overridden in Python (it silently optimises path length).
 - FMT* asks for hundreds of thousands of edge costs per search; each call is a few microseconds of plain Python
-  (rates cached per sample, the time from :class:`~dresspack_gym.time_law.AccelerationBound`), so a search of 1,000
+  (rates cached per sample, the time from :class:`~dresspack_gym.robots.time_law.AccelerationBound`), so a search of 1,000
   samples takes seconds. The candidate routes are then ranked by the real cable simulation in path order.
 """
 
@@ -17,10 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from dresspack_gym import time_law
 from dresspack_gym.errors import ConfigError
-from dresspack_gym.map_cost import MapStateCost
-from dresspack_gym.validity import MotionValidity
+from dresspack_gym.maps.map_cost import MapStateCost
+from dresspack_gym.robots import time_law
+from dresspack_gym.stations.validity import MotionValidity
 
 from .map_roadmap import fine_wear, motion_time, simplify_route
 from .ompl_connect import _ompl, _vector, joint_space, seed_ompl

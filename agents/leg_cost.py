@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from dresspack_gym.cost_variants import cost_function
-from dresspack_gym.simulation import CableSimulator
-from dresspack_gym.station import Station
-from dresspack_gym.trajectory import Trajectory, replay
+from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.trajectory import Trajectory, replay
+from dresspack_gym.physics.wear_cost import cost_function
+from dresspack_gym.stations.station import Station
 
 from .tension_peak import check_tension_peak_time
 from .time_weight import check_time_weight

@@ -9,10 +9,10 @@ import math
 
 import numpy as np
 
-from dresspack_gym import time_law
-from dresspack_gym.map_cost import MapStateCost
-from dresspack_gym.validity import MotionValidity
-from dresspack_gym.wear_map import WearMap
+from dresspack_gym.maps.map_cost import MapStateCost
+from dresspack_gym.maps.wear_map import WearMap
+from dresspack_gym.robots import time_law
+from dresspack_gym.stations.validity import MotionValidity
 
 # [rad] longest joint change between two cost samples of a straight motion when an edge is costed finely.
 COST_STEP = math.radians(10.0)

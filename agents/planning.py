@@ -5,15 +5,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from dresspack_gym.cost_variants import cost_function
-from dresspack_gym.loading import load_station
-from dresspack_gym.simulation import CableSimulator
-from dresspack_gym.station import Station
-from dresspack_gym.tasks import Task, make_task
-from dresspack_gym.trajectory import Replay, replay
-from dresspack_gym.validation import check_choice
+from dresspack_gym.fields import check_choice
+from dresspack_gym.io.loading import load_station
+from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.trajectory import Replay, replay
+from dresspack_gym.physics.wear_cost import cost_function
+from dresspack_gym.stations.station import Station
+from dresspack_gym.stations.tasks import Task, make_task
 
-from .base import PlanResult, Planner
+from .base import Planner, PlanResult
 from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES
 from .ompl_planner import OmplPlanner
 from .policy import PolicyPlanner, RandomMaskedPlanner

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from dresspack_gym.env import DresspackEnv
+from dresspack_gym.env.dresspack_env import DresspackEnv
 from dresspack_gym.errors import ConfigError
+from dresspack_gym.physics.trajectory import Trajectory
 from dresspack_gym.shipped import find_shipped, shipped_root
-from dresspack_gym.station import Station
-from dresspack_gym.tasks import Task
-from dresspack_gym.trajectory import Trajectory
+from dresspack_gym.stations.station import Station
+from dresspack_gym.stations.tasks import Task
 
 from .base import Planner, PlanningError, out_of_time_error
 

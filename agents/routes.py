@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dresspack_gym.validity import MotionValidity
+from dresspack_gym.stations.validity import MotionValidity
 
 from .base import PlanningError
 from .budget import Allowance

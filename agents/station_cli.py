@@ -6,8 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from dresspack_gym.cli_args import number, output_dir, seed
-from dresspack_gym.cost_variants import COST_VARIANTS
+from dresspack_gym.cli.args import number, output_dir, seed
+from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
 from .budget import DEFAULT_ITERATIONS, MAX_WORK
 from .station_solver import BLOCKED_ESTIMATES, BOUND_WORK, DEFAULT_WORK, LEG_ROUTES, OBJECTIVES, PAIR_SOLVES
@@ -83,8 +83,8 @@ def add_station_plan_command(sub) -> None:
 def cmd_station_plan(args) -> int:
     from tqdm import tqdm
 
-    from dresspack_gym.loading import load_station
-    from dresspack_gym.station import Station
+    from dresspack_gym.io.loading import load_station
+    from dresspack_gym.stations.station import Station
 
     from .station_planning import StationPlanConfig, StationPlanner, save_plan
     from .station_report import plot_plan, write_summary

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dresspack_gym.tasks import Task
-from dresspack_gym.validation import check_integer
+from dresspack_gym.fields import check_integer
+from dresspack_gym.stations.tasks import Task
 
 from .base import PlanningError
 
@@ -105,7 +105,7 @@ def _run(units, workers: int, settings):
 
 
 def _init_worker(station_config, leg_planner: type, iterations: int, seed: int) -> None:
-    from dresspack_gym.station import Station
+    from dresspack_gym.stations.station import Station
 
     station = Station(station_config)
     _PLANNERS[:] = [leg_planner(station, r, iterations=iterations, seed=seed) for r in range(station.n_robots)]

@@ -20,16 +20,16 @@ from pathlib import Path
 
 import numpy as np
 
-from dresspack_gym import time_law
-from dresspack_gym.coordination import RobotPairDistance, coordinate, verify
-from dresspack_gym.cost_variants import cost_function
 from dresspack_gym.errors import ConfigError
-from dresspack_gym.simulation import CableSimulator
-from dresspack_gym.station import Station
-from dresspack_gym.station_replay import JAM_STRAIN, StationReplay, replay_station
-from dresspack_gym.station_schedule import RobotSchedule, StationSchedule
-from dresspack_gym.station_tasks import DEFAULT_WELD_TIME, StationTask, WeldOption, make_station_task
-from dresspack_gym.validation import check_choice, check_integer, check_number
+from dresspack_gym.fields import check_choice, check_integer, check_number
+from dresspack_gym.multi.coordination import RobotPairDistance, coordinate, verify
+from dresspack_gym.multi.replay import JAM_STRAIN, StationReplay, replay_station
+from dresspack_gym.multi.schedule import RobotSchedule, StationSchedule
+from dresspack_gym.multi.tasks import DEFAULT_WELD_TIME, StationTask, WeldOption, make_station_task
+from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.wear_cost import cost_function
+from dresspack_gym.robots import time_law
+from dresspack_gym.stations.station import Station
 
 from .base import PlanningError
 from .budget import DEFAULT_ITERATIONS
@@ -37,10 +37,26 @@ from .fast_routes import FastLegPlanner, curve_valid
 from .ompl_planner import OmplPlanner
 from .station_legs import move_key as _leg_key
 from .station_legs import own_moves, plan_leg, plan_moves
-from .station_solver import (BLOCKED_ESTIMATES, BOUND_WORK, DEFAULT_WORK, INTERLOCKS, LEG_ROUTES, MAKESPAN_SLACK,
-                             OBJECTIVES, PAIR_IMPROVEMENTS, PAIR_SOLVES, PAIR_WORK, SPAN_WEIGHT, Assignment,
-                             RoutingProblem, improve_by_pairs, lower_bound, relaxation_bound, solve,
-                             wear_relaxation_bound)
+from .station_solver import (
+    BLOCKED_ESTIMATES,
+    BOUND_WORK,
+    DEFAULT_WORK,
+    INTERLOCKS,
+    LEG_ROUTES,
+    MAKESPAN_SLACK,
+    OBJECTIVES,
+    PAIR_IMPROVEMENTS,
+    PAIR_SOLVES,
+    PAIR_WORK,
+    SPAN_WEIGHT,
+    Assignment,
+    RoutingProblem,
+    improve_by_pairs,
+    lower_bound,
+    relaxation_bound,
+    solve,
+    wear_relaxation_bound,
+)
 
 EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estimate by more is re-solved with it
 # rounds allowed, as a multiple of exact_rounds, while no solved answer has every leg planned (legs that jam their
@@ -926,7 +942,7 @@ class _NoBar:
 
 def save_plan(plan: StationPlan, out: Path) -> None:
     """plan.json (summary, per-robot timing) and one trajectory .npz per robot under ``out``."""
-    from dresspack_gym.trajectory import save_trajectory
+    from dresspack_gym.physics.trajectory import save_trajectory
 
     out.mkdir(parents=True, exist_ok=True)
     robots = {}

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from dresspack_gym.station_plot import plot_assignment, plot_gantt, plot_wear
+from dresspack_gym.plots.station_plan import plot_assignment, plot_gantt, plot_wear
 
 
 def plot_plan(station, plan, folder: Path) -> None:

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from dresspack_gym.errors import ConfigError
-from dresspack_gym.validation import check_choice
+from dresspack_gym.fields import check_choice
 
 # how a move not planned yet is timed for the solver (StationPlanConfig.blocked_estimate)
 BLOCKED_ESTIMATES = ("straight", "planned_ratio")

@@ -5,8 +5,8 @@ an obstacle instead of over it)."""
 
 from __future__ import annotations
 
-from dresspack_gym.map_cost import MapStateCost
-from dresspack_gym.wear_map import WearMap, load_wear_map
+from dresspack_gym.maps.map_cost import MapStateCost
+from dresspack_gym.maps.wear_map import WearMap, load_wear_map
 
 from .composed import ComposedPlanner
 from .fmt_routes import FMT_SAMPLES, FMT_WEIGHTS, FmtSearch

@@ -14,9 +14,10 @@ from pathlib import Path
 from dresspack.agents.cli import add_budget_arguments
 from dresspack.agents.planning import PLANNERS
 from dresspack.agents.time_weight import MAX_TIME_WEIGHT
-from dresspack_gym.cli_args import number, output_dir, seed
-from dresspack_gym.cost_variants import COST_VARIANTS
+
+from dresspack_gym.cli.args import number, output_dir, seed
 from dresspack_gym.errors import DresspackError
+from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
 from .report import write_report
 from .runs import EvalSpec, run_evaluation
@@ -65,7 +66,7 @@ def evaluate_and_report(args) -> int:
     try:
         spec = spec_from_args(args)
         if args.robustness_map is not None:  # checked now, not after the whole evaluation
-            from dresspack_gym.robustness.query import RobustnessMap
+            from dresspack_gym.maps.robustness.query import RobustnessMap
 
             RobustnessMap(args.robustness_map)
         rows, replays = run_evaluation(spec, args.out, progress=not args.json)

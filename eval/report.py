@@ -9,15 +9,15 @@ import shutil
 from pathlib import Path
 
 import numpy as np
-
 from dresspack.agents.planning import COLORS
-from dresspack_gym.damage_plot import plot_damage_along_cable, plot_damage_strip
-from dresspack_gym.loading import load_station
-from dresspack_gym.replay_plot import plot_replays
-from dresspack_gym.restriction_plot import plot_restrictions
-from dresspack_gym.simulation import CableSimulator
-from dresspack_gym.station import Station
-from dresspack_gym.trajectory import Replay, replay
+
+from dresspack_gym.io.loading import load_station
+from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.trajectory import Replay, replay
+from dresspack_gym.plots.damage import plot_damage_along_cable, plot_damage_strip
+from dresspack_gym.plots.replay import plot_replays
+from dresspack_gym.plots.restrictions import plot_restrictions
+from dresspack_gym.stations.station import Station
 
 from .runs import METRICS, EvalSpec, load_trajectory
 from .summary import OPTIONAL, by_method, by_task, fmt, json_summary, rows_to_csv
@@ -216,8 +216,8 @@ def _replay_saved(sim: CableSimulator, out: Path, row: dict, robot: int, cost_va
 
 
 def _robustness_blocks(folder, fig_dir: Path, figures: dict) -> list[tuple]:
-    from dresspack_gym.robustness.plots import plot_map
-    from dresspack_gym.robustness.query import RobustnessMap
+    from dresspack_gym.maps.robustness.plots import plot_map
+    from dresspack_gym.maps.robustness.query import RobustnessMap
 
     rmap = RobustnessMap(folder)
     blocks = [("p", f"Map {folder}: {rmap.n_measured} of {len(rmap.grid)} configurations measured, "
@@ -236,7 +236,7 @@ ANIMATION = {"fps": 10.0, "width": 320, "height": 180, "strip_height": 70}  # sm
 def _animations(task: str, rows, methods, station, out: Path, fig_dir: Path, figures: dict, robot,
                 replays: dict[str, Replay]) -> list[tuple]:
     """A short video per method of its first successful run on ``task``: the cable moving, measures underneath."""
-    from dresspack_gym.animation import animate
+    from dresspack_gym.io.animation import animate
 
     blocks = []
     for m in methods:
@@ -254,7 +254,7 @@ def _animations(task: str, rows, methods, station, out: Path, fig_dir: Path, fig
 def _worst_frames(rows, methods, replays, station, sim, out, fig_dir, figures, robot,
                   cost_variant: str = "thesis") -> list[tuple]:
     """Per method: its successful run with the highest instantaneous cost, rendered at that moment."""
-    from dresspack_gym.rendering import StationRenderer, save_png
+    from dresspack_gym.stations.rendering import StationRenderer, save_png
 
     blocks = []
     renderer = None

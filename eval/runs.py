@@ -12,22 +12,21 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-from tqdm.auto import tqdm
-
 from dresspack.agents.base import PlanningError
 from dresspack.agents.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Budget
 from dresspack.agents.planning import PLANNERS, POLICY_METHODS, WEAR_AWARE, make_planner
 from dresspack.agents.time_weight import check_time_weight
-from dresspack_gym.cost_variants import cost_function
+from tqdm.auto import tqdm
+
 from dresspack_gym.errors import ConfigError
-from dresspack_gym.loading import load_station
-from dresspack_gym.simulation import CableSimulator
-from dresspack_gym.smoothness import smoothness
-from dresspack_gym.station import Station
-from dresspack_gym.tasks import Task, closest_branch, make_task, random_start
-from dresspack_gym.trajectory import Replay, Trajectory, replay
-from dresspack_gym.validity import PLANNER_MARGIN, MotionValidity
-from dresspack_gym.weld_sampling import WeldSampler
+from dresspack_gym.io.loading import load_station
+from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.trajectory import Replay, Trajectory, replay, smoothness
+from dresspack_gym.physics.wear_cost import cost_function
+from dresspack_gym.stations.station import Station
+from dresspack_gym.stations.tasks import Task, closest_branch, make_task, random_start
+from dresspack_gym.stations.validity import PLANNER_MARGIN, MotionValidity
+from dresspack_gym.stations.weld_sampling import WeldSampler
 
 METRICS = ("cycle_time", "max_curvature", "max_tension", "min_clearance", "max_twist_rate", "cost", "damage",
            "life_cycles", "reversals_per_s", "peak_joint_acceleration", "planning_time")

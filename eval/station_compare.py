@@ -15,13 +15,13 @@ from pathlib import Path
 import numpy as np
 from dresspack.agents.station_planning import RECORD_EVERY
 
-from dresspack_gym.coordination import verify
-from dresspack_gym.loading import load_station
-from dresspack_gym.simulation import CableSimulator
-from dresspack_gym.smoothness import schedule_smoothness
-from dresspack_gym.station import Station
-from dresspack_gym.station_replay import replay_station
-from dresspack_gym.station_schedule import load_schedule
+from dresspack_gym.io.loading import load_station
+from dresspack_gym.multi.coordination import verify
+from dresspack_gym.multi.replay import replay_station
+from dresspack_gym.multi.schedule import load_schedule
+from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.trajectory import schedule_smoothness
+from dresspack_gym.stations.station import Station
 
 COLUMNS = ("plan", "makespan", "waits", "cost", "max_curvature", "max_tension", "min_clearance", "collisions",
            "samples", "min_robot_distance", "reversals_per_s", "peak_joint_acceleration", "jammed", "start_settled")

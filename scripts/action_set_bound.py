@@ -27,11 +27,11 @@ import numpy as np
 from dresspack.agents.planning import make_planner
 from dresspack.eval.runs import EvalSpec, build_tasks
 
-from dresspack_gym.env import DresspackEnv
-from dresspack_gym.loading import load_station
-from dresspack_gym.simulation import CableSimulator
-from dresspack_gym.station import Station
-from dresspack_gym.trajectory import Trajectory, replay
+from dresspack_gym.env.dresspack_env import DresspackEnv
+from dresspack_gym.io.loading import load_station
+from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.trajectory import Trajectory, replay
+from dresspack_gym.stations.station import Station
 
 DEFAULT_WEAR_RATE = 20.0  # ∫C per second assumed for the time still to go until a leg has finished once
 

@@ -18,9 +18,9 @@ V0_COMMIT = "9220c8c"  # the last commit before physics v2
 CODE = r'''
 import sys, time, json, mujoco, numpy as np
 sys.path.insert(0, ".")
-from dresspack_gym.loading import load_station
-from dresspack_gym.station import Station
-from dresspack_gym.simulation import CableSimulator
+from dresspack_gym.io.loading import load_station
+from dresspack_gym.stations.station import Station
+from dresspack_gym.physics.simulation import CableSimulator
 st = Station(load_station("default")); sim = CableSimulator(st)
 q = st.home.copy(); q[0, 0] += np.pi / 2; q[0, 3] += 1.0
 best = {}

@@ -16,14 +16,14 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-
 from dresspack.agents.planning import COLORS
 from dresspack.eval.runs import load_trajectory
-from dresspack_gym.damage_plot import plot_damage_along_cable, plot_damage_strip
-from dresspack_gym.loading import load_station
-from dresspack_gym.simulation import CableSimulator
-from dresspack_gym.station import Station
-from dresspack_gym.trajectory import replay
+
+from dresspack_gym.io.loading import load_station
+from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.trajectory import replay
+from dresspack_gym.plots.damage import plot_damage_along_cable, plot_damage_strip
+from dresspack_gym.stations.station import Station
 
 
 def main() -> None:

@@ -25,14 +25,14 @@ from pathlib import Path
 import numpy as np
 from dresspack.agents.policy import PolicyAgent, resolve_policy
 
-from dresspack_gym.env import DresspackEnv
-from dresspack_gym.loading import load_station
-from dresspack_gym.map_cost import MapStateCost
-from dresspack_gym.physics_profiles import spearman
-from dresspack_gym.simulation import CableSimulator
-from dresspack_gym.station import Station
-from dresspack_gym.trajectory import Trajectory, replay
-from dresspack_gym.wear_map import load_wear_map
+from dresspack_gym.env.dresspack_env import DresspackEnv
+from dresspack_gym.io.loading import load_station
+from dresspack_gym.maps.map_cost import MapStateCost
+from dresspack_gym.maps.wear_map import load_wear_map
+from dresspack_gym.physics.profiles import spearman
+from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.trajectory import Trajectory, replay
+from dresspack_gym.stations.station import Station
 
 FIRST_SEED = 31000
 
@@ -68,7 +68,7 @@ def worst_cycles(station, cycles: list[dict], named_map, count: int, every: int)
     cost term integrated both ways, and the mean cost rate at every ``every``-th sample three ways: the accurate
     replay, the cable settled afresh at that configuration (the shape a map sample holds; how many of those settles
     reached the equilibrium residual, and the largest residual, are in the row) and the map."""
-    from dresspack_gym.cost_variants import cost_function
+    from dresspack_gym.physics.wear_cost import cost_function
 
     name, cost = named_map
     cost_fn, cfg = cost_function("thesis"), station.config.wear_cost

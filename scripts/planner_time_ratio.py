@@ -23,9 +23,9 @@ from pathlib import Path
 def main() -> None:
     from dresspack.agents.planning import make_planner
 
-    from dresspack_gym.loading import load_station
-    from dresspack_gym.station import Station
-    from dresspack_gym.tasks import make_task
+    from dresspack_gym.io.loading import load_station
+    from dresspack_gym.stations.station import Station
+    from dresspack_gym.stations.tasks import make_task
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--station", default="thesis_tension")

@@ -45,10 +45,10 @@ def fewest_vias(env, start: np.ndarray, end: np.ndarray, max_vias: int) -> int |
 def main() -> None:
     from dresspack.eval.runs import EvalSpec, build_tasks
 
-    from dresspack_gym.env import DresspackEnv
-    from dresspack_gym.loading import load_station
-    from dresspack_gym.station import Station
-    from dresspack_gym.validity import PLANNER_MARGIN
+    from dresspack_gym.env.dresspack_env import DresspackEnv
+    from dresspack_gym.io.loading import load_station
+    from dresspack_gym.stations.station import Station
+    from dresspack_gym.stations.validity import PLANNER_MARGIN
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--station", default="default")

@@ -18,12 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
-from dresspack_gym.loading import load_station, read_yaml
+from dresspack_gym.io.loading import load_station, read_yaml
+from dresspack_gym.maps.robustness.algorithm import RobustnessSettings
+from dresspack_gym.maps.robustness.grid import RobustnessGrid
+from dresspack_gym.maps.robustness.runner import run_map
+from dresspack_gym.maps.robustness.store import load_results, load_unconverged
 from dresspack_gym.shipped import find_shipped
-from dresspack_gym.robustness.algorithm import RobustnessSettings
-from dresspack_gym.robustness.grid import RobustnessGrid
-from dresspack_gym.robustness.runner import run_map
-from dresspack_gym.robustness.store import load_results, load_unconverged
 
 REFERENCE = RobustnessSettings(start="ry", speed_fraction=0.125, min_speed_fraction=0.125, max_dynamic_ratio=1.0,
                                timestep=0.002, settle_timestep=0.008)

@@ -15,13 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
-from dresspack_gym.loading import load_station, read_yaml
-from dresspack_gym.robustness.algorithm import RobustnessSettings
-from dresspack_gym.robustness.grid import RobustnessGrid
-from dresspack_gym.robustness.runner import run_map
-from dresspack_gym.robustness.store import _rows
+from dresspack_gym.io.loading import load_station, read_yaml
+from dresspack_gym.maps.robustness.algorithm import RobustnessSettings
+from dresspack_gym.maps.robustness.grid import RobustnessGrid
+from dresspack_gym.maps.robustness.runner import run_map
+from dresspack_gym.maps.robustness.store import _rows
+from dresspack_gym.robots.time_law import TIME_LAW
 from dresspack_gym.shipped import find_shipped
-from dresspack_gym.time_law import TIME_LAW
 
 
 def main() -> None:

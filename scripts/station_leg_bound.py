@@ -32,9 +32,9 @@ def main() -> None:
     from dresspack.agents.station_planning import BLOCKED, StationPlanConfig, StationPlanner
     from dresspack.agents.station_solver import relaxation_bound, wear_relaxation_bound
 
-    from dresspack_gym.loading import load_station
-    from dresspack_gym.station import Station
-    from dresspack_gym.station_tasks import make_station_task
+    from dresspack_gym.io.loading import load_station
+    from dresspack_gym.multi.tasks import make_station_task
+    from dresspack_gym.stations.station import Station
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("station", help="station YAML or shipped name")

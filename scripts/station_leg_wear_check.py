@@ -26,9 +26,9 @@ import numpy as np
 def main() -> None:
     from dresspack.agents.station_planning import RECORD_EVERY, StationPlanConfig, StationPlanner
 
-    from dresspack_gym.loading import load_station
-    from dresspack_gym.station import Station
-    from dresspack_gym.station_schedule import load_schedule
+    from dresspack_gym.io.loading import load_station
+    from dresspack_gym.multi.schedule import load_schedule
+    from dresspack_gym.stations.station import Station
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("plan", type=Path, help="a plan folder (plan.json, <robot>.npz)")
@@ -110,8 +110,8 @@ def explain_in_path_order(planner, station, robots, rows) -> None:
     ``start_equilibria`` to ``rows``)."""
     from dresspack.agents.station_planning import RECORD_EVERY
 
-    from dresspack_gym.cost_variants import cost_function
-    from dresspack_gym.station_schedule import RobotSchedule, StationSchedule
+    from dresspack_gym.multi.schedule import RobotSchedule, StationSchedule
+    from dresspack_gym.physics.wear_cost import cost_function
 
     cost_fn, weights = cost_function(planner.config.cost_variant), station.config.wear_cost
     for s in robots:

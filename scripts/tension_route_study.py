@@ -22,7 +22,7 @@ VARIANTS = ("shipped", "moved_-10cm", "moved_+10cm", "enlarged_20pct")
 
 
 def station_config(variant: str):
-    from dresspack_gym.loading import load_station
+    from dresspack_gym.io.loading import load_station
 
     config = load_station("thesis_tension")
     if variant == "shipped":
@@ -40,7 +40,8 @@ def station_config(variant: str):
 
 def plan_one(job: tuple[str, int, bool, str]) -> dict:
     from dresspack.agents.planning import plan_station
-    from dresspack_gym.station import Station
+
+    from dresspack_gym.stations.station import Station
 
     variant, seed, use_map, planner = job
     kwargs = {} if use_map else {"wear_map": False}

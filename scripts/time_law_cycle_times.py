@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dresspack_gym.loading import load_station
-from dresspack_gym.trajectory import load_trajectory_file
+from dresspack_gym.io.loading import load_station
+from dresspack_gym.physics.trajectory import load_trajectory_file
 
 # Version 0's law, kept here only to reproduce the old figures: a segment lasted 1.5x the slowest joint's time at
 # its programmed speed (the cubic s = 3t^2 - 2t^3 peaks at 1.5x its mean speed).

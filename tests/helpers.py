@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import copy
 
-from dresspack_gym.loading import station_from_dict
-from dresspack_gym.simulation import CableSimulator
-from dresspack_gym.station import Station
+from dresspack_gym.io.loading import station_from_dict
+from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.stations.station import Station
 
 THESIS_CABLE = {
     "name": "test_cable", "length": 1.74, "radius": 0.03, "linear_density": 1.25,
@@ -40,6 +40,6 @@ def settled(station: Station, seconds: float = 6.0) -> CableSimulator:
 
 
 def default_station_dict():
-    from dresspack_gym.loading import read_yaml, resolve_station_path
+    from dresspack_gym.io.loading import read_yaml, resolve_station_path
 
     return read_yaml(resolve_station_path("default"))

@@ -21,8 +21,8 @@ ALONE = """
 import json, sys
 from dresspack.eval.runs import EvalSpec, build_tasks
 from dresspack.agents.planning import make_planner
-from dresspack_gym.loading import load_station
-from dresspack_gym.station import Station
+from dresspack_gym.io.loading import load_station
+from dresspack_gym.stations.station import Station
 d = json.loads(sys.argv[1])
 spec = EvalSpec(station=d["station"], methods=tuple(d["methods"]), tasks=tuple(map(tuple, d["tasks"])),
                 seeds=tuple(d["seeds"]), evaluations=d["evaluations"], routes=d["routes"])

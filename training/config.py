@@ -9,11 +9,11 @@ from typing import Any
 import gymnasium as gym
 
 from dresspack_gym import ENV_IDS
-from dresspack_gym.cli_args import MAX_SEED
+from dresspack_gym.cli.args import MAX_SEED
 from dresspack_gym.errors import ConfigError
-from dresspack_gym.loading import read_yaml
+from dresspack_gym.fields import Section
+from dresspack_gym.io.loading import read_yaml
 from dresspack_gym.shipped import find_shipped
-from dresspack_gym.validation import Section
 
 ACTIVATIONS = ("tanh", "relu")
 BEST_BY = ("reward", "success")  # the evaluation callback's rules for the best model (eval_callback.py)

@@ -11,9 +11,9 @@ from pathlib import Path
 
 from dresspack.agents.policy import ATTEMPTS
 
-from dresspack_gym.cli_args import number, seed
+from dresspack_gym.cli.args import number, seed
 from dresspack_gym.errors import ConfigError
-from dresspack_gym.loading import read_yaml
+from dresspack_gym.io.loading import read_yaml
 
 # Episode k of a selection resets the env with seed + k: these seeds are apart from the training envs' (seed,
 # seed + 1, ...), the callback's (eval_seed, 10,000 by default) and the evaluation's weld draws (1,000,000).

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from dresspack_gym.cli_args import number, seed
+from dresspack_gym.cli.args import number, seed
 from dresspack_gym.errors import ConfigError
 
 # Episode k resets the env with seed + k: apart from the training envs' seeds (seed, seed + 1, ...), the callback's

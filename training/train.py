@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import functools
 import json
-import warnings
 import platform
 import re
 import shlex
@@ -22,15 +21,15 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import yaml
 
 from dresspack_gym import __version__
+from dresspack_gym.cli.args import number, seed
 from dresspack_gym.errors import ConfigError, DresspackError
-
-from dresspack_gym.cli_args import number, seed
-from dresspack_gym.loading import read_yaml
+from dresspack_gym.io.loading import read_yaml
 from dresspack_gym.shipped import find_shipped
 
 from .config import MAX_ENVS, MAX_TIMESTEPS, TrainConfig, apply_overrides, check_env_kwargs, train_config_from_dict

@@ -1,0 +1,1 @@
+"""The ``dresspack`` command line, its argument types and the physics benchmark."""

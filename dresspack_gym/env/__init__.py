@@ -1,0 +1,5 @@
+"""The Gymnasium environment: a robot carrying a simulated dresspack through a weld cycle, with masked actions."""
+
+from .dresspack_env import DresspackEnv
+
+__all__ = ["DresspackEnv"]

@@ -1,0 +1,1 @@
+"""Files in and out: station YAML in, robot programs and videos out."""

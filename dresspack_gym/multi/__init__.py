@@ -1,0 +1,1 @@
+"""Stations with several robots: shared welds, timed schedules on one clock, robot-robot coordination, replay."""

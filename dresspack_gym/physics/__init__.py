@@ -1,0 +1,1 @@
+"""Cable physics: quasi-static simulation, wear measures and cost, damage, fatigue, trajectory replay, profiles."""

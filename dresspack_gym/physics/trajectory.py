@@ -1,0 +1,229 @@
+"""Joint trajectories (straight segments, stop at each waypoint) and their replay in the cable simulator.
+
+Every method (planners, policies) is judged by replaying its trajectory here, so all are measured alike.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..robots import time_law
+from ..robots.time_law import JointLimits, PathMotion
+from .damage import SegmentDamage, accumulate
+from .fatigue import FatigueLife, fatigue_life
+from .simulation import CableSimulator
+from .wear_cost import cost_function
+
+MEASURES = ("curvature", "tension", "clearance", "twist_rate")
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Waypoints (K, 6) [rad] joined by straight joint-space segments under the simulator's time law
+    (at rest at each waypoint, joint speeds up to ``speed_fraction`` x rated); ``stops`` are the
+    waypoint indices of the task's welds and final Home, where the robot stands still and the cable settles."""
+
+    waypoints: np.ndarray
+    stops: tuple[int, ...]
+
+    def __post_init__(self):
+        w = np.asarray(self.waypoints, dtype=float)
+        if w.ndim != 2 or w.shape[1] != 6 or len(w) < 2:
+            raise ConfigError("trajectory.waypoints", f"expected (K >= 2, 6) joint angles, got shape {w.shape}")
+        if not np.isfinite(w).all():
+            raise ConfigError("trajectory.waypoints", "waypoints must be finite")
+        if any(not 0 < s < len(w) for s in self.stops) or list(self.stops) != sorted(set(self.stops)):
+            raise ConfigError("trajectory.stops", f"must be increasing waypoint indices in [1, {len(w) - 1}]")
+        object.__setattr__(self, "waypoints", w)
+
+    def segment_durations(self, limits: time_law.JointLimits) -> np.ndarray:
+        """Seconds per segment under the time law with the robot's joint ``limits`` (at the programmed speed)."""
+        return time_law.segment_durations(np.diff(self.waypoints, axis=0), limits)
+
+    def legs(self) -> list[np.ndarray]:
+        """The waypoints of each leg (between consecutive stops, both ends included)."""
+        bounds = [0, *self.stops]
+        return [self.waypoints[a:b + 1] for a, b in zip(bounds[:-1], bounds[1:])]
+
+    @staticmethod
+    def from_legs(legs: list[np.ndarray]) -> "Trajectory":
+        """Join legs (each starting where the previous ended) into one trajectory with a stop after each."""
+        pts, stops = [np.asarray(legs[0][0], dtype=float)], []
+        for leg in legs:
+            pts.extend(np.asarray(leg[1:], dtype=float))
+            stops.append(len(pts) - 1)
+        return Trajectory(np.array(pts), tuple(stops))
+
+
+def save_trajectory(path, traj: Trajectory, **meta) -> None:
+    """``traj`` as ``.npz`` (waypoints [rad], stops) with ``meta`` (station, robot, speed_fraction) as JSON."""
+    import json
+
+    np.savez(path, waypoints=traj.waypoints, stops=np.array(traj.stops, dtype=int), meta=json.dumps(meta))
+
+
+def load_trajectory_file(path) -> tuple[Trajectory, dict]:
+    """A trajectory saved by :func:`save_trajectory` (or an evaluation's ``trajectories/*.npz``) and its meta."""
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError("plan", f"file not found: {path}")
+    try:
+        data = np.load(path)
+        traj = Trajectory(data["waypoints"], tuple(int(i) for i in data["stops"]))
+        meta = json.loads(str(data["meta"])) if "meta" in data else {}
+    except (OSError, ValueError, KeyError) as exc:
+        raise ConfigError("plan", f"{path} is not a saved trajectory (.npz with waypoints and stops): {exc}") from None
+    return traj, meta
+
+
+@dataclass
+class Replay:
+    """Measures sampled along a replayed trajectory (time is the robot's motion time [s])."""
+
+    time: np.ndarray
+    q: np.ndarray
+    measures: dict[str, np.ndarray]  # MEASURES -> (N,)
+    cost: np.ndarray  # (N,) C(gamma) of eq. 4.10 at each sample
+    cost_terms: dict[str, np.ndarray]
+    stop_times: list[float]
+    cycle_time: float
+    thresholds: dict[str, float] = field(default_factory=dict)
+    unconverged_stops: int = 0  # stops whose settle did not reach the equilibrium residual (flagged, not hidden)
+    damage: SegmentDamage | None = None  # per-segment damage of the cycle (recorded with states)
+    fatigue: FatigueLife | None = None  # per-segment fatigue life, the cycle repeated
+
+    def integrated_cost(self) -> float:
+        """Integral of C over the cycle [cost x s] (trapezoid over the samples)."""
+        return float(np.trapezoid(self.cost, self.time)) if len(self.time) > 1 else 0.0
+
+    def summary(self) -> dict:
+        m = self.measures
+        return {
+            "cycle_time": round(self.cycle_time, 4),
+            "max_curvature": float(m["curvature"].max()),
+            "max_tension": float(m["tension"].max()),
+            "min_clearance": float(m["clearance"].min()),
+            "max_twist_rate": float(m["twist_rate"].max()),
+            "max_total_twist": float(m["total_twist"].max()),
+            "max_node_force": float(m["node_force"].max()),
+            "max_node_torque": float(m["node_torque"].max()),
+            "unconverged_stops": self.unconverged_stops,
+            "cost": self.integrated_cost(),
+            "max_cost": float(self.cost.max()),
+            "cost_terms": {k: float(np.trapezoid(v, self.time)) if len(self.time) > 1 else 0.0
+                           for k, v in self.cost_terms.items()},
+            **(self.damage.summary() if self.damage is not None else {}),
+            **(self.fatigue.summary() if self.fatigue is not None else {}),
+        }
+
+
+def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_every: float = 0.05,
+           speed_fraction: float | None = None, cost_variant: str = "thesis", start_state=None,
+           until: float | None = None, record_states: bool = True, on_sample=None) -> Replay:
+    """Run ``traj`` in the simulator from a settled start (``start_state`` or a fresh reset at its first
+    waypoint) and record the measures every ``record_every`` s and after settling at every stop.
+    With ``until`` the replay stops at that motion time and leaves ``sim`` in that state (to render it).
+    With ``record_states`` every sample also records each segment's state, from which the replay's per-segment
+    damage and fatigue life are computed (the trajectory taken as one period of a repeated station cycle)."""
+    cost_fn = cost_function(cost_variant)
+    station = sim.station
+    q_all = station.home.copy()
+
+    def full(q):
+        q_all[robot] = q
+        return q_all.copy()
+
+    if start_state is not None:
+        sim.set_state(start_state)
+        if not np.allclose(sim.q[robot], traj.waypoints[0], atol=1e-9):
+            raise ConfigError("start_state", "the start state's robot configuration is not the trajectory's start")
+    else:
+        sim.reset(full(traj.waypoints[0]))
+    sim.motion_time = 0.0
+    measures0, states0 = sim.measures_and_states()
+    samples_t, samples_q, samples_m = [0.0], [traj.waypoints[0].copy()], [measures0]
+    samples_s = [states0[robot]] if record_states else []
+    if on_sample is not None:
+        on_sample(0.0)
+    stops = set(traj.stops)
+    stop_times = []
+    unconverged = 0
+    for i, q in enumerate(traj.waypoints[1:], start=1):
+        trace = sim.move_to(full(q), speed_fraction=speed_fraction, settle=i in stops, record_every=record_every,
+                            until=until, record_states=record_states, on_sample=on_sample)
+        samples_t += trace.time
+        samples_q += [x[robot] for x in trace.q]
+        samples_m += trace.measures
+        samples_s += [x[robot] for x in trace.states]
+        if until is not None and sim.motion_time >= until:
+            break
+        if i in stops:
+            unconverged += int(sim.last_settle is not None and not sim.last_settle.converged)
+            stop_times.append(sim.motion_time)
+            samples_t.append(sim.motion_time)
+            samples_q.append(q.copy())
+            stop_measures, stop_states = sim.measures_and_states()
+            samples_m.append(stop_measures)
+            if record_states:
+                samples_s.append(stop_states[robot])
+    cfg = station.config.wear_cost
+    costs = [cost_fn(m, cfg) for m in samples_m]
+    measures = {
+        "curvature": np.array([m.max_curvature for m in samples_m]),
+        "tension": np.array([m.max_tension for m in samples_m]),
+        "clearance": np.array([m.min_clearance for m in samples_m]),
+        "twist_rate": np.array([m.max_twist_rate for m in samples_m]),
+        "total_twist": np.array([m.total_twist for m in samples_m]),
+        "node_force": np.array([m.max_node_force for m in samples_m]),
+        "node_torque": np.array([m.max_node_torque for m in samples_m]),
+    }
+    terms = {k: np.array([c.terms()[k] for c in costs]) for k in costs[0].terms()}
+    damage = life = None
+    if record_states:
+        dresspack = station.config.robots[robot].dresspack
+        damage = accumulate(samples_t, samples_s, dresspack)
+        life = fatigue_life(samples_s, dresspack.fatigue, damage.arc, dresspack.tensile_stiffness)
+    return Replay(np.array(samples_t), np.array(samples_q), measures, np.array([c.total for c in costs]), terms,
+                  stop_times, sim.motion_time,
+                  {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance}, unconverged, damage, life)
+
+
+# [rad] joint changes below this do not count as a direction (numerical noise of a planner's waypoints)
+STILL_JOINT = 1e-6
+
+
+def smoothness(traj: Trajectory, limits: JointLimits) -> dict[str, float]:
+    """``{"reversals_per_s", "peak_joint_acceleration"}``: the number of times any joint turns back (its moving
+    direction flips from one moving segment of it to its next) per second of motion, and the largest joint
+    acceleration [rad/s^2] of the timed motion."""
+    motion = PathMotion(traj.waypoints, limits)
+    duration = motion.duration
+    return {"reversals_per_s": _reversals(traj.waypoints) / duration if duration > 0 else 0.0,
+            "peak_joint_acceleration": motion.peak_acceleration()}
+
+
+def _reversals(waypoints: np.ndarray) -> int:
+    """How often any joint turns back: its moving direction flips from one moving segment of it to its next."""
+    dq = np.diff(waypoints, axis=0)
+    reversals = 0
+    for j in range(dq.shape[1]):
+        signs = np.sign(dq[np.abs(dq[:, j]) > STILL_JOINT, j])
+        reversals += int(np.count_nonzero(signs[1:] != signs[:-1]))
+    return reversals
+
+
+def schedule_smoothness(schedule) -> dict[str, float]:
+    """:func:`smoothness` of one robot's station program (a ``RobotSchedule``), measured alike: reversals over the
+    waypoints of all its legs per second of motion, and the largest joint acceleration of its legs' timed motions
+    (each as it runs, flying by its via points or stopping at each). For legs that stop at each via point this is
+    :func:`smoothness` of the same waypoints as one trajectory."""
+    duration = float(np.sum(schedule.leg_durations()))
+    peak = max((m.peak_acceleration() for m in schedule.motions() if m.duration > 0), default=0.0)
+    return {"reversals_per_s": _reversals(np.vstack(schedule.legs)) / duration if duration > 0 else 0.0,
+            "peak_joint_acceleration": float(peak)}

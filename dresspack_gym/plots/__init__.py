@@ -1,0 +1,1 @@
+"""Figures: measures over time, joint restriction zones, damage along the cable, station plans."""

@@ -1,0 +1,2 @@
+"""Robots: configuration, kinematics (FK/IK), the MuJoCo body chain, URDF/MJCF import, checks, limits, time law,
+joint restrictions."""

@@ -1,0 +1,79 @@
+"""The dresspack command line: inspect (text and JSON), render, bench, and error exits."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from dresspack_gym.cli.main import main
+
+
+def test_inspect_json_has_the_documented_keys(capsys):
+    assert main(["inspect", "default", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in ("max_curvature", "max_tension", "min_clearance", "max_twist_rate", "cost", "cost_terms"):
+        assert key in out
+    assert set(out["cost_terms"]) == {"curvature", "tension", "distance", "twist", "damage"}
+    assert out["cost"] == pytest.approx(sum(out["cost_terms"].values()))
+    assert all(np.isfinite([out["max_curvature"], out["max_tension"], out["min_clearance"], out["cost"]]))
+
+
+def test_inspect_text_summarises_robot_cable_and_measures(capsys):
+    assert main(["inspect", "default"]) == 0
+    out = capsys.readouterr().out
+    for text in ("abb_irb6700_200_260", "young=", "max curvature", "wear cost (4.10)", "IK solutions"):
+        assert text in out
+
+
+def test_inspect_reports_bad_station_cleanly(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nrobots: []\n")
+    assert main(["inspect", str(bad)]) == 2
+    assert "robots" in capsys.readouterr().err
+
+
+def test_render_writes_a_picture(tmp_path):
+    out = tmp_path / "station.png"
+    assert main(["render", "default", "--out", str(out), "--width", "320", "--height", "240"]) == 0
+    import matplotlib.image as mpimg
+
+    img = mpimg.imread(out)
+    assert img.shape[:2] == (240, 320)
+    assert img[..., :3].std() > 0.05  # not a blank frame
+
+
+def test_bench_physics_json(capsys):
+    assert main(["bench", "physics", "--json", "--repeats", "1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["raw_mj_step_steps_per_s"] > 0 and out["move90_steps"] > 0
+
+
+def test_console_script_module_entry():
+    res = subprocess.run([sys.executable, "-m", "dresspack_gym.cli.main", "--help"], capture_output=True, text=True)
+    assert res.returncode == 0 and "inspect" in res.stdout
+
+
+def test_restrictions_command_lists_rules_and_plots(tmp_path, capsys):
+    out = tmp_path / "zones.png"
+    assert main(["restrictions", "default", "--plot", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "support cylinder" in text and "forbidden" in text
+    assert out.stat().st_size > 10_000
+
+
+def test_bench_restrictions_json(capsys):
+    assert main(["bench", "restrictions", "--json", "--repeats", "1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert 0 < out["batched_us_per_config"] < out["single_call_us"]
+
+
+def test_bench_collision_json(capsys):
+    assert main(["bench", "collision", "--json", "--repeats", "1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    # a query poses the robot (one kinematics pass) and then does more: its cost is a ratio above 1
+    assert out["pairs"] > 0 and out["kinematics_us"] > 0
+    # (each is tens of kinematics passes; how the two compare is timing, which a loaded machine can swap)
+    assert out["pose_and_bounds_vs_kinematics"] > 1.0 and out["min_distance_vs_kinematics"] > 1.0
+    assert 0.0 < out["collides_fraction"] < 1.0

@@ -1,0 +1,202 @@
+"""The comparison report: built end to end on a tiny configuration; its numbers are results.json's numbers."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+pytest.importorskip("ompl")
+pytest.importorskip("sb3_contrib")
+
+from dresspack.eval.compare import main  # noqa: E402
+from dresspack.eval.runs import METRICS, EvalSpec  # noqa: E402
+from dresspack.eval.summary import JSON_KEYS, aggregate, by_method, fmt  # noqa: E402
+
+from dresspack_gym.errors import ConfigError  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def tiny_report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("report")
+    code = main(["--methods", "ompl", "random", "--tasks", "roof_rail_top", "--seeds", "0", "1",
+                 "--time-budget", "5", "--out", str(out), "--json"])
+    assert code == 0
+    return out
+
+
+def _table_rows(markdown: str, heading: str) -> dict[str, list[str]]:
+    section = markdown.split(f"## {heading}", 1)[1].split("\n## ", 1)[0]
+    rows = [line.strip("|").split(" | ") for line in section.splitlines() if line.startswith("| ")]
+    header, *body = [[c.strip() for c in r] for r in rows]
+    return {r[0]: dict(zip(header, r)) for r in body}
+
+
+def test_report_numbers_equal_results_json_and_failures_are_shown(tiny_report):
+    results = json.loads((tiny_report / "results.json").read_text())
+    rows = results["rows"]
+    assert len(rows) == 4 and {r["method"] for r in rows} == {"ompl", "random"}  # method x task x seed
+    md = (tiny_report / "report.md").read_text()
+    table = _table_rows(md, "All tasks")
+    assert set(table) == {"ompl", "random"}  # a method that failed is listed, not dropped
+    for method, shown in table.items():
+        agg = aggregate([r for r in rows if r["method"] == method])
+        assert shown["success"].startswith(f"{agg['n_success']}/{agg['n_runs']}")
+        assert shown["∫C dt"] == fmt(agg["cost"]) and shown["cycle time [s]"] == fmt(agg["cycle_time"])
+        assert shown["max κ [1/m]"] == fmt(agg["max_curvature"])
+    assert table["ompl"]["success"].startswith("2/2")
+    ompl = [r for r in rows if r["method"] == "ompl"]
+    assert all(r["cost"] > 0 and r["cycle_time"] > 0 for r in ompl)
+    # the random floor rarely completes in 100 steps; whatever it did, failures read "failed"
+    failed = [r for r in rows if not r["success"]]
+    assert all(r["error"] for r in failed)
+    if all(not r["success"] for r in rows if r["method"] == "random"):
+        assert table["random"]["∫C dt"] == "failed"
+    assert results["summary"]["ompl"]["success_rate"] == 1.0
+
+
+def test_report_files_and_embedded_figures(tiny_report):
+    for name in ("report.md", "report.html", "results.json", "results.csv", "figures/overview.png",
+                 "figures/restrictions.png", "figures/measures_roof_rail_top.png", "figures/worst_ompl.png"):
+        assert (tiny_report / name).is_file(), name
+    html = (tiny_report / "report.html").read_text()
+    assert html.count("data:image/png;base64,") >= 4 and "<table>" in html  # self-contained
+    csv_lines = (tiny_report / "results.csv").read_text().strip().splitlines()
+    assert len(csv_lines) == 1 + 4
+
+
+def test_report_embeds_an_animation_per_successful_method(tiny_report):
+    html_text = (tiny_report / "report.html").read_text()
+    videos = sorted((tiny_report / "figures").glob("anim_*.mp4"))
+    ok = {r["method"] for r in json.loads((tiny_report / "results.json").read_text())["rows"] if r["success"]}
+    assert len(videos) == len(ok) >= 1 and all(v.stat().st_size > 1000 for v in videos)
+    assert html_text.count("data:video/mp4;base64,") == len(videos)
+
+
+def test_json_summary_keys_and_resume(tiny_report, capsys):
+    code = main(["--methods", "ompl", "random", "--tasks", "roof_rail_top", "--seeds", "0", "1",
+                 "--time-budget", "5", "--out", str(tiny_report), "--json", "--no-render"])
+    assert code == 0
+    summary = json.loads(capsys.readouterr().out)
+    for method in ("ompl", "random"):
+        assert set(JSON_KEYS) <= set(summary[method])
+    results = json.loads((tiny_report / "results.json").read_text())
+    assert summary["ompl"]["cost"] == pytest.approx(aggregate([r for r in results["rows"]
+                                                              if r["method"] == "ompl"])["cost"]["mean"])
+    assert len((tiny_report / "results.jsonl").read_text().splitlines()) == 4  # resumed: nothing re-run
+
+
+def test_bad_evaluation_input_names_the_field(tmp_path, capsys):
+    with pytest.raises(ConfigError, match="methods"):
+        EvalSpec(methods=("ompl", "astar"))
+    assert main(["--tasks", "nowhere", "--methods", "ompl", "--out", str(tmp_path)]) == 2
+    assert re.search(r"welds|weld point", capsys.readouterr().err)
+
+
+def test_report_html_renders_in_headless_chromium(tiny_report, tmp_path):
+    """A real browser: the embedded figures decode and the page has the report's height (tables + images)."""
+    import shutil
+    import subprocess
+
+    browser = shutil.which("chromium") or shutil.which("chromium-browser")
+    if browser is None:
+        pytest.skip("chromium not installed (apt install chromium)")
+    shot = tmp_path / "shot.png"
+    subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", f"--screenshot={shot}",
+                    "--window-size=1200,1600", (tiny_report / "report.html").as_uri()],
+                   capture_output=True, timeout=120, check=False)
+    from PIL import Image
+
+    image = np.asarray(Image.open(shot).convert("L"), dtype=float)
+    assert image.shape == (1600, 1200)
+    assert image.std() > 20  # not a blank page: text, tables and figures
+
+
+def test_report_shows_damage_and_life_per_method(tiny_report):
+    """The damage section lists every method with its shortest life and weakest segment, and the figures of
+    damage along the cable and of the damage strip are written."""
+    md = (tiny_report / "report.md").read_text()
+    table = _table_rows(md, "Damage and fatigue life")
+    assert set(table) == {"ompl", "random"}
+    for m, row in table.items():
+        if row["shortest life [cycles]"] != "failed":
+            assert float(row["shortest life [cycles]"]) > 0 and row["weakest segment (shortest)"].endswith(" m")
+    assert list((tiny_report / "figures").glob("damage_roof_rail_top*.png"))
+    assert list((tiny_report / "figures").glob("damage_strip_roof_rail_top*.png"))
+
+
+
+def test_report_names_runs_whose_settles_missed_the_residual():
+    from dresspack.eval.report import _settle_note
+
+    rows = [{"method": "ompl", "task": "a", "seed": 0, "success": True, "unconverged_stops": 0},
+            {"method": "ompl-wear", "task": "a", "seed": 1, "success": True, "unconverged_stops": 2}]
+    assert _settle_note(rows) == ("Settles that did not reach the equilibrium residual within their cap (stops per "
+                                  "run): ompl-wear on a (seed 1): 2")
+    assert _settle_note(rows[:1]).startswith("Every settle")
+
+
+def test_network_time_column_only_for_a_learned_planner():
+    from dresspack.eval.report import _table
+
+    def row(method, planning, inference=None):
+        r = {"method": method, "success": True, **{m: 1.0 for m in METRICS}, "planning_time": planning}
+        return r | ({"inference_time": inference} if inference is not None else {})
+
+    rows = [row("ppo", 4.0, 0.002), row("ppo", 6.0, 0.004), row("ompl", 2.0)]
+    table = _table(by_method(rows, ["ppo", "ompl"]))
+    assert table["header"][-1] == "network [s]"
+    assert table["rows"][0][-1].startswith("0.003") and table["rows"][1][-1] == "–"
+    assert "network [s]" not in _table(by_method(rows[2:], ["ompl"]))["header"]
+
+
+def test_an_evaluation_folder_takes_added_methods_but_no_other_change():
+    from dresspack.eval.runs import _extends
+
+    base = EvalSpec(methods=("ompl",), tasks=(("roof_rail_top",),), seeds=(0,)).to_dict()
+    more = EvalSpec(methods=("ompl", "ppo"), tasks=(("roof_rail_top",),), seeds=(0,), policy="somewhere").to_dict()
+    assert _extends(base, base) and _extends(base, more)
+    assert not _extends(more, base)  # a stored method dropped
+    assert not _extends(more, more | {"policy": "elsewhere"})  # the stored ppo rows came from another policy
+    assert not _extends(base, more | {"seeds": [0, 1]}) and not _extends(base, more | {"iterations": 10})
+
+
+def test_time_weight_is_checked_stored_and_older_folders_still_resume(capsys):
+    from dresspack.eval.runs import _extends
+
+    for bad in (-0.5, -1.0, 1001, float("nan"), float("inf"), True, "2"):
+        with pytest.raises(ConfigError, match="time_weight"):
+            EvalSpec(methods=("ompl-wear",), time_weight=bad)
+    with pytest.raises(SystemExit):
+        main(["--methods", "ompl-wear", "--time-weight", "-1"])
+    assert "--time-weight" in capsys.readouterr().err
+    base = EvalSpec(methods=("ompl-wear",), tasks=(("roof_rail_top",),), seeds=(0,)).to_dict()
+    faster = base | {"time_weight": 10.0}
+    older = {k: v for k, v in base.items() if k != "time_weight"}  # written before the setting existed (weight 1)
+    assert _extends(older, base) and not _extends(older, faster) and not _extends(base, faster)
+
+
+def test_time_weight_reaches_the_wear_aware_leg_cost(monkeypatch, tmp_path):
+    """The weight is the planners' LegCost's (J = weight x seconds + ∫C dt): the one place it acts."""
+    from dresspack.eval import runs
+
+    from dresspack_gym.io.loading import load_station
+    from dresspack_gym.stations.station import Station
+
+    made = {}
+    real = runs.make_planner
+
+    def spy(method, *args, **kwargs):
+        made[method] = kwargs.get("time_weight")
+        raise ConfigError("methods", "stopped by the test after the planner's arguments were seen")
+
+    monkeypatch.setattr(runs, "make_planner", spy)
+    spec = EvalSpec(methods=("ompl-wear",), tasks=(("roof_rail_top",),), seeds=(0,), time_weight=7.5)
+    with pytest.raises(ConfigError, match="stopped by the test"):
+        runs.run_evaluation(spec, tmp_path / "tw", progress=False)
+    assert made == {"ompl-wear": 7.5}
+    planner = real("ompl-wear", Station(load_station("default")), 0, seed=0, time_weight=7.5, routes=1,
+                   evaluations=1, iterations=100)
+    assert planner.leg_cost.time_weight == 7.5

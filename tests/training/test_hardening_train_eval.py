@@ -1,0 +1,261 @@
+"""dresspack-train, dresspack-eval and dresspack plan: bad input refused before any work, naming the flag or
+field; a finished run never overwritten without --force; Ctrl-C always exits; resumed evaluations equal
+uninterrupted ones."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+pytest.importorskip("sb3_contrib")
+pytest.importorskip("ompl")
+
+from dresspack.eval.compare import main as eval_main  # noqa: E402
+from dresspack.training.train import main as train_main  # noqa: E402
+from test_training import SMOKE  # noqa: E402
+
+from dresspack_gym.cli.main import main as dresspack_main  # noqa: E402
+
+
+def _smoke_yaml(tmp_path, **changes) -> str:
+    path = tmp_path / "smoke.yaml"
+    path.write_text(yaml.safe_dump({**SMOKE, **changes}))
+    return str(path)
+
+
+TRAIN_FLAG_CASES = [
+    (["--n-envs", "65"], "--n-envs"), (["--n-envs", "0"], "--n-envs"), (["--seed", "-1"], "--seed"),
+    (["--seed", str(2**32)], "--seed"), (["--total-timesteps", "0"], "--total-timesteps"),
+    (["--total-timesteps", "1e30"], "--total-timesteps"), (["--total-timesteps", "nan"], "--total-timesteps"),
+]
+
+
+@pytest.mark.parametrize("flags,flag", TRAIN_FLAG_CASES, ids=[" ".join(f) for f, _ in TRAIN_FLAG_CASES])
+def test_train_flags_are_ranged(tmp_path, capsys, flags, flag):
+    with pytest.raises(SystemExit) as exc:
+        train_main([_smoke_yaml(tmp_path), "--run-dir", str(tmp_path / "r"), *flags])
+    assert exc.value.code == 2 and f"argument {flag}" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("changes,field", [
+    ({"total_timesteps": 10**12}, "total_timesteps"), ({"total_timesteps": 1e30}, "total_timesteps"),
+    ({"seed": 2**32}, "seed"), ({"n_envs": 65}, "n_envs"),
+    ({"ppo": {"n_steps": 64, "batch_size": 256}}, "ppo.batch_size"),
+    ({"env_kwargs": {"max_steps": 1.5}}, "env_kwargs.max_steps"),
+    ({"env_kwargs": {"goal_reward": float("inf")}}, "env_kwargs.goal_reward"),
+    ({"env_kwargs": {"wear_weight": float("nan")}}, "env_kwargs.wear_weight"),
+    ({"env_kwargs": {"start_noise_deg": 1e6}}, "env_kwargs.start_noise_deg"),
+])
+def test_train_config_values_are_checked_before_any_file_is_written(tmp_path, capsys, changes, field):
+    assert train_main([_smoke_yaml(tmp_path, **changes), "--run-dir", str(tmp_path / "r")]) == 2
+    assert f"error: {field}" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
+def test_cli_n_envs_override_passes_the_config_checks(tmp_path, capsys):
+    """--n-envs goes through the same reader as the YAML: batch_size must still fit one rollout."""
+    path = _smoke_yaml(tmp_path, n_envs=2, ppo={"n_steps": 64, "batch_size": 128})
+    assert train_main([path, "--run-dir", str(tmp_path / "r"), "--n-envs", "1"]) == 2
+    assert "ppo.batch_size" in capsys.readouterr().err
+
+
+def test_finished_run_is_never_overwritten_without_force(tmp_path, capsys):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "final_model.zip").write_bytes(b"model")
+    (run / "config.yaml").write_text(yaml.safe_dump({**SMOKE}))
+    assert train_main([_smoke_yaml(tmp_path), "--run-dir", str(run)]) == 2
+    assert "holds a finished run" in capsys.readouterr().err and (run / "final_model.zip").read_bytes() == b"model"
+    assert train_main(["--resume", str(run)]) == 2
+    assert "finished run" in capsys.readouterr().err
+    (tmp_path / "file").write_text("x")
+    assert train_main([_smoke_yaml(tmp_path), "--run-dir", str(tmp_path / "file")]) == 2
+    assert "existing file" in capsys.readouterr().err
+
+
+def test_resume_with_a_broken_config_names_the_file(tmp_path, capsys):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.yaml").write_text("n_envs: [unclosed\n")
+    assert train_main(["--resume", str(run)]) == 2
+    err = capsys.readouterr().err
+    assert "--resume" in err and "config.yaml" in err
+    (run / "config.yaml").write_text(yaml.safe_dump({**SMOKE, "n_envs": "two"}))
+    assert train_main(["--resume", str(run)]) == 2
+    assert "not a valid training config" in capsys.readouterr().err
+
+
+def _ctrl_c_once(tmp_path: Path, k: int) -> tuple[int, float, bool]:
+    """Start a 2-process training run, press Ctrl-C (SIGINT to the whole process group, as a terminal does)
+    once it steps, and return (exit code, seconds from the signal to exit, a checkpoint was saved)."""
+    run = tmp_path / f"ctrl_c_{k}"
+    cfg = {**SMOKE, "vec_env": "subproc", "total_timesteps": 100_000, "eval_every": 0, "checkpoint_every": 10**6}
+    path = tmp_path / f"ctrl_c_{k}.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    proc = subprocess.Popen([sys.executable, "-m", "dresspack.training.train", str(path), "--run-dir", str(run),
+                             "--no-progress"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            start_new_session=True, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and not list((run / "tb").rglob("events.out.tfevents*")):
+        time.sleep(0.2)  # TensorBoard's event file appears when learning starts
+    time.sleep(1.0 + 0.37 * (k % 5))  # land the interrupt at different points of a rollout
+    os.killpg(proc.pid, signal.SIGINT)
+    t0 = time.time()
+    try:
+        code = proc.wait(timeout=60)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        return -1, 60.0, False
+    return code, time.time() - t0, bool(list((run / "checkpoints").glob("ckpt_*_steps.zip")))
+
+
+REPEATS = int(os.environ.get("DRESSPACK_CTRLC_REPEATS", "1"))
+
+
+@pytest.mark.parametrize("k", range(REPEATS))
+def test_ctrl_c_in_training_always_exits_with_a_checkpoint(tmp_path, k):
+    code, seconds, saved = _ctrl_c_once(tmp_path, k)
+    assert code == 130 and saved and seconds < 45, (code, seconds, saved)
+
+
+# ----------------------------------------------------------------------------------------------- eval, plan
+EVAL_FLAG_CASES = [
+    (["--seeds", "-1"], "--seeds"), (["--seeds", str(2**32)], "--seeds"), (["--time-budget", "nan"], "--time-budget"),
+    (["--time-budget", "0"], "--time-budget"), (["--iterations", "0"], "--iterations"),
+    (["--routes", "-3"], "--routes"), (["--evaluations", "x"], "--evaluations"),
+    (["--start-noise-deg", "inf"], "--start-noise-deg"),
+]
+
+
+@pytest.mark.parametrize("flags,flag", EVAL_FLAG_CASES, ids=[" ".join(f) for f, _ in EVAL_FLAG_CASES])
+def test_eval_flags_are_ranged(tmp_path, capsys, flags, flag):
+    with pytest.raises(SystemExit) as exc:
+        eval_main(["--methods", "ompl", "--out", str(tmp_path / "e"), *flags])
+    assert exc.value.code == 2 and f"argument {flag}" in capsys.readouterr().err
+    assert not (tmp_path / "e").exists()
+
+
+@pytest.mark.parametrize("args,field", [
+    (["--tasks", "nope"], "tasks"), (["--methods", "fast"], "methods"),
+    (["--robustness-map", "no_such_map"], "robustness_map"), (["--station", "no_station"], "station"),
+    (["--methods", "ppo", "--policy", "no_policy"], "policy"),
+])
+def test_eval_inputs_are_checked_before_anything_is_written(tmp_path, capsys, args, field):
+    out = tmp_path / "e"
+    assert eval_main(["--methods", "ompl", "--tasks", "roof_rail_top", "--seeds", "0", *args, "--out", str(out)]) == 2
+    assert field in capsys.readouterr().err
+    assert not out.exists()  # no spec.json left behind to refuse the corrected rerun
+
+
+def test_eval_out_that_is_a_file_is_refused(tmp_path, capsys):
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(SystemExit):
+        eval_main(["--out", str(tmp_path / "f")])
+    assert "is an existing file" in capsys.readouterr().err
+
+
+def test_resumed_evaluation_equals_an_uninterrupted_one(tmp_path):
+    """Rows computed after a resume equal those of one uninterrupted run (per-plan seeding): the first run is
+    cut after its first row by removing the later rows from the log, as an interruption leaves it."""
+    args = ["--methods", "ompl", "thesis-local", "--tasks", "roof_rail_top", "sill_front", "--seeds", "0",
+            "--iterations", "300", "--evaluations", "4", "--no-render", "--json"]
+    full, part = tmp_path / "full", tmp_path / "part"
+    assert eval_main([*args, "--out", str(full)]) == 0
+    assert eval_main([*args, "--out", str(part)]) == 0
+    lines = (part / "results.jsonl").read_text().splitlines()
+    (part / "results.jsonl").write_text(lines[0] + "\n" + lines[1][: len(lines[1]) // 2])  # torn second row
+    assert eval_main([*args, "--out", str(part)]) == 0
+
+    def rows(folder):
+        out = {}
+        for line in (folder / "results.jsonl").read_text().splitlines():
+            r = json.loads(line)
+            r.pop("planning_time", None)
+            out[r["key"]] = r
+        return out
+
+    assert rows(full) == rows(part) and len(rows(full)) == 4
+
+
+PLAN_CASES = [
+    (["plan", "default", "--seed", "-1"], "--seed"), (["plan", "default", "--time-budget", "inf"], "--time-budget"),
+    (["plan", "default", "--iterations", "0"], "--iterations"),
+    (["plan", "default", "--plot", "{tmp}"], "--plot"), (["plan", "default", "--plot", "{tmp}/f/x.png"], "--plot"),
+]
+
+
+@pytest.mark.parametrize("argv,flag", PLAN_CASES, ids=[" ".join(a) for a, _ in PLAN_CASES])
+def test_plan_flags_and_paths_are_checked_before_planning(tmp_path, capsys, argv, flag):
+    (tmp_path / "f").write_text("x")
+    argv = [a.format(tmp=tmp_path) for a in argv]
+    with pytest.raises(SystemExit) as exc:
+        dresspack_main(argv)
+    assert exc.value.code == 2 and f"argument {flag}" in capsys.readouterr().err
+    assert dresspack_main([*argv, "--json"]) == 2  # under --json: one JSON error object
+    assert json.loads(capsys.readouterr().out)["field"] == flag
+
+
+def test_plan_json_errors_are_json(capsys):
+    assert dresspack_main(["plan", "default", "--welds", "nope", "--json"]) == 2
+    out = json.loads(capsys.readouterr().out)
+    assert out["field"] == "welds" and "nope" in out["error"]
+    assert dresspack_main(["plan", "default", "--robot", "3", "--json"]) == 2  # the station has one robot
+    out = json.loads(capsys.readouterr().out)
+    assert out["field"] == "robot" and "r1" in out["error"]
+
+
+def test_plan_for_one_robot_of_the_four_robot_station(capsys):
+    assert dresspack_main(["plan", "side_framing_4r", "--robot", "2", "--welds", "r3_sill_1", "--iterations", "300",
+                           "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["success"] and out["welds"] == ["r3_sill_1"] and out["life_cycles"] > 0
+
+
+def test_eval_cost_variant_damage_reports_the_integrated_damage_rate(tmp_path, capsys):
+    out = tmp_path / "e"
+    assert eval_main(["--methods", "ompl", "--tasks", "roof_rail_top", "--seeds", "0", "--iterations", "300",
+                      "--cost-variant", "damage", "--no-render", "--json", "--out", str(out)]) == 0
+    row = json.loads((out / "results.jsonl").read_text().splitlines()[0])
+    assert row["cost_terms"]["damage"] == pytest.approx(row["cost"]) and row["cost_terms"]["curvature"] == 0.0
+    assert "damage rate" in (out / "report.md").read_text()
+    with pytest.raises(SystemExit):
+        eval_main(["--cost-variant", "cheap", "--out", str(tmp_path / "x")])
+
+
+def test_close_vec_env_frees_a_close_stuck_on_an_answer_already_read():
+    """The Ctrl-C hang, made deterministic (found by the issue-19 helper): step_wait() had read worker 0's answer
+    when the interrupt came, so SubprocVecEnv.close() waits for that answer again, forever; close_vec_env returns
+    within its deadline and ends the workers."""
+    import threading
+
+    from dresspack.training.config import train_config_from_dict
+    from dresspack.training.train import close_vec_env, make_vec_env
+
+    venv = make_vec_env(train_config_from_dict({**SMOKE, "vec_env": "subproc"}), seed=0)
+    venv.reset()
+    venv.step_async([12, 12])
+    venv.remotes[0].recv()  # what step_wait() had done when the interrupt arrived
+
+    def plain_close():
+        try:
+            venv.close()
+        except (EOFError, OSError):  # once close_vec_env has ended the workers
+            pass
+
+    blocked = threading.Thread(target=plain_close, daemon=True)
+    blocked.start()
+    blocked.join(3.0)
+    assert blocked.is_alive()  # the bug: close() is stuck on worker 0
+    t0 = time.time()
+    close_vec_env(venv, timeout=1.0)
+    assert time.time() - t0 < 15.0
+    assert not any(p.is_alive() for p in venv.processes)
