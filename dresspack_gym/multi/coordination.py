@@ -32,11 +32,7 @@ class RobotPairDistance:
     def __init__(self, station: Station):
         self.station = station
         self.model = station.model
-        self.data = mujoco.MjData(self.model)
-        self.data.qpos[:] = self.model.qpos0
-        self.data.qpos[station.robot_qpos] = station.home.ravel()
-        self.data.qpos[station.load_qpos] = station.load_values
-        mujoco.mj_kinematics(self.model, self.data)
+        self.data = station.data_at_home()
         self.rbound = self.model.geom_rbound
         self._fromto = np.zeros(6)
         # the reach of each joint over every robot surface it moves (bounds how far any point moves per radian)

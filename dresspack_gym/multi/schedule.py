@@ -27,8 +27,8 @@ class RobotSchedule:
     """Robot ``robot`` leaves Home, welds ``welds`` in order (``weld_time`` standing still at each) and returns
     Home. ``legs[k]`` are the waypoints of the motion into stop k (the welds, then Home); the motion of leg k
     starts at ``leg_start[k]`` [s]. ``fly_by[k]``: leg k flies by its via points instead of stopping at each
-    (:class:`~dresspack_gym.robots.time_law.PathMotion`; empty: no leg does). A robot that is not moving, welding or done
-    is waiting where it is."""
+    (:class:`~dresspack_gym.robots.time_law.PathMotion`; empty: no leg does). A robot that is not moving, welding or
+    done is waiting where it is."""
 
     robot: int
     welds: tuple[str, ...]

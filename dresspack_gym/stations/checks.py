@@ -24,11 +24,7 @@ class _Probe:
     def __init__(self, station):
         m = station.model
         self.model = m
-        self.data = mujoco.MjData(m)
-        self.data.qpos[:] = m.qpos0
-        self.data.qpos[station.robot_qpos] = station.home.ravel()
-        self.data.qpos[station.load_qpos] = station.load_values
-        mujoco.mj_kinematics(m, self.data)
+        self.data = station.data_at_home()
         self.probe = m.geom("clearance_probe").id
         self._fromto = np.zeros(6)
         self._quat = np.zeros(4)

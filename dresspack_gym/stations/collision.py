@@ -34,11 +34,7 @@ class RobotCollisionChecker:
         robot = station.check_robot(robot)
         self.station = station
         self.model = station.model
-        self.data = mujoco.MjData(self.model)
-        self.data.qpos[:] = self.model.qpos0
-        self.data.qpos[station.robot_qpos] = station.home.ravel()
-        self.data.qpos[station.load_qpos] = station.load_values  # dresspack nodes at their place on the links
-        mujoco.mj_kinematics(self.model, self.data)
+        self.data = station.data_at_home()
         self.robot = station.robots[robot]
         self.margin = float(margin)
         m = self.model

@@ -244,6 +244,16 @@ class Station:
                           dp.segment_length, dp.radius)
 
     # ------------------------------------------------------------------------------ helpers
+    def data_at_home(self) -> mujoco.MjData:
+        """A private MjData with every robot at Home and each dresspack node at its place on its link, kinematics
+        computed: geometric queries posed on it never disturb a running simulation."""
+        data = mujoco.MjData(self.model)
+        data.qpos[:] = self.model.qpos0
+        data.qpos[self.robot_qpos] = self.home.ravel()
+        data.qpos[self.load_qpos] = self.load_values
+        mujoco.mj_kinematics(self.model, data)
+        return data
+
     def initial_cable_shapes(self, q_robots: np.ndarray) -> list[np.ndarray]:
         """Reference shapes (world vertex positions) of every cable with the robots at ``q_robots``."""
         return [self.initial_cable_shapes_for(i, q) for i, q in enumerate(q_robots)]
