@@ -1,8 +1,8 @@
 """The README's table of the thesis scenarios: every planner on thesis_curvature, thesis_tension and
 thesis_distance, seeds 0 and 1, default work budgets (what `dresspack plan SCENARIO --planner P --seed S --json`
-gives), one plan after another in this process.
+gives, with those budgets passed explicitly), one plan after another.
 
-    .venv/bin/python scripts/scenario_table.py [--out docs/scenario_table.json] [--seeds 0 1]
+    .venv/bin/python scripts/scenario_table.py [--out docs/scenario_table.json] [--seeds 0 1] [--scenarios curvature]
 
 Writes one JSON row per plan (appended as it goes, so an interrupted run resumes) and prints the README's
 markdown rows."""
@@ -11,36 +11,46 @@ from __future__ import annotations
 
 import argparse
 import json
+import subprocess
+import sys
 import time
 from pathlib import Path
 
 SCENARIOS = ("curvature", "tension", "distance")
 PLANNERS = ("ompl", "thesis-local", "ompl-wear")
+BUDGET = {"iterations": 3000, "routes": 12, "evaluations": 40}  # the CLI's defaults
 COLUMNS = (("cycle_time", "{:.2f}"), ("max_curvature", "{:.1f}"), ("max_tension", "{:.0f}"),
            ("min_clearance", "{:.3f}"), ("max_twist_rate", "{:.2f}"), ("cost", "{:.3g}"), ("planning_time", "{:.1f}"))
 
 
-def main() -> None:
-    from dresspack.agents.budget import Budget
-    from dresspack.agents.planning import plan_station
+def plan(dresspack: list[str], scenario: str, planner: str, seed: int) -> dict:
+    cmd = [*dresspack, "plan", f"thesis_{scenario}", "--planner", planner, "--seed", str(seed), "--json",
+           *[a for k, v in BUDGET.items() for a in (f"--{k}", str(v))]]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed ({done.returncode}):\n{done.stdout[-2000:]}{done.stderr[-2000:]}")
+    return json.loads(done.stdout)
 
+
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("docs/scenario_table.json"))
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
+    ap.add_argument("--scenarios", nargs="+", choices=SCENARIOS, default=list(SCENARIOS))
+    ap.add_argument("--dresspack", nargs="+", default=[str(Path(sys.executable).with_name("dresspack"))],
+                    help="the dresspack command (default: the one beside this Python)")
     args = ap.parse_args()
     rows = json.loads(args.out.read_text()) if args.out.exists() else []
     have = {(r["scenario"], r["planner"], r["seed"]) for r in rows}
-    budget = Budget()
-    for scenario in SCENARIOS:
+    for scenario in args.scenarios:
         for planner in PLANNERS:
             for seed in args.seeds:
                 if (scenario, planner, seed) in have:
                     continue
                 t = time.perf_counter()
-                s = plan_station(f"thesis_{scenario}", planner, seed=seed).summary()
+                s = plan(args.dresspack, scenario, planner, seed)
                 rows.append({"scenario": scenario, "planner": planner, "seed": seed,
-                             "budget": {"iterations": budget.iterations, "routes": budget.routes,
-                                        "evaluations": budget.evaluations},
+                             "budget": BUDGET,
                              **{k: s[k] for k, _ in COLUMNS if k in s},
                              "unconverged_stops": s["unconverged_stops"],
                              "with_replay_seconds": round(time.perf_counter() - t, 1)})
