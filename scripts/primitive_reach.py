@@ -37,7 +37,7 @@ def fewest_vias(env, start: np.ndarray, end: np.ndarray, max_vias: int) -> int |
             return depth
         if depth == max_vias:
             return None
-        frontier = [env._target(q, a, goal) for q, m in zip(frontier, masks)
+        frontier = [env.target(q, a, goal) for q, m in zip(frontier, masks)
                     for a in np.flatnonzero(m[1:env.stay_action]) + 1][:FRONTIER_CAP]
     return None
 

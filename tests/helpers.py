@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import copy
 
+import numpy as np
+
 from dresspack_gym.io.loading import station_from_dict
 from dresspack_gym.physics.simulation import CableSimulator
 from dresspack_gym.stations.station import Station
@@ -43,3 +45,9 @@ def default_station_dict():
     from dresspack_gym.io.loading import read_yaml, resolve_station_path
 
     return read_yaml(resolve_station_path("default"))
+
+
+# drawn_0 of `dresspack-eval --drawn-tasks 30 --seeds 0` on the default station: a weld on the body's panel that no
+# midpoint via leaves toward Home (docs/primitive_reach.json)
+STUCK_WELD = np.array([0.7407122213013433, 1.0980702748831073, -0.7737209529340379, 3.4157926055470913,
+                       -1.0514117569148649, 2.196833986149849])

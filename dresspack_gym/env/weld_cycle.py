@@ -6,6 +6,9 @@ its answers into goals and rewards; :class:`~dresspack_gym.env.dresspack_env.Dre
 
 from __future__ import annotations
 
+import math
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import ConfigError
@@ -13,6 +16,9 @@ from ..physics.wear_cost import cost_function
 from ..stations.station import Station
 from ..stations.tasks import closest_branch, select_weld_goals
 from ..stations.weld_sampling import SampledWeld, WeldSampler, WeldSampling
+
+if TYPE_CHECKING:
+    from .config import EnvConfig
 
 # The reward's named terms, in the order they are reported (``info["reward_<term>"]``); their sum is the reward.
 REWARD_TERMS = ("time", "wear", "progress", "goal", "invalid")
@@ -66,6 +72,17 @@ class WeldCycleTask:
         self.shuffle_welds = bool(shuffle_welds)
         self.tasks = self._check_tasks(tasks)
         self.begin(list(self.weld_goals))
+
+    @classmethod
+    def from_config(cls, station: Station, collides, step_size: float, config: EnvConfig) -> WeldCycleTask:
+        """The task an env's settings describe (``collides(q)``: the robot-station collision query)."""
+        c = config
+        return cls(station, c.robot, collides, step_size, welds=c.welds, n_welds=c.n_welds,
+                   shuffle_welds=c.shuffle_welds, tasks=c.tasks, time_weight=c.time_weight, wear_weight=c.wear_weight,
+                   goal_reward=c.goal_reward, progress_weight=c.progress_weight, invalid_penalty=c.invalid_penalty,
+                   wear_integral=c.wear_integral, cost_variant=c.cost_variant, part_welds=c.part_welds,
+                   weld_sampling=WeldSampling(tilt_max=math.radians(c.weld_tilt_deg)),
+                   wear_reward_cap=c.wear_reward_cap)
 
     def _check_tasks(self, tasks) -> list[list[str]] | None:
         if tasks is None:

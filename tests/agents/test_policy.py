@@ -7,8 +7,8 @@ import pytest
 
 pytest.importorskip("sb3_contrib")
 
-from dresspack.agents.base import PlanningError  # noqa: E402
-from dresspack.agents.policy import POLICY_DIR, PolicyPlanner, resolve_policy  # noqa: E402
+from dresspack.agents.learned.policy import POLICY_DIR, PolicyPlanner, resolve_policy  # noqa: E402
+from dresspack.agents.planners.base import PlanningError  # noqa: E402
 from dresspack.eval.runs import eval_start  # noqa: E402
 from dresspack.training.config import load_train_config  # noqa: E402
 
@@ -91,7 +91,7 @@ def test_goal_conditioned_policy_backs_out_of_a_weld_no_midpoint_via_leaves(stat
     (tests/env/test_env_primitives.py), so the policy leaves it another way: to a travel posture or one of Home's
     approach configurations (the shipped policy has them, and then the fallback here-vias are not offered) or with
     a here-via (one joint moves)."""
-    from test_env_primitives import STUCK_WELD
+    from helpers import STUCK_WELD
 
     planner = PolicyPlanner(station, 0, policy="goal_conditioned", time_budget=120)
     home = station.config.robots[0].home

@@ -12,7 +12,8 @@ from helpers import default_station_dict
 
 from dresspack_gym import ConfigError
 from dresspack_gym.cli.main import build_parser
-from dresspack_gym.env.dresspack_env import _NUMBER_ARGS, DresspackEnv, InvalidActionError
+from dresspack_gym.env.config import NUMBER_RANGES as _NUMBER_ARGS
+from dresspack_gym.env.dresspack_env import DresspackEnv, InvalidActionError
 from dresspack_gym.errors import DresspackError, EnvUsageError
 from dresspack_gym.io.loading import read_yaml, station_from_dict
 from dresspack_gym.maps.robustness.grid import RobustnessGrid

@@ -10,6 +10,7 @@ import pytest
 import dresspack_gym
 from dresspack_gym import ConfigError
 from dresspack_gym.env.dresspack_env import STAY, DresspackEnv, InvalidActionError
+from dresspack_gym.errors import EnvUsageError
 
 
 @pytest.fixture(scope="module")
@@ -181,7 +182,7 @@ def test_goal_seeking_policy_reaches_goals():
         masks = e.action_masks()
         best, best_phi = STAY, np.inf
         for a in np.flatnonzero(masks[:12]):
-            phi = np.max(np.abs(e._target(e.q, a) - e.goal))
+            phi = np.max(np.abs(e.target(e.q, a) - e.goal))
             if phi < best_phi:
                 best, best_phi = int(a), phi
         _, _, term, trunc, info = e.step(best)
@@ -242,3 +243,48 @@ def test_a_step_reports_the_residual_of_its_own_settle():
     moves = [a for a in np.flatnonzero(e.action_masks()) if a != STAY]
     _, _, _, _, info = e.step(int(moves[0]))  # settle_time=0: an ordinary step does not settle
     assert np.isnan(info["equilibrium_residual"]) and not info["settle_converged"]
+
+
+def test_action_masks_before_reset_is_refused():
+    fresh = DresspackEnv(station="default", max_steps=5)
+    with pytest.raises(EnvUsageError, match=r"action_masks\(\) before reset"):
+        fresh.action_masks()
+    fresh.reset(seed=0)
+    assert fresh.action_masks().shape == (fresh.n_actions,)
+    fresh.close()
+
+
+def test_step_after_close_is_refused_until_reset():
+    e = DresspackEnv(station="default", max_steps=5, settle_time=0.0)
+    e.reset(seed=0)
+    e.close()
+    with pytest.raises(EnvUsageError, match=r"step\(\) after close"):
+        e.step(STAY)
+    with pytest.raises(EnvUsageError, match=r"action_masks\(\) after close"):
+        e.action_masks()
+    e.reset(seed=0)  # a new episode reopens it
+    assert np.isfinite(e.step(STAY)[1])
+    e.close()
+
+
+@pytest.mark.parametrize("options, field", [
+    ({"start": "home"}, "options.start"),
+    ({"start": [0.0, 0.1]}, "options.start"),
+    ({"start": None}, "options.start"),
+    ({"welds": "sill_front"}, "options.welds"),
+    ({"welds": ["sill_front", 3]}, "options.welds"),
+    ({"goals": {"g": "home"}}, "options.goals.g"),
+])
+def test_bad_reset_options_name_the_option(env, options, field):
+    with pytest.raises(ConfigError) as err:
+        env.reset(seed=0, options=options)
+    assert err.value.field == field
+    assert "'s'" not in str(err.value)  # a weld name is not split into letters
+
+
+def test_a_weld_name_where_a_list_belongs_is_refused_whole():
+    for kwargs, field in (({"welds": "sill_front"}, "welds"), ({"tasks": ["sill_front"]}, "tasks[0]"),
+                          ({"tasks": [["sill_front", None]]}, "tasks[0]")):
+        with pytest.raises(ConfigError) as err:
+            DresspackEnv(station="default", **kwargs)
+        assert err.value.field == field and "sill_front" in str(err.value) and "'s'," not in str(err.value)

@@ -6,9 +6,11 @@ import pickle
 
 import numpy as np
 import pytest
+from helpers import STUCK_WELD
 
 from dresspack_gym import ConfigError
-from dresspack_gym.env.dresspack_env import TO_GOAL, DresspackEnv, InvalidActionError, _cost_row
+from dresspack_gym.env.dresspack_env import TO_GOAL, DresspackEnv, InvalidActionError
+from dresspack_gym.env.episode_wear import cost_row
 
 FREE_WAY = {"welds": ["roof_rail_top"]}  # the straight way from Home to this weld is free
 
@@ -25,8 +27,8 @@ def test_action_layout_and_targets(env):
     assert env.n_actions == 2 + 12 * 2 and env.stay_action == env.n_actions - 1
     env.reset(seed=0)
     q, goal = env.q, env.goal
-    np.testing.assert_array_equal(env._target(q, TO_GOAL), goal)
-    np.testing.assert_array_equal(env._target(q, env.stay_action), q)
+    np.testing.assert_array_equal(env.target(q, TO_GOAL), goal)
+    np.testing.assert_array_equal(env.target(q, env.stay_action), q)
     # action 1 + 12 i + 2 j (+1): the midpoint with joint j offset by +(-) via_offsets_deg[i]
     for i, off in enumerate((30.0, 60.0)):
         for j in range(6):
@@ -34,7 +36,7 @@ def test_action_layout_and_targets(env):
                 a = 1 + 12 * i + 2 * j + k
                 expected = q + 0.5 * (goal - q)
                 expected[j] += sign * math.radians(off)
-                np.testing.assert_allclose(env._target(q, a), expected, atol=1e-12)
+                np.testing.assert_allclose(env.target(q, a), expected, atol=1e-12)
                 assert f"j{j + 1} {sign * off:+g} deg" in env.describe_action(a)
     assert env.describe_action(TO_GOAL) == "straight to the goal" and env.describe_action(env.stay_action) == "stay"
 
@@ -52,15 +54,15 @@ def test_here_anchored_vias_offset_the_current_configuration():
                 mid, here = 1 + 12 * i + 2 * j + k, 1 + 24 + 12 * i + 2 * j + k
                 expected = q + 0.5 * (goal - q)
                 expected[j] += sign * math.radians(off)
-                np.testing.assert_allclose(e._target(q, mid), expected, atol=1e-12)
+                np.testing.assert_allclose(e.target(q, mid), expected, atol=1e-12)
                 expected = q.copy()
                 expected[j] += sign * math.radians(off)
-                np.testing.assert_allclose(e._target(q, here), expected, atol=1e-12)
+                np.testing.assert_allclose(e.target(q, here), expected, atol=1e-12)
                 assert e.describe_action(here) == f"via here with j{j + 1} {sign * off:+g} deg"
     other = goal + 0.3  # any leg's end: what the reachability study (scripts/primitive_reach.py) asks
     for a in (TO_GOAL, 1, 30):
-        expected = e._target(q, a)
-        np.testing.assert_allclose(e._target(q, a, other), expected + (other - goal) * (0.0 if a == 30 else
+        expected = e.target(q, a)
+        np.testing.assert_allclose(e.target(q, a, other), expected + (other - goal) * (0.0 if a == 30 else
                                                                                         1.0 if a == TO_GOAL else 0.5))
     # a here-anchored via leaves the other joints where they are: the segment moves one joint only
     a = int(next(a for a in range(25, e.n_actions - 1) if e.action_masks()[a]))
@@ -90,12 +92,12 @@ def test_travel_postures_are_actions_after_the_vias():
     q = e.q
     for k, posture in enumerate(postures):
         assert e.describe_action(first + k) == f"via travel posture {k}"
-        np.testing.assert_allclose(e._target(q, first + k), np.radians(posture), atol=1e-12)
-        np.testing.assert_allclose(e._target(q + 0.2, first + k, q), np.radians(posture), atol=1e-12)
-    assert not e._fallback[first:first + 2].any()  # offered like any other move
+        np.testing.assert_allclose(e.target(q, first + k), np.radians(posture), atol=1e-12)
+        np.testing.assert_allclose(e.target(q + 0.2, first + k, q), np.radians(posture), atol=1e-12)
+    assert not e.actions.fallback[first:first + 2].any()  # offered like any other move
     masks = e.action_masks()
     np.testing.assert_array_equal(masks[:first], plain.masks_at(q, e.goal)[:first])
-    assert masks[first] == e._segment_valid(q, np.radians(postures[0]))
+    assert masks[first] == e.segment_valid(q, np.radians(postures[0]))
     # taken: the robot stands at the posture, and the motion's wear is integrated as for any segment
     _, _, _, _, info = e.step(first)
     np.testing.assert_allclose(e.q, np.radians(TUCK_DEG), atol=1e-12)
@@ -103,12 +105,6 @@ def test_travel_postures_are_actions_after_the_vias():
     assert info["integral_cost"] > 0.0 and info["step_time"] > 1.0
     e.close()
     plain.close()
-
-
-# drawn_0 of `dresspack-eval --drawn-tasks 30 --seeds 0` on the default station: a weld on the body's panel that no
-# midpoint via leaves toward Home (docs/primitive_reach.json)
-STUCK_WELD = np.array([0.7407122213013433, 1.0980702748831073, -0.7737209529340379, 3.4157926055470913,
-                       -1.0514117569148649, 2.196833986149849])
 
 
 def test_fallback_vias_are_offered_only_where_nothing_else_moves():
@@ -170,7 +166,7 @@ def test_a_wait_at_rest_integrates_a_constant_cost():
     e = DresspackEnv(station="default", action_set="primitives", wear_integral=True, physics_profile="training")
     e.reset(seed=0)
     e.sim.settle()  # at equilibrium: C stays what it is over the wait
-    e._cost_now = _cost_row(e.task.cost(e.sim.measures()))
+    e.wear.cost_now = cost_row(e.task.cost(e.sim.measures()))
     _, _, _, _, info = e.step(e.stay_action)
     assert -info["reward_wear"] == pytest.approx(info["cost"] * info["step_time"], rel=1e-3)
 

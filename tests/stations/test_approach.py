@@ -88,10 +88,10 @@ def test_approach_vias_are_actions_before_the_wait(env):
     masks = env.action_masks()
     for k, a in enumerate(approaches):
         assert env.describe_action(first + k) == f"via approach configuration {k} of the goal"
-        np.testing.assert_array_equal(env._target(q, first + k), a)
-        assert masks[first + k] == env._segment_valid(q, a)
+        np.testing.assert_array_equal(env.target(q, first + k), a)
+        assert masks[first + k] == env.segment_valid(q, a)
     np.testing.assert_array_equal(masks[:first], plain.masks_at(q, env.goal)[:first])
-    obs = env._observation(env.sim.measures())
+    obs = env._get_obs(env.sim.measures())
     start = sum(n for k, n in env.observation_structure.items() if k in list(env.observation_structure)[:7])
     assert list(env.observation_structure)[7] == "approaches"
     np.testing.assert_allclose(obs[start:start + 18], np.clip((approaches - q).ravel() / np.pi, -5, 5), atol=1e-6)
@@ -107,13 +107,13 @@ def test_approach_vias_are_actions_before_the_wait(env):
 def test_a_goal_with_fewer_approaches_masks_the_rest(env, monkeypatch):
     env.reset(seed=2)
     one = env.approaches()[:1]
-    monkeypatch.setitem(env._approach_cache, env.goal.tobytes(), one)
-    env._mask_cache = None
+    monkeypatch.setitem(env.actions._approach_cache, env.goal.tobytes(), one)
+    env.masks.forget()
     masks = env.action_masks()
     first = env.stay_action - 3
     assert not masks[first + 1] and not masks[first + 2]
-    assert "1 approach configuration(s)" in env._why_masked(first + 2)
-    obs = env._observation(env.sim.measures())
+    assert "1 approach configuration(s)" in env.why_masked(first + 2)
+    obs = env._get_obs(env.sim.measures())
     start = sum(list(env.observation_structure.values())[:7])
     assert not obs[start + 6:start + 18].any()  # the missing approaches observe as zeros
 
