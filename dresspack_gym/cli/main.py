@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shlex
 import sys
 from pathlib import Path
 
@@ -77,11 +78,15 @@ def cmd_inspect(args) -> int:
     station, sim = _load(args.station)
     report = _measure_report(sim)
     cfg = station.config
+    unusable = _unusable(report["equilibrium"], cfg)
     if args.json:
         report["station"] = cfg.name
         report["weld_points"] = {k: int(len(v)) for k, v in station.weld_configurations.items()}
+        report["usable"] = unusable is None
+        if unusable:
+            report["unusable"] = unusable
         print(json.dumps(report, indent=2))
-        return 0
+        return 0 if unusable is None else 1
     print(f"Station {cfg.name!r}: {cfg.description}")
     for r, idx in zip(cfg.robots, station.robots):
         k = r.robot.kinematics
@@ -129,7 +134,26 @@ def cmd_inspect(args) -> int:
     print(f"  wear cost (4.10) {report['cost']:.4f} = curvature {terms['curvature']:.4f} + tension "
           f"{terms['tension']:.4f} + distance {terms['distance']:.4f} + twist {terms['twist']:.4f}; "
           f"normalized {report['normalized_cost']:.4f}")
+    if unusable:
+        print(f"\nTHE STATION CANNOT BE USED: {unusable}")
+        return 1
     return 0
+
+
+# [vertex weights] an unbalanced force this large at Home is no near-equilibrium: the cable is not at rest in any
+# meaningful sense (numerically stiff or over-constrained), and every measure and plan of the station is noise
+UNUSABLE_RESIDUAL = 1.0
+
+
+def _unusable(eq: dict, cfg) -> str | None:
+    """Why the station cannot be used (its cable does not settle at Home at all), or None."""
+    if eq["converged"] or eq["force_residual"] <= UNUSABLE_RESIDUAL:
+        return None
+    cables = "; ".join(f"{r.name}: EI={r.dresspack.bending_stiffness:g} N m^2, GJ={r.dresspack.torsional_stiffness:g} "
+                       f"N m^2, EA={r.dresspack.tensile_stiffness:g} N, L={r.dresspack.length:g} m" for r in cfg.robots)
+    return (f"the cable does not settle at Home (force residual {eq['force_residual']:.3g} vertex weights, "
+            f"settled means <= {cfg.simulation.equilibrium_tolerance:g}): its dresspack is too stiff for the "
+            f"simulation step or stretched between its nodes ({cables}); lower the stiffness or the timestep")
 
 
 def cmd_render(args) -> int:
@@ -179,8 +203,16 @@ def cmd_robustness(args) -> int:
              "cable_robot_contact": args.cable_robot_contact or None,
              "excursion": tuple(math.radians(e) for e in args.excursion) if args.excursion else None}
     settings = RobustnessSettings(**{k: v for k, v in given.items() if v is not None})
-    summary = run_map(grid, load_station(args.station), args.out, settings, backend=args.backend,
-                      workers=args.workers, ray_address=args.ray_address, progress=not args.json, limit=args.limit)
+    try:
+        summary = run_map(grid, load_station(args.station), args.out, settings, backend=args.backend,
+                          workers=args.workers, ray_address=args.ray_address, progress=not args.json,
+                          limit=args.limit)
+    except KeyboardInterrupt:
+        results = Path(args.out) / "results.csv"
+        saved = max(0, len(results.read_text().splitlines()) - 1) if results.is_file() else 0
+        print(f"\ninterrupted: {saved} configurations saved in {results}; resume with: "
+              f"dresspack {shlex.join(args.argv)}", file=sys.stderr)
+        return INTERRUPTED
     (Path(args.out) / "summary.json").write_text(json.dumps(summary, indent=2))
     plots = plot_map(args.out, grid, settings.threshold) if summary["n_configs"] else []
     if args.json:
@@ -296,24 +328,64 @@ def _robot_index(config, robot: int) -> int:
     return robot
 
 
-def cmd_export(args) -> int:
+def _checked_plan(args):
+    """(trajectory, meta, station config, robot index, identity) of ``args.plan`` for the station and robot named
+    (default: the plan's), refused if the plan was made for another robot or station."""
     from ..io.loading import load_station
-    from ..io.programs import TimedPath, write
+    from ..io.program_checks import check_identity, resolve_robot
     from ..physics.trajectory import load_trajectory_file
 
     traj, meta = load_trajectory_file(args.plan)
-    cfg = load_station(args.station or meta.get("station") or "default")
-    robot = args.robot if args.robot is not None else next(
-        (i for i, r in enumerate(cfg.robots) if r.name == meta.get("robot")), 0)
-    if not 0 <= robot < len(cfg.robots):
-        raise ConfigError("--robot", f"robot index {robot} does not exist: the station has {len(cfg.robots)}")
-    fraction = args.speed_fraction or meta.get("speed_fraction") or cfg.simulation.speed_fraction
+    station_ref = args.station or meta.get("station")
+    if not station_ref:
+        raise ConfigError("--station", "the plan does not say which station it was made for: give --station")
+    cfg = load_station(str(station_ref))
+    robot = resolve_robot(meta, cfg, getattr(args, "robot", None))
+    identity = check_identity(meta, cfg, robot, args.station is not None, load_station)
+    return traj, meta, cfg, robot, identity
+
+
+def _speed_fraction(given, meta: dict, cfg):
+    """The speed a plan runs at: as given, else as the plan says (checked, whatever it holds), else the station's."""
+    if given is not None:
+        return given
+    return meta["speed_fraction"] if meta.get("speed_fraction") is not None else cfg.simulation.speed_fraction
+
+
+def cmd_export(args) -> int:
+    from ..io.program_checks import SAMPLE_PERIOD, check_program, check_written
+    from ..io.programs import TimedPath, write
+
+    traj, meta, cfg, robot, identity = _checked_plan(args)
+    fraction = _speed_fraction(args.speed_fraction, meta, cfg)
     placement = cfg.robots[robot]
+    owner = f" of robot {placement.name!r} ({placement.robot.name})"
+    report = check_program(traj, placement.robot, fraction, owner, identity)
     path = TimedPath.of(traj, placement.robot, fraction, cfg.name, placement.name)
     text = write(path, args.format)
+    check_written(text, args.format, path, placement.robot)
+    summary = {"station": cfg.name, "robot": placement.name, "format": args.format, **report.summary()}
+    if args.dry_run:
+        if args.json:
+            print(json.dumps(summary, indent=2))
+            return 0
+        print(f"{args.plan}: {report.waypoints} waypoints for robot {placement.name!r} ({placement.robot.name}) of "
+              f"station {cfg.name!r}; {identity}")
+        print(f"  cycle time {report.cycle_time:.3f} s at {report.speed_fraction:g} x rated joint speed")
+        w, j = report.limit_margin_at
+        print(f"  closest to a joint limit: {report.limit_margin_deg:.3f} deg (joint {j + 1} at waypoint {w}); "
+              f"{report.interpolated_points} interpolated points checked every {1000 * SAMPLE_PERIOD:.0f} ms")
+        for kind, (ratio, seg, jj) in report.peak_ratio.items():
+            print(f"  peak {kind:12s} {100 * ratio:6.1f} % of the rated limit "
+                  f"(joint {jj + 1}, move {seg} -> {seg + 1})")
+        print(f"  all checks passed: a {args.format} program would be written (dry run: nothing written)")
+        return 0
     if args.out:
         ensure_parent(args.out).write_text(text)
-        print(f"wrote {args.out} ({args.format}, {len(path.joints)} waypoints, {path.times[-1]:.2f} s)")
+        msg = f"wrote {args.out} ({args.format}, {len(path.joints)} waypoints, {path.times[-1]:.2f} s)"
+        print(json.dumps({**summary, "out": str(args.out)}) if args.json else msg)
+    elif args.json:
+        print(json.dumps({**summary, "program": text}))
     else:
         print(text, end="")
     return 0
@@ -321,15 +393,15 @@ def cmd_export(args) -> int:
 
 def cmd_animate(args) -> int:
     from ..io.animation import animate
-    from ..io.loading import load_station
+    from ..io.program_checks import check_program
     from ..physics.simulation import CableSimulator
-    from ..physics.trajectory import load_trajectory_file
     from ..stations.station import Station
 
-    traj, meta = load_trajectory_file(args.plan)
-    station = Station(load_station(args.station or meta.get("station") or "default"))
-    robot = next((i for i, r in enumerate(station.config.robots) if r.name == meta.get("robot")), 0)
-    result = animate(CableSimulator(station), traj, ensure_parent(args.out), robot=robot, fps=args.fps,
+    traj, meta, cfg, robot, identity = _checked_plan(args)
+    placement = cfg.robots[robot]
+    check_program(traj, placement.robot, _speed_fraction(None, meta, cfg),
+                  f" of robot {placement.name!r} ({placement.robot.name})", identity)
+    result = animate(CableSimulator(Station(cfg)), traj, ensure_parent(args.out), robot=robot, fps=args.fps,
                      width=args.width, height=args.height)
     print(f"wrote {result['path']} ({result['frames']} frames, {result['duration_s']:.1f} s)")
     return 0
@@ -383,6 +455,7 @@ class UsageError(DresspackError):
         super().__init__(f"{prog}: {message}")
 
 
+INTERRUPTED = 130  # the shell's exit status of a command ended by Ctrl-C (128 + SIGINT)
 MAX_WORKERS = 256  # worker processes (one per core; Ray clusters may have more)
 
 
@@ -491,11 +564,16 @@ def build_parser(extensions=None) -> argparse.ArgumentParser:
     ex.add_argument("--robot", type=number(0, 63, integer=True), default=None, help="robot index (default: the plan's)")
     ex.add_argument("--speed-fraction", type=number(0, 1, lo_open=True), default=None,
                     help="of the rated joint speeds (default: the plan's, else the station's)")
+    ex.add_argument("--dry-run", action="store_true", help="run every check and print the summary (limit margin, "
+                                                           "peak speed/acceleration/jerk, cycle time); write nothing")
+    ex.add_argument("--json", action="store_true", help="print the checks' summary (and the program, without "
+                                                         "--out; errors too) as one JSON object")
     ex.set_defaults(func=cmd_export)
     an = sub.add_parser("animate", help="video of a planned trajectory with the wear measures under it (.mp4/.gif)")
     an.add_argument("plan", help="trajectory .npz from `dresspack plan --out` or an evaluation's trajectories/")
     an.add_argument("--out", type=output_file, required=True, help="video path: .mp4 or .gif")
     an.add_argument("--station", default=None, help="station (default: the one the plan was made for)")
+    an.add_argument("--robot", type=number(0, 63, integer=True), default=None, help="robot index (default: the plan's)")
     an.add_argument("--fps", type=number(1, 60), default=20.0, help="frames per second of motion time")
     an.add_argument("--width", type=number(16, OFFSCREEN_WIDTH, integer=True, unit="px"), default=640)
     an.add_argument("--height", type=number(16, OFFSCREEN_HEIGHT, integer=True, unit="px"), default=360)
@@ -516,6 +594,7 @@ def main(argv: list[str] | None = None, extensions=None) -> int:
     _Parser.json_errors = as_json
     try:
         args = build_parser(extensions).parse_args(argv)
+        args.argv = argv  # the command line as given: what an interrupted command prints to resume it
         return args.func(args)
     except DresspackError as exc:
         if as_json:

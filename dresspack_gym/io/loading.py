@@ -197,6 +197,8 @@ def station_from_dict(data: Mapping[str, Any], base_dir: Path = CONFIG_DIR / "st
     welds = tuple(weld_point_from_section(w, names) for w in s.sections("weld_points", []))
     welds += _weld_points_csv(s, base_dir, names)
     check_unique([w.name for w in welds], "weld_points", "weld point")
+    for i, r in enumerate(robots):
+        _check_some_weld_within_reach(r, i, welds)
     wear = WearCostConfig.from_dict(s.raw("wear_cost", {}), "wear_cost")
     sim = SimulationConfig.from_dict(s.raw("simulation", {}), "simulation")
     floor = s.boolean("floor", True)
@@ -204,15 +206,11 @@ def station_from_dict(data: Mapping[str, Any], base_dir: Path = CONFIG_DIR / "st
     return StationConfig(name, description, tuple(robots), obstacles, welds, wear, sim, floor)
 
 
-CSV_REQUIRED = ("name", "x", "y", "z", "approach_x", "approach_y", "approach_z")
-CSV_OPTIONAL = ("robot", "spin_min_deg", "spin_max_deg", "spin_step_deg")
-LENGTH_UNITS = {"m": 1.0, "mm": 0.001}
-
-
 def _weld_points_csv(s: Section, base_dir: Path, robot_names: list[str]) -> tuple:
-    """``weld_points_csv: FILE`` or ``{path: FILE, units: m|mm}``: weld points exported from a CAD/OLP tool, one per
-    row (columns CSV_REQUIRED, optionally CSV_OPTIONAL); each error names the row and column."""
-    import csv
+    """``weld_points_csv: FILE`` or ``{path: FILE, units: m|mm}``: weld points exported from a CAD/OLP tool or a
+    spreadsheet, one per row (columns weld_csv.REQUIRED, optionally weld_csv.OPTIONAL); each error names the row
+    and column."""
+    from .weld_csv import LENGTH_UNITS, read_weld_rows
 
     ref = s.raw("weld_points_csv", None)
     if ref is None:
@@ -231,43 +229,35 @@ def _weld_points_csv(s: Section, base_dir: Path, robot_names: list[str]) -> tupl
     path = _resolve(path_ref, base_dir)
     if not path.is_file():
         raise ConfigError(field, f"file not found: {path}")
-    with path.open(newline="") as f:
-        reader = csv.DictReader(f)
-        columns = [c.strip() for c in (reader.fieldnames or [])]
-        missing = [c for c in CSV_REQUIRED if c not in columns]
-        unknown = [c for c in columns if c not in CSV_REQUIRED + CSV_OPTIONAL]
-        if missing or unknown:
-            raise ConfigError(field, f"{path.name}: {'missing columns ' + str(missing) if missing else ''}"
-                                     f"{'; ' if missing and unknown else ''}"
-                                     f"{'unknown columns ' + str(unknown) if unknown else ''}; "
-                                     f"columns are {list(CSV_REQUIRED)} plus optional {list(CSV_OPTIONAL)}")
-        welds = []
-        for n, row in enumerate(reader, start=2):  # row 1 is the header
-            row = {k.strip(): (v or "").strip() for k, v in row.items() if k is not None}
-            where = f"{field}[{path.name}:row {n}]"
+    return tuple(weld_point_from_section(Section(data, where), robot_names)
+                 for where, data in read_weld_rows(path, field, units))
 
-            def num(col, default=None):
-                text = row.get(col, "")
-                if text == "" and default is not None:
-                    return default
-                try:
-                    return float(text)
-                except ValueError:
-                    raise ConfigError(f"{where}.{col}", f"{text!r} is not a number") from None
 
-            scale = LENGTH_UNITS[units]
-            data = {"name": row["name"], "pos": [num(c) * scale for c in ("x", "y", "z")],
-                    "approach": [num(f"approach_{a}") for a in "xyz"]}
-            if row.get("robot"):
-                data["robot"] = row["robot"]
-            if row.get("spin_min_deg") or row.get("spin_max_deg"):
-                lo, hi, step = num("spin_min_deg", 0.0), num("spin_max_deg", 0.0), num("spin_step_deg", 30.0)
-                if not (step > 0 and hi >= lo):
-                    raise ConfigError(f"{where}.spin_max_deg", f"spin range [{lo}, {hi}] step {step}: needs "
-                                                               "spin_max_deg >= spin_min_deg and a step > 0")
-                data["spin_deg"] = np.arange(lo, hi + 1e-9, step).tolist()
-            welds.append(weld_point_from_section(Section(data, where), robot_names))
-    return tuple(welds)
+def arm_reach(robot: RobotConfig) -> float:
+    """An upper bound [m] of the distance from the robot's base to its tool point: every link, the flange and the
+    tool laid end to end."""
+    chain = robot.chain if robot.chain is not None else robot.kinematics.joint_chain()
+    links = sum(float(np.linalg.norm(o)) for o in chain.origins) + float(np.linalg.norm(chain.flange_pos))
+    return links + float(np.linalg.norm(robot.tcp_pos))
+
+
+def _check_some_weld_within_reach(placement: RobotPlacement, index: int, welds) -> None:
+    """A robot none of whose weld points it could ever reach is a typing error (a base or weld position in
+    millimetres read as metres), not a station: refused, naming the nearest weld point. A station where only
+    some welds are out of reach loads (tasks on the others run; one that uses such a weld fails naming it)."""
+    own = [w for w in welds if w.robot == placement.name]
+    if not own:
+        return
+    base = np.asarray(placement.base_pos, dtype=float)
+    distance = [float(np.linalg.norm(np.asarray(w.pos) - base)) for w in own]
+    reach = arm_reach(placement.robot)
+    if min(distance) > reach:
+        near = own[int(np.argmin(distance))]
+        raise ConfigError(f"robots[{index}].base_pos", f"robot {placement.name!r} at {list(placement.base_pos)} m "
+                                                       f"reaches none of its {len(own)} weld point(s): the nearest, "
+                                                       f"{near.name!r} at {list(near.pos)} m, is {min(distance):.3g} m "
+                                                       f"away and the arm reaches at most {reach:.3g} m (millimetres "
+                                                       f"given as metres?)")
 
 
 def _robustness_map(r: Section, base_dir: Path):

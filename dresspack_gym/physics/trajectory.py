@@ -5,7 +5,12 @@ Every method (planners, policies) is judged by replaying its trajectory here, so
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
+import json
+import zipfile
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -58,27 +63,71 @@ class Trajectory:
         return Trajectory(np.array(pts), tuple(stops))
 
 
-def save_trajectory(path, traj: Trajectory, **meta) -> None:
-    """``traj`` as ``.npz`` (waypoints [rad], stops) with ``meta`` (station, robot, speed_fraction) as JSON."""
-    import json
+# Fields that say nothing about where the robot and the obstacles are or how the robot moves: a plan stays valid
+# when a file is moved (source, mesh paths are compared by file name), re-described or its wear weights retuned.
+_NOT_FINGERPRINTED = ("source", "description", "wear_cost", "simulation", "robustness_map")
 
+
+def _canonical(x):
+    """A JSON-able form of a config made of frozen dataclasses, tuples, arrays and numbers (the same for the same
+    config in every process: no object identities, no truncated array reprs)."""
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        out = {"@": type(x).__name__}
+        for f in dataclasses.fields(x):
+            if f.name not in _NOT_FINGERPRINTED:
+                v = getattr(x, f.name)
+                out[f.name] = Path(v).name if f.name == "mesh_file" and v else _canonical(v)
+        return out
+    if isinstance(x, np.ndarray):
+        return _canonical(x.tolist())
+    if isinstance(x, (list, tuple)):
+        return [_canonical(v) for v in x]
+    if isinstance(x, dict):
+        return {str(k): _canonical(v) for k, v in sorted(x.items(), key=lambda kv: str(kv[0]))}
+    if isinstance(x, (bool, str)) or x is None:
+        return x
+    if isinstance(x, (int, float, np.integer, np.floating)):
+        return repr(float(x))
+    raise TypeError(f"cannot fingerprint a {type(x).__name__}")
+
+
+def _digest(x) -> str:
+    return hashlib.sha256(json.dumps(_canonical(x), sort_keys=True).encode()).hexdigest()[:16]
+
+
+def plan_fingerprint(config, robot: int) -> dict[str, str]:
+    """``{"station", "robot", "station_name", "robot_name"}`` of station ``config`` (a StationConfig) and its robot
+    index ``robot``: the robot hash covers its kinematics, joint limits, speeds, controller axes, tool and base
+    pose; the station hash every robot, dresspack, obstacle, weld point and the floor (not its wear weights or
+    simulation settings). A plan stores it; exporting it for another robot or station is refused."""
+    p = config.robots[robot]
+    return {"station": _digest(config), "robot": _digest((p.name, p.robot, p.base_pos, p.base_yaw)),
+            "station_name": config.name, "robot_name": p.name}
+
+
+def save_trajectory(path, traj: Trajectory, **meta) -> None:
+    """``traj`` as ``.npz`` (waypoints [rad], stops) with ``meta`` (station, robot, speed_fraction, fingerprint:
+    :func:`plan_fingerprint`) as JSON."""
     np.savez(path, waypoints=traj.waypoints, stops=np.array(traj.stops, dtype=int), meta=json.dumps(meta))
 
 
 def load_trajectory_file(path) -> tuple[Trajectory, dict]:
     """A trajectory saved by :func:`save_trajectory` (or an evaluation's ``trajectories/*.npz``) and its meta."""
-    import json
-    from pathlib import Path
-
     path = Path(path)
     if not path.is_file():
         raise ConfigError("plan", f"file not found: {path}")
     try:
-        data = np.load(path)
-        traj = Trajectory(data["waypoints"], tuple(int(i) for i in data["stops"]))
-        meta = json.loads(str(data["meta"])) if "meta" in data else {}
-    except (OSError, ValueError, KeyError) as exc:
-        raise ConfigError("plan", f"{path} is not a saved trajectory (.npz with waypoints and stops): {exc}") from None
+        with np.load(path, allow_pickle=False) as data:
+            traj = Trajectory(np.asarray(data["waypoints"], dtype=float),
+                              tuple(int(i) for i in np.asarray(data["stops"]).ravel()))
+            meta = json.loads(str(data["meta"])) if "meta" in data else {}
+    except ConfigError as exc:
+        raise ConfigError("plan", f"{path}: {exc}") from None
+    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as exc:
+        raise ConfigError("plan", f"{path} is not a saved trajectory (.npz with waypoints and stops): "
+                                  f"{type(exc).__name__}: {exc}") from None
+    if not isinstance(meta, dict):
+        raise ConfigError("plan", f"{path}: its meta is not a JSON object")
     return traj, meta
 
 

@@ -31,11 +31,53 @@ AXIS_TOL = 1e-4  # |cos| / |sin| of an angle between axes that must be parallel 
 POINT_TOL = 1e-4  # [m] axes that must meet, offsets that must vanish
 
 
+def read_xml(path: str | Path, field: str = "model_file") -> ET.Element:
+    """The root element of a URDF or MJCF file, refused with what is wrong with its XML: a robot model declares
+    no document type or entities (an entity declaration can expand without bound, and MuJoCo would not expand
+    them as this parser does), and parses."""
+    path = Path(path)
+    data = path.read_bytes()
+    head = data[:65536].upper()
+    if b"<!DOCTYPE" in head or b"<!ENTITY" in data.upper():
+        raise ConfigError(field, f"{path.name}: the XML declares a document type or entities (<!DOCTYPE ...>, "
+                                 f"<!ENTITY ...>), which a URDF or MJCF robot model does not use: refused (remove "
+                                 f"the declaration and write the values out)")
+    try:
+        return ET.fromstring(data)
+    except ET.ParseError as exc:
+        raise ConfigError(field, f"{path.name} is not well-formed XML: {exc}") from None
+
+
+def _check_urdf_limits(root: ET.Element, path: Path, field: str) -> None:
+    """A revolute joint's ``<limit lower upper>`` must be numbers with lower <= upper (MuJoCo would otherwise
+    drop the limit and leave the joint free a full turn either way)."""
+    if root.tag != "robot":
+        return  # MJCF: MuJoCo refuses a reversed range itself
+    for joint in root.iter("joint"):
+        limit = joint.find("limit")
+        if joint.get("type") != "revolute" or limit is None:
+            continue
+        name = joint.get("name", "?")
+        values = {}
+        for key in ("lower", "upper"):
+            text = limit.get(key, "0")
+            try:
+                values[key] = float(text)
+            except ValueError:
+                raise ConfigError(field, f"{path.name}: joint {name!r} has {key}={text!r}, not a number") from None
+            if not math.isfinite(values[key]):
+                raise ConfigError(field, f"{path.name}: joint {name!r} has {key}={text!r}, not a finite number")
+        if values["lower"] > values["upper"]:
+            raise ConfigError(field, f"{path.name}: joint {name!r} has lower limit {values['lower']:g} > upper "
+                                     f"limit {values['upper']:g} rad: swapped limits are refused, not reordered")
+
+
 def load_model(path: str | Path) -> mujoco.MjModel:
     """Compile a URDF or MJCF file; its meshes are not needed (visual and collision geometry is dropped)."""
     path = Path(path)
     if not path.is_file():
         raise ConfigError("model_file", f"file not found: {path}")
+    _check_urdf_limits(read_xml(path), path, "model_file")
     try:
         spec = mujoco.MjSpec.from_file(str(path))
     except Exception as exc:
@@ -145,15 +187,19 @@ def _distance_to_line(c, p, a) -> float:
 
 def urdf_velocities(path: str | Path) -> np.ndarray | None:
     """The six revolute joints' velocity limits [rad/s] from a URDF, in joint order; None if not all are given."""
-    try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError:
-        return None
+    root = read_xml(path)
     vel = [j.find("limit").get("velocity") if j.find("limit") is not None else None
            for j in root.iter("joint") if j.get("type") in ("revolute", "continuous")]
     if len(vel) != 6 or any(v is None for v in vel):
         return None
-    return np.array([float(v) for v in vel])
+    out = []
+    for j, v in enumerate(vel, start=1):
+        try:
+            out.append(float(v))
+        except ValueError:
+            raise ConfigError("model_file", f"{Path(path).name}: revolute joint {j}'s velocity limit {v!r} is not a "
+                                            f"number") from None
+    return np.array(out)
 
 
 def chain_from_model(m: mujoco.MjModel, field: str = "model_file") -> tuple[JointChain, np.ndarray]:
@@ -214,10 +260,9 @@ def model_collision(path: str | Path, m: mujoco.MjModel, robot: RobotConfig, fie
     on the link its URDF link moves with, its pose carried from the URDF link frame into ours (the two differ by
     a constant transform: compared at the model's zero pose). ``m`` is the file as :func:`load_model` compiled it."""
     path = Path(path)
-    try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError as exc:
-        raise ConfigError(field, f"collision: from_model needs a URDF: {exc}") from None
+    root = read_xml(path, field)
+    if root.tag != "robot":
+        raise ConfigError(field, f"collision: from_model needs a URDF, {path.name} is not one")
     joints = _hinges(m, field)
     d = mujoco.MjData(m)
     mujoco.mj_kinematics(m, d)

@@ -172,6 +172,13 @@ class SegmentMotion:
         return float(np.max(np.abs(self._traj.profiles[0][0].a))) / self.length
 
     @property
+    def peak_jerk(self) -> float:
+        """The largest |d^3 fraction / dt^3| [1/s^3] (jerk is constant in each of the profile's phases)."""
+        if self.length <= 0:
+            return 0.0
+        return float(np.max(np.abs(self._traj.profiles[0][0].j))) / self.length
+
+    @property
     def peak_rate(self) -> float:
         """The largest d fraction / dt [1/s] (reached where the acceleration is zero, a phase boundary)."""
         if self.length <= 0:

@@ -27,7 +27,8 @@ def _csv_station(tmp_path, rows: str, units: str = "mm", header: str = HEADER):
 def test_csv_weld_list_equals_the_same_welds_written_in_yaml(tmp_path):
     yaml_cfg = station_from_dict(default_station_dict())
     rows = "".join(f"{w.name},{w.pos[0] * 1000:.3f},{w.pos[1] * 1000:.3f},{w.pos[2] * 1000:.3f},"
-                   f"{float(w.approach[0])!r},{float(w.approach[1])!r},{float(w.approach[2])!r},0,330\n" for w in yaml_cfg.weld_points)
+                   f"{float(w.approach[0])!r},{float(w.approach[1])!r},{float(w.approach[2])!r},0,330\n"
+                   for w in yaml_cfg.weld_points)
     csv_cfg = _csv_station(tmp_path, rows)
     assert [w.name for w in csv_cfg.weld_points] == [w.name for w in yaml_cfg.weld_points]
     for a, b in zip(csv_cfg.weld_points, yaml_cfg.weld_points):
@@ -67,7 +68,7 @@ def test_csv_weld_list_to_plan_to_programs_round_trip(tmp_path):
     """A weld list from CSV (mm) is planned, saved, written in every format and parsed back: joints within 1e-6
     rad, segment times within 1e-6 s, the program's duration = the replayed cycle time."""
     pytest.importorskip("ompl")
-    from dresspack.agents.planning import plan_station
+    from dresspack.agents.planners.registry import plan_station
 
     rows = "stud_a,1085,0,1100,1,0,0,,\nstud_b,1150,-600,675,0.3,0,-1,,\n"
     station = Station(_csv_station(tmp_path, rows))

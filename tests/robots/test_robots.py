@@ -232,7 +232,8 @@ def test_robots_command_prints_the_round_trip_and_writes_the_models(tmp_path, ca
                 extensions=[]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert rows[0]["robot"] == "fanuc_r2000ic_210f" and rows[0]["found_q"] and rows[0]["max_raw_branches"] == 8
-    assert (tmp_path / "m" / "fanuc_r2000ic_210f.urdf").is_file() and (tmp_path / "m" / "fanuc_r2000ic_210f.xml").is_file()
+    assert (tmp_path / "m" / "fanuc_r2000ic_210f.urdf").is_file()
+    assert (tmp_path / "m" / "fanuc_r2000ic_210f.xml").is_file()
 
 
 # ------------------------------------------------------------------------------ general arms: numeric IK
@@ -361,3 +362,30 @@ def test_collision_from_model_uses_the_makers_meshes(tmp_path):
                     rpy=(0.0, 0.0, 0.0), size=(R,))
     station = Station(replace(cfg, obstacles=(ball,)))
     assert RobotCollisionChecker(station).min_distance(station.home[0]) == pytest.approx(0.02, abs=2e-4)
+
+
+def test_swapped_urdf_limits_are_refused_naming_the_joint(tmp_path):
+    """MuJoCo drops a limit whose lower end is above its upper end (the joint would turn a full turn either way):
+    the URDF is refused, naming the joint."""
+    limits = [(-3.0, 3.0)] * 6
+    limits[1] = (1.0, -1.0)
+    (tmp_path / "m.urdf").write_text(_chain_urdf(MAKER_CHAINS["kuka_kr210_r2700_extra"], limits))
+    (tmp_path / "x.yaml").write_text("name: x\nsource: y\ntool: {tcp_pos: [0.4, 0, 0]}\nmodel_file: m.urdf\n")
+    with pytest.raises(ConfigError, match="joint 'joint_2' has lower limit 1 > upper limit -1 rad"):
+        load_robot(tmp_path / "x.yaml")
+
+
+def test_xml_entities_are_refused_as_what_they_are(tmp_path):
+    """Nested entity declarations (which expand without bound) are refused as such, not as a joint speed the
+    expansion produced."""
+    text = _chain_urdf(MAKER_CHAINS["kuka_kr210_r2700_extra"])
+    entities = '<!DOCTYPE robot [<!ENTITY a "2"><!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;">]>\n'
+    (tmp_path / "m.urdf").write_text('<?xml version="1.0"?>\n' + entities + text.replace('velocity="2"',
+                                                                                          'velocity="&b;"'))
+    (tmp_path / "x.yaml").write_text("name: x\nsource: y\ntool: {tcp_pos: [0.4, 0, 0]}\nmodel_file: m.urdf\n")
+    with pytest.raises(ConfigError) as err:
+        load_robot(tmp_path / "x.yaml")
+    assert "declares a document type or entities" in str(err.value) and "speed" not in str(err.value)
+    (tmp_path / "m.urdf").write_text(text.replace("</robot>", "<link"))
+    with pytest.raises(ConfigError, match="does not compile|not well-formed XML|MuJoCo can read"):
+        load_robot(tmp_path / "x.yaml")

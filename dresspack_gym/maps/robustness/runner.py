@@ -82,6 +82,15 @@ def _init_worker(config: StationConfig, settings: RobustnessSettings) -> None:
     _WORKER = RobustnessEvaluator(config, settings)
 
 
+def _init_pool_worker(config: StationConfig, settings: RobustnessSettings) -> None:
+    """A pool worker leaves Ctrl-C to the parent (which saves, reports and ends the pool): otherwise every worker
+    prints its own KeyboardInterrupt traceback."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _init_worker(config, settings)
+
+
 def _run_unit(args) -> list[tuple]:
     indices, configs, report = args
     if _WORKER.settings.start == "row":
@@ -102,7 +111,7 @@ def _iterate(backend: str, workers: int, config, settings, units, configs, ray_a
         import multiprocessing as mp
 
         ctx = mp.get_context("spawn")  # no inherited MuJoCo/GL state in the workers
-        with ctx.Pool(workers, initializer=_init_worker, initargs=(config, settings)) as pool:
+        with ctx.Pool(workers, initializer=_init_pool_worker, initargs=(config, settings)) as pool:
             yield from pool.imap_unordered(_run_unit, payload)
     else:
         yield from _iterate_ray(workers, config, settings, payload, ray_address)
