@@ -8,9 +8,8 @@ from dresspack_gym.cli.args import ensure_parent, number, output_file, seed
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
-from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, MAX_WALL_TIME, MAX_WORK
-from .tension_peak import MAX_TENSION_PEAK_TIME, TENSION_PEAK_TIME
-from .time_weight import MAX_TIME_WEIGHT
+from .planners.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, MAX_WALL_TIME, MAX_WORK
+from .planners.leg_cost import MAX_TENSION_PEAK_TIME, MAX_TIME_WEIGHT, TENSION_PEAK_TIME
 
 WORK = number(1, MAX_WORK, integer=True)
 
@@ -31,7 +30,7 @@ def add_budget_arguments(p, iterations: int = DEFAULT_ITERATIONS, evaluations: i
 
 
 def add_plan_command(sub) -> None:
-    from .planning import PLANNERS
+    from .planners.registry import PLANNERS
 
     p = sub.add_parser("plan", help="plan the station's weld cycle and measure it in the cable simulator")
     p.add_argument("station", help="station or thesis scenario (YAML or shipped name, e.g. thesis_tension)")
@@ -65,8 +64,8 @@ def add_plan_command(sub) -> None:
 def cmd_plan(args) -> int:
     from dresspack_gym.plots.replay import plot_replays
 
-    from .base import PlanningError
-    from .planning import PEAK_AWARE, POLICY_METHODS, WEAR_AWARE, plan_station
+    from .planners.base import PlanningError
+    from .planners.registry import PEAK_AWARE, POLICY_METHODS, WEAR_AWARE, plan_station
 
     extra = {"policy": args.policy} if args.planner in POLICY_METHODS else {}
     if args.tension_peak_time is not None:
@@ -91,12 +90,13 @@ def cmd_plan(args) -> int:
         return 1
     s = run.summary()
     if args.out:
-        from dresspack_gym.physics.trajectory import save_trajectory
+        from dresspack_gym.physics.trajectory import plan_fingerprint, save_trajectory
 
         station = run.station
         save_trajectory(ensure_parent(args.out), run.plan.trajectory, station=str(args.station),
                         robot=station.config.robots[run.task.robot].name,
-                        speed_fraction=station.config.simulation.speed_fraction)
+                        speed_fraction=station.config.simulation.speed_fraction,
+                        fingerprint=plan_fingerprint(station.config, run.task.robot))
         s["out"] = str(args.out)
     if args.plot:
         s["plot"] = plot_replays({args.planner: run.replay}, ensure_parent(args.plot))

@@ -4,15 +4,18 @@ summary (a ``dresspack`` subcommand, registered by entry point)."""
 from __future__ import annotations
 
 import json
+import shlex
+import sys
 from pathlib import Path
 
 from dresspack_gym.cli.args import number, output_dir, seed
 from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
-from .budget import DEFAULT_ITERATIONS, MAX_WORK
-from .station_solver import BLOCKED_ESTIMATES, BOUND_WORK, DEFAULT_WORK, LEG_ROUTES, OBJECTIVES, PAIR_SOLVES
+from .planners.budget import DEFAULT_ITERATIONS, MAX_WORK
+from .stations.solver import BLOCKED_ESTIMATES, BOUND_WORK, DEFAULT_WORK, LEG_ROUTES, OBJECTIVES, PAIR_SOLVES
 
 WORK = number(1, MAX_WORK, integer=True)
+INTERRUPTED = 130  # the shell's exit status of a command ended by Ctrl-C (128 + SIGINT)
 
 
 def add_station_plan_command(sub) -> None:
@@ -86,24 +89,49 @@ def cmd_station_plan(args) -> int:
     from dresspack_gym.io.loading import load_station
     from dresspack_gym.stations.station import Station
 
-    from .station_planning import StationPlanConfig, StationPlanner, save_plan
-    from .station_report import plot_plan, write_summary
+    from .stations.report import write_summary
 
-    station = Station(load_station(args.station))
-    configs = [StationPlanConfig(objective=o, weld_time=args.weld_time, work=args.work, time_budget=args.time_budget,
-                                 iterations=args.iterations, makespan_slack=args.makespan_slack, seed=args.seed,
-                                 cost_variant=args.cost_variant, fixed_assignment=args.fixed_assignment,
-                                 cable_repairs=0 if args.no_replay else args.cable_repairs,
-                                 blocked_estimate=args.blocked_estimate, leg_route=args.leg_route,
-                                 fly_by=not args.stop_at_via_points, pair_solves=args.pair_solves,
-                                 bound_work=args.bound_work, costed_options=args.costed_options,
-                                 kept_options=args.kept_options, legs_up_front=args.legs_up_front,
-                                 leg_workers=args.leg_workers,
-                                 welds=tuple(args.welds) if args.welds else None)
-               for o in dict.fromkeys(args.objective)]
-    out = args.out
-    out.mkdir(parents=True, exist_ok=True)
-    bar = (lambda label, total: tqdm(total=total, desc=label, leave=False)) if not args.json else None
+    out = args.out  # created by the first file written: a refused run leaves no folder behind
+    objectives = list(dict.fromkeys(args.objective))
+    try:
+        configs = [_config(args, o) for o in objectives]  # a bad combination is refused before any work
+        station = Station(load_station(args.station))
+        bar = (lambda label, total: tqdm(total=total, desc=label, leave=False)) if not args.json else None
+        plans = _plan_objectives(args, station, configs, out, bar)
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: {_saved(out, objectives)}; resume with: "
+              f"dresspack {shlex.join(getattr(args, 'argv', sys.argv[1:]))}", file=sys.stderr)
+        return INTERRUPTED
+    summary = write_summary(station, plans, out)
+    if args.json:
+        print(json.dumps(summary, indent=2, default=float))
+    else:
+        print(f"wrote {out}/summary.md and one folder per objective")
+    ok = all(p.verification["collisions"] == 0 and (p.replay is None or not p.replay.jammed()) for p in plans.values())
+    return 0 if ok else 1
+
+
+def _config(args, objective: str):
+    """The plan settings of ``objective`` from the command line (checked: a bad combination names its field)."""
+    from .stations import StationPlanConfig
+
+    return StationPlanConfig(objective=objective, weld_time=args.weld_time, work=args.work,
+                             time_budget=args.time_budget, iterations=args.iterations,
+                             makespan_slack=args.makespan_slack, seed=args.seed, cost_variant=args.cost_variant,
+                             fixed_assignment=args.fixed_assignment,
+                             cable_repairs=0 if args.no_replay else args.cable_repairs,
+                             blocked_estimate=args.blocked_estimate, leg_route=args.leg_route,
+                             fly_by=not args.stop_at_via_points, pair_solves=args.pair_solves,
+                             bound_work=args.bound_work, costed_options=args.costed_options,
+                             kept_options=args.kept_options, legs_up_front=args.legs_up_front,
+                             leg_workers=args.leg_workers, welds=tuple(args.welds) if args.welds else None)
+
+
+def _plan_objectives(args, station, configs, out: Path, bar) -> dict:
+    """Each objective planned (one planner: costs and legs shared), saved and drawn as it finishes."""
+    from .stations import StationPlanner, save_plan
+    from .stations.report import plot_plan
+
     plans = {}
     planner = None
     for cfg in configs:
@@ -134,10 +162,12 @@ def cmd_station_plan(args) -> int:
                 line += (f" -- wear estimates of {', '.join(s['info']['unconverged_cost_settles'])} come from "
                          "settles that did not reach equilibrium")
             print(line)
-    summary = write_summary(station, plans, out)
-    if args.json:
-        print(json.dumps(summary, indent=2, default=float))
-    else:
-        print(f"wrote {out}/summary.md and one folder per objective")
-    ok = all(p.verification["collisions"] == 0 and (p.replay is None or not p.replay.jammed()) for p in plans.values())
-    return 0 if ok else 1
+    return plans
+
+
+def _saved(out: Path, objectives: list[str]) -> str:
+    """What an interrupted run leaves in ``out`` for the next run with the same arguments (which reads the option
+    costs and the legs planned up front back, and plans the objectives again)."""
+    kept = [f for f in ("option_costs.json", "planned_legs.jsonl") if (out / f).is_file()]
+    kept += [f"{o}/plan.json" for o in objectives if (out / o / "plan.json").is_file()]
+    return f"saved {', '.join(kept)} in {out}" if kept else "nothing saved yet"

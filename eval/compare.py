@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import sys
 from pathlib import Path
 
 from dresspack.agents.cli import add_budget_arguments
-from dresspack.agents.planning import PLANNERS
-from dresspack.agents.time_weight import MAX_TIME_WEIGHT
+from dresspack.agents.planners.leg_cost import MAX_TIME_WEIGHT
+from dresspack.agents.planners.registry import PLANNERS
 
 from dresspack_gym.cli.args import number, output_dir, seed
 from dresspack_gym.errors import DresspackError
@@ -117,10 +118,27 @@ def main(argv: list[str] | None = None) -> int:
                    help="instead of methods: plan folders written by `dresspack station-plan` (e.g. "
                         "station_plans/time station_plans/wear), each replayed on --station and measured alike; "
                         "the first is the reference of the relative columns")
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = p.parse_args(argv)
+    try:
+        if args.station_plans:
+            return compare_plans_and_report(args)
+        return evaluate_and_report(args)
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: {_saved(args)}; resume with: dresspack-eval {shlex.join(argv)}", file=sys.stderr)
+        return INTERRUPTED
+
+
+INTERRUPTED = 130  # the shell's exit status of a command ended by Ctrl-C (128 + SIGINT)
+
+
+def _saved(args) -> str:
+    """What an interrupted evaluation leaves: the runs finished so far (results.jsonl), which a rerun keeps."""
     if args.station_plans:
-        return compare_plans_and_report(args)
-    return evaluate_and_report(args)
+        return f"the comparison is written only when every plan is replayed (nothing in {args.out} is final)"
+    results = Path(args.out) / "results.jsonl"
+    done = sum(1 for line in results.read_text().splitlines() if line.strip()) if results.is_file() else 0
+    return f"{done} finished runs saved in {results}"
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ import shutil
 from pathlib import Path
 
 import numpy as np
-from dresspack.agents.planning import COLORS
+from dresspack.agents.planners.registry import COLORS
 
 from dresspack_gym.io.loading import load_station
 from dresspack_gym.physics.simulation import CableSimulator

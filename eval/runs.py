@@ -12,10 +12,10 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-from dresspack.agents.base import PlanningError
-from dresspack.agents.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Budget
-from dresspack.agents.planning import PLANNERS, POLICY_METHODS, WEAR_AWARE, make_planner
-from dresspack.agents.time_weight import check_time_weight
+from dresspack.agents.planners.base import PlanningError
+from dresspack.agents.planners.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Budget
+from dresspack.agents.planners.leg_cost import check_time_weight
+from dresspack.agents.planners.registry import PLANNERS, POLICY_METHODS, WEAR_AWARE, make_planner
 from tqdm.auto import tqdm
 
 from dresspack_gym.errors import ConfigError
@@ -158,7 +158,7 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) ->
     station = Station(load_station(spec.station))
     tasks = build_tasks(station, spec)
     if spec.policy is not None or any(m in POLICY_METHODS for m in spec.methods):
-        from dresspack.agents.policy import resolve_policy
+        from dresspack.agents.learned.policy import resolve_policy
 
         resolve_policy(spec.policy)
     (out / "trajectories").mkdir(parents=True, exist_ok=True)

@@ -13,7 +13,7 @@ import json
 from pathlib import Path
 
 import numpy as np
-from dresspack.agents.station_planning import RECORD_EVERY
+from dresspack.agents.stations import RECORD_EVERY
 
 from dresspack_gym.io.loading import load_station
 from dresspack_gym.multi.coordination import verify

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from dresspack.agents.planning import make_planner
+from dresspack.agents.planners.registry import make_planner
 from dresspack.eval.runs import EvalSpec, build_tasks
 
 from dresspack_gym.env.dresspack_env import DresspackEnv

@@ -37,7 +37,7 @@ def _teach(job) -> dict:
     observations and masks, written to ``episodes/<seed>.npz``)."""
     import gymnasium as gym
     import torch
-    from dresspack.agents.policy import resolve_policy
+    from dresspack.agents.learned.policy import resolve_policy
     from dresspack.training.rollouts import roll_out
     from sb3_contrib import MaskablePPO
 
@@ -119,7 +119,7 @@ def _objective(r: dict) -> float:
 def fit_and_compare(args) -> None:
     import torch
     import yaml
-    from dresspack.agents.policy import resolve_policy
+    from dresspack.agents.learned.policy import resolve_policy
     from dresspack.training.self_imitation import fit
 
     torch.set_num_threads(1)

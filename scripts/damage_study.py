@@ -16,7 +16,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from dresspack.agents.planning import COLORS
+from dresspack.agents.planners.registry import COLORS
 from dresspack.eval.runs import load_trajectory
 
 from dresspack_gym.io.loading import load_station

@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from dresspack.agents.policy import PolicyAgent, resolve_policy
+from dresspack.agents.learned.policy import PolicyAgent, resolve_policy
 
 from dresspack_gym.env.dresspack_env import DresspackEnv
 from dresspack_gym.io.loading import load_station

@@ -21,7 +21,7 @@ from pathlib import Path
 
 
 def main() -> None:
-    from dresspack.agents.planning import make_planner
+    from dresspack.agents.planners.registry import make_planner
 
     from dresspack_gym.io.loading import load_station
     from dresspack_gym.stations.station import Station

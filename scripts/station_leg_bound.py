@@ -7,14 +7,14 @@ The station planner plans only the legs its answers choose, so its bound (``lowe
 on straight-move times, which no motion beats but most moves on a car-body station cannot take. This plans every
 move between a robot's Home and its options with the planner's own leg planner (``--workers`` processes; the legs
 go to ``OUT/planned_legs.jsonl`` as they finish, and a later run with the same settings reads them back) and solves
-the same relaxation (``station_solver.relaxation_bound``: the min-max routes without interlocks, CP-SAT's proven
+the same relaxation (``stations.solver.relaxation_bound``: the min-max routes without interlocks, CP-SAT's proven
 bound, each group of robots that share welds alone) on both travel-time matrices. The planned-leg bound holds for
 plans over these legs (another path can be faster than the planned one), so it measures how much of a plan's gap
 is the legs and how much the assignment, sequencing and the robots' waits for each other. Writes
 ``OUT/leg_bound.json``.
 
 With ``--wear-cap S`` it also bounds the wear estimate of any routes whose robots are back Home within S seconds
-(``station_solver.wear_relaxation_bound``) on both travel-time matrices: how much wear the options allow at that
+(``stations.solver.wear_relaxation_bound``) on both travel-time matrices: how much wear the options allow at that
 makespan, on straight moves (any plan) and on the planned legs (plans over these legs). The issue's wear bar asks
 for 30 % below the time plan at no more than 10 % longer makespan: give 1.1 x the time plan's makespan."""
 
@@ -29,8 +29,9 @@ import numpy as np
 
 
 def main() -> None:
-    from dresspack.agents.station_planning import BLOCKED, StationPlanConfig, StationPlanner
-    from dresspack.agents.station_solver import relaxation_bound, wear_relaxation_bound
+    from dresspack.agents.stations import BLOCKED, StationPlanConfig, StationPlanner
+    from dresspack.agents.stations.problem import straight_times
+    from dresspack.agents.stations.solver import relaxation_bound, wear_relaxation_bound
 
     from dresspack_gym.io.loading import load_station
     from dresspack_gym.multi.tasks import make_station_task
@@ -54,16 +55,17 @@ def main() -> None:
     station = Station(load_station(args.station))
     planner = StationPlanner(station, StationPlanConfig(seed=args.seed),
                              progress=lambda label, total: tqdm(total=total, desc=label, leave=False))
-    task = make_station_task(station, lambda r: planner.leg_planners[r].validity.checker.collides,
-                             weld_time=planner.config.weld_time)
-    planner.load_rates(args.out / "option_costs.json")
-    options = planner._choose_options(task)
-    planner.save_rates(args.out / "option_costs.json")
-    planner.check_straight_moves(task, options)
-    planner.plan_every_move(task, options, args.out / "planned_legs.jsonl", workers=args.workers)
+    cfg = planner.config
+    task = make_station_task(station, lambda r: planner.legs.planners[r].validity.checker.collides,
+                             weld_time=cfg.weld_time)
+    planner.costs.load(args.out / "option_costs.json")
+    options = planner.costs.choose(task, cfg.costed_options, cfg.kept_options, planner.bar)
+    planner.costs.save(args.out / "option_costs.json")
+    planner.legs.check_straight_moves(task, options, planner.bar)
+    planner.legs.plan_every_move(task, options, args.out / "planned_legs.jsonl", workers=args.workers, bar=planner.bar)
     problem = replace(planner.problem(task, options), conflicts=None)
     qs = np.vstack([task.homes, np.array([o.q for o in options]).reshape(-1, 6)])
-    straight = planner.straight_times(qs)
+    straight = straight_times(qs, planner.legs.limits)
     own = (problem.node_robot[None, :, None] == np.arange(task.n_robots)[:, None, None]) & \
         (problem.node_robot[None, None, :] == np.arange(task.n_robots)[:, None, None])
     moves = own & (problem.travel > 0) & (straight > 0)

@@ -24,7 +24,7 @@ import numpy as np
 
 
 def main() -> None:
-    from dresspack.agents.station_planning import RECORD_EVERY, StationPlanConfig, StationPlanner
+    from dresspack.agents.stations import RECORD_EVERY, StationPlanConfig, StationPlanner
 
     from dresspack_gym.io.loading import load_station
     from dresspack_gym.multi.schedule import load_schedule
@@ -67,7 +67,7 @@ def main() -> None:
         name = station.config.robots[s.robot].name
         for k, leg in enumerate(s.legs):
             start, end, weld = _leg_window(s, k)
-            run = planner.leg_run(s.robot, leg, weld)
+            run = planner.legs.run(s.robot, leg, weld)
             part = _between(replay.time, running[:, s.robot], start, end)
             rows.append({"robot": name, "leg": k, "vias": len(leg) - 2, "alone": run.wear, "replay": part,
                          "difference": run.wear / part - 1.0 if part > 0 else None,
@@ -108,7 +108,7 @@ def explain_in_path_order(planner, station, robots, rows) -> None:
     """Per robot, its program alone from Home in path order; per leg more than 1 % off, the carried start state
     settled against a fresh settle at the same configuration (adds ``alone_in_path_order`` and, for those legs,
     ``start_equilibria`` to ``rows``)."""
-    from dresspack.agents.station_planning import RECORD_EVERY
+    from dresspack.agents.stations import RECORD_EVERY
 
     from dresspack_gym.multi.schedule import RobotSchedule, StationSchedule
     from dresspack_gym.physics.wear_cost import cost_function
@@ -117,7 +117,7 @@ def explain_in_path_order(planner, station, robots, rows) -> None:
     for s in robots:
         name = station.config.robots[s.robot].name
         own = [r for r in rows if r["robot"] == name]
-        sim = planner._alone(s.robot)
+        sim = planner.costs.alone(s.robot)
         alone = RobotSchedule(0, s.welds, s.legs, s.leg_start, s.limits, s.weld_time, s.fly_by)
         program = StationSchedule((alone,), station.home[None, s.robot])
         sim.reset(station.home[None, s.robot])
@@ -144,7 +144,7 @@ def explain_in_path_order(planner, station, robots, rows) -> None:
 def _start_equilibria(sim, program, start: float, q, cost_fn, weights) -> dict:
     """The cable at time ``start`` of ``program`` (run from settled at Home), settled, against a fresh settle at
     ``q``: their cost rates, convergence, total twist and how far apart their points lie."""
-    from dresspack.agents.station_planning import RECORD_EVERY
+    from dresspack.agents.stations import RECORD_EVERY
 
     sim.reset(program.homes)  # the program starts at its robot's Home, as the whole run did
     sim.follow(program.at, start, record_every=RECORD_EVERY)

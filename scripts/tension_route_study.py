@@ -39,7 +39,7 @@ def station_config(variant: str):
 
 
 def plan_one(job: tuple[str, int, bool, str]) -> dict:
-    from dresspack.agents.planning import plan_station
+    from dresspack.agents.planners.registry import plan_station
 
     from dresspack_gym.stations.station import Station
 

@@ -61,7 +61,7 @@ def test_wheel_installs_under_the_project_names_only(installed):
     # its dependencies resolve among the installed distributions
     check = run([sys.executable, "-m", "pip", "--python", venv / "bin" / "python", "check"])
     assert not [line for line in check.stdout.splitlines() if line.lower().startswith("dresspack-gym")], check.stdout
-    where = run([venv / "bin" / "python", "-c", "import dresspack_gym, dresspack.agents.policy as p; "
+    where = run([venv / "bin" / "python", "-c", "import dresspack_gym, dresspack.agents.learned.policy as p; "
                  "print(dresspack_gym.__file__); print(p.POLICY_DIR)"], cwd=tmp)
     assert all(line.startswith(str(venv)) for line in where.stdout.split()), where.stdout + where.stderr
 

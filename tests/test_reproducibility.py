@@ -20,7 +20,7 @@ SPEC = EvalSpec(station="thesis_tension", methods=("ompl-wear",), tasks=(("side_
 ALONE = """
 import json, sys
 from dresspack.eval.runs import EvalSpec, build_tasks
-from dresspack.agents.planning import make_planner
+from dresspack.agents.planners.registry import make_planner
 from dresspack_gym.io.loading import load_station
 from dresspack_gym.stations.station import Station
 d = json.loads(sys.argv[1])

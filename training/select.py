@@ -9,7 +9,7 @@ import math
 import multiprocessing
 from pathlib import Path
 
-from dresspack.agents.policy import ATTEMPTS
+from dresspack.agents.learned.policy import ATTEMPTS
 
 from dresspack_gym.cli.args import number, seed
 from dresspack_gym.errors import ConfigError

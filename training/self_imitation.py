@@ -146,7 +146,7 @@ def self_imitate(policy: str | Path, out: str | Path, *, episodes: int = IMITATI
                  batch_size: int = BATCH_SIZE, jobs: int = 1, progress=print) -> dict:
     """Collect (resumable), fit, and write ``out/`` as a policy folder (model.zip, config.yaml) with
     ``self_imitation.json`` (the settings, the rollouts' figures and the fit's losses)."""
-    from dresspack.agents.policy import resolve_policy
+    from dresspack.agents.learned.policy import resolve_policy
 
     from .config import check_env_kwargs, train_config_from_dict
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import functools
 import json
+import os
 import platform
 import re
 import shlex
@@ -78,21 +79,30 @@ def resume_point(run_dir: Path) -> Path | None:
     return ckpt
 
 
+def git_state(folder: Path) -> tuple[str | None, bool | None]:
+    """(commit, whether tracked files differ from it) of the checkout holding ``folder``, or Nones outside one.
+    Read only: ``--no-optional-locks`` keeps ``git status`` from refreshing the index (it would otherwise take
+    ``.git/index.lock`` and rewrite the index of a checkout someone else may be committing in)."""
+    def git(*args):
+        return subprocess.run(["git", "--no-optional-locks", *args], capture_output=True, text=True, timeout=10,
+                              cwd=folder, env={**os.environ, "GIT_OPTIONAL_LOCKS": "0"})
+
+    try:
+        commit = git("rev-parse", "HEAD").stdout.strip() or None
+        # edits to tracked files not yet committed: the commit alone would not reproduce the run
+        status = git("status", "--porcelain", "--untracked-files=no")
+        dirty = bool(status.stdout.strip()) if commit and status.returncode == 0 else None
+    except (OSError, subprocess.TimeoutExpired):
+        commit = dirty = None
+    return commit, dirty
+
+
 def _versions() -> dict:
     import sb3_contrib
     import stable_baselines3
     import torch
 
-    here = Path(__file__).parent
-    try:
-        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10,
-                                cwd=here).stdout.strip() or None
-        # edits to tracked files not yet committed: the commit alone would not reproduce the run
-        status = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
-                                text=True, timeout=10, cwd=here)
-        dirty = bool(status.stdout.strip()) if commit and status.returncode == 0 else None
-    except (OSError, subprocess.TimeoutExpired):
-        commit = dirty = None
+    commit, dirty = git_state(Path(__file__).parent)
     return {"dresspack_gym": __version__, "git_commit": commit, "git_dirty": dirty, "python": platform.python_version(),
             "torch": torch.__version__, "stable_baselines3": stable_baselines3.__version__,
             "sb3_contrib": sb3_contrib.__version__}

@@ -1,4 +1,4 @@
-"""The station planner's time-short legs (agents/fast_routes.py): against a joint-space obstacle whose fastest
+"""The station planner's time-short legs (agents/stations/fast_routes.py): against a joint-space obstacle whose fastest
 one-via detour is known, and on the shipped side-framing station's blocked moves against OMPL's paths."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from dresspack.agents.fast_routes import FastLegPlanner, one_via, shorten
-from dresspack.agents.ompl_planner import OmplPlanner
+from dresspack.agents.planners.composed import OmplPlanner
+from dresspack.agents.stations.fast_routes import FastLegPlanner, one_via, shorten
 
 from dresspack_gym.io.loading import load_station
 from dresspack_gym.multi.tasks import make_station_task
@@ -122,7 +122,7 @@ def test_fastest_legs_are_valid_reproducible_and_faster_than_ompl_paths(blocked_
 
 
 def test_station_plan_config_names_the_leg_routes():
-    from dresspack.agents.station_planning import LEG_PLANNERS, StationPlanConfig
+    from dresspack.agents.stations import LEG_PLANNERS, StationPlanConfig
 
     from dresspack_gym.errors import ConfigError
 
@@ -135,7 +135,7 @@ def test_a_fly_by_that_cuts_a_corner_into_an_obstacle_is_caught():
     """At an obtuse corner both joints keep their direction, so the fly-by rounds it toward the chord; a small box
     put where the rounded curve strays farthest from the segments (clear of them) is hit by the curve and caught,
     while stopping at the via point keeps to the checked segments."""
-    from dresspack.agents.fast_routes import curve_valid
+    from dresspack.agents.stations.fast_routes import curve_valid
 
     from dresspack_gym.robots.time_law import PathMotion
 
@@ -162,7 +162,7 @@ def test_a_fly_by_that_cuts_a_corner_into_an_obstacle_is_caught():
 def test_station_legs_fly_by_where_the_curve_is_clear(blocked_moves):
     """The station planner times each leg by its motion: flying by where the rounded curve passes the check (on
     the shipped station's blocked moves, some do), else stopping; --stop-at-via-points stops everywhere."""
-    from dresspack.agents.station_planning import StationPlanConfig, StationPlanner
+    from dresspack.agents.stations import StationPlanConfig, StationPlanner
 
     station, fast, moves = blocked_moves
     planner = StationPlanner(station, StationPlanConfig())
@@ -170,7 +170,7 @@ def test_station_legs_fly_by_where_the_curve_is_clear(blocked_moves):
     legs = [fast.plan(Task(0, a, (), np.zeros((0, 6)), b)).trajectory.waypoints for a, b in moves]
     flown = 0
     for leg in legs:
-        m, s = planner.leg_motion(0, leg), still.leg_motion(0, leg)
+        m, s = planner.legs.motion(0, leg), still.legs.motion(0, leg)
         assert not s.fly_by and s.duration == pytest.approx(path_duration(leg, fast.motion_limits))
         if m.fly_by:
             flown += 1

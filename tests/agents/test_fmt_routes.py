@@ -7,9 +7,9 @@ import pytest
 
 pytest.importorskip("ompl.base")
 
-from dresspack.agents.fmt_routes import FmtSearch, TimeWearObjective  # noqa: E402
-from dresspack.agents.map_roadmap import fine_wear, motion_time  # noqa: E402
-from dresspack.agents.planning import make_planner  # noqa: E402
+from dresspack.agents.planners.fmt_routes import FmtSearch, TimeWearObjective  # noqa: E402
+from dresspack.agents.planners.map_roadmap import fine_wear, motion_time  # noqa: E402
+from dresspack.agents.planners.registry import make_planner  # noqa: E402
 
 from dresspack_gym.errors import ConfigError  # noqa: E402
 from dresspack_gym.io.loading import load_station  # noqa: E402

@@ -11,10 +11,9 @@ import pytest
 
 pytest.importorskip("ompl.base")
 
-from dresspack.agents.base import PlanningError  # noqa: E402
-from dresspack.agents.ompl_planner import OmplPlanner  # noqa: E402
-from dresspack.agents.planning import plan_station  # noqa: E402
-from dresspack.agents.thesis_local import ThesisLocalPlanner  # noqa: E402
+from dresspack.agents.planners.base import PlanningError  # noqa: E402
+from dresspack.agents.planners.composed import OmplPlanner, ThesisLocalPlanner  # noqa: E402
+from dresspack.agents.planners.registry import plan_station  # noqa: E402
 
 from dresspack_gym.cli.main import main as cli_main  # noqa: E402
 from dresspack_gym.io.loading import load_station  # noqa: E402
@@ -186,7 +185,7 @@ def test_leg_cost_charges_the_peak_tension_term_as_if_it_lasted_tension_peak_tim
     """J(τ) - J(0) = τ · w_F · (max F)² of the leg, replayed independently: C_F = w_F F² pointwise, so its peak is
     w_F times the square of the highest tension measured; τ = 0 is (4.10)'s integral alone. The straight move
     across thesis_tension drags the cable over the cuboid: a peak worth charging."""
-    from dresspack.agents.leg_cost import LegCost
+    from dresspack.agents.planners.leg_cost import LegCost
 
     from dresspack_gym.physics.trajectory import Trajectory
 
@@ -206,7 +205,7 @@ def test_leg_cost_charges_the_peak_tension_term_as_if_it_lasted_tension_peak_tim
 
 @pytest.mark.parametrize("bad", [-0.1, float("nan"), 61.0, True, "0.25"])
 def test_a_bad_tension_peak_time_is_an_error_naming_it(bad):
-    from dresspack.agents.planning import make_planner
+    from dresspack.agents.planners.registry import make_planner
 
     from dresspack_gym.errors import ConfigError
 
@@ -225,7 +224,7 @@ def test_plan_cli_tension_peak_time_only_for_the_global_wear_planners(capsys):
 
 def test_leg_cost_time_weight_charges_each_second_that_much_more():
     """J(w) - J(1) = (w - 1) · T of the leg, T its replayed cycle time; the wear terms are the same."""
-    from dresspack.agents.leg_cost import LegCost
+    from dresspack.agents.planners.leg_cost import LegCost
 
     station = Station(load_station("thesis_tension"))
     task = make_task(station, 0, RobotCollisionChecker(station).collides)
@@ -241,7 +240,7 @@ def test_leg_cost_time_weight_charges_each_second_that_much_more():
 @pytest.mark.parametrize("planner", ["ompl-wear", "thesis-local"])
 @pytest.mark.parametrize("bad", [-0.5, -1.0, 1000.5, float("nan"), float("inf"), True, "2"])
 def test_a_bad_time_weight_is_an_error_naming_it(planner, bad):
-    from dresspack.agents.planning import make_planner
+    from dresspack.agents.planners.registry import make_planner
 
     from dresspack_gym.errors import ConfigError
 
@@ -261,7 +260,7 @@ def test_plan_cli_time_weight_only_for_the_wear_aware_planners(capsys):
 def test_a_wall_cap_that_cuts_the_wear_aware_search_returns_the_route_found_with_a_flag(curvature_station):
     """A cap already used up when the search starts: no via route, no refinement, yet a valid answer (the first
     candidate, the wear-unaware route) flagged ``wall_cap_reached``; without a cap the flag is False."""
-    from dresspack.agents.planning import make_planner
+    from dresspack.agents.planners.registry import make_planner
 
     task = make_task(curvature_station, 0, RobotCollisionChecker(curvature_station).collides)
     cut = make_planner("ompl-wear", curvature_station, time_budget=1e-6).plan(task)

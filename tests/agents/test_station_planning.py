@@ -9,9 +9,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from dresspack.agents.fast_routes import FastLegPlanner
-from dresspack.agents.station_planning import StationPlanConfig, StationPlanner, _leg_key
-from dresspack.agents.station_solver import (
+from dresspack.agents.stations import StationPlanConfig, StationPlanner, jammed_legs
+from dresspack.agents.stations.fast_routes import FastLegPlanner
+from dresspack.agents.stations.jams import reroute
+from dresspack.agents.stations.legs_up_front import move_key as _leg_key
+from dresspack.agents.stations.problem import straight_times
+from dresspack.agents.stations.solver import (
     RoutingProblem,
     improve_by_pairs,
     lower_bound,
@@ -291,9 +294,9 @@ def two_robot_station() -> Station:
 
 def test_station_solver_is_optimal_on_a_two_robot_station(two_robot_station):
     planner = StationPlanner(two_robot_station, StationPlanConfig(kept_options=2, costed_options=2))
-    task = make_station_task(two_robot_station, lambda r: planner.leg_planners[r].validity.checker.collides)
+    task = make_station_task(two_robot_station, lambda r: planner.legs.planners[r].validity.checker.collides)
     assert all(set(task.candidates(w)) == {0, 1} for w in task.weld_names)  # both robots reach every weld
-    options = planner._choose_options(task)
+    options = planner.costs.choose(task, planner.config.costed_options, planner.config.kept_options)
     p = replace(planner.problem(task, options), conflicts=None)  # the pure min-max problem brute force solves
     a = solve(p, "time", work=10)
     assert a.estimate["makespan"] == pytest.approx(brute_force_makespan(p), abs=2e-3)
@@ -595,22 +598,22 @@ def test_a_cost_settle_that_does_not_reach_equilibrium_is_reported(two_robot_sta
     planner = StationPlanner(hurried, StationPlanConfig())
     task = make_station_task(hurried, lambda r: None, ["r1_sill_1"])
     option = task.options["r1_sill_1"][0]
-    planner.cost_rate(option.robot, option.q)
-    assert planner.unconverged_options([option]) == ["r1_sill_1"]
-    planner.save_rates(tmp_path / "costs.json")
+    planner.costs.rate(option.robot, option.q)
+    assert planner.costs.unconverged_options([option]) == ["r1_sill_1"]
+    planner.costs.save(tmp_path / "costs.json")
     again = StationPlanner(two_robot_station, StationPlanConfig())
-    again.load_rates(tmp_path / "costs.json")
-    assert again.unconverged_options([option]) == ["r1_sill_1"]
+    again.costs.load(tmp_path / "costs.json")
+    assert again.costs.unconverged_options([option]) == ["r1_sill_1"]
     settled = StationPlanner(two_robot_station, StationPlanConfig())
-    settled.cost_rate(option.robot, option.q)
-    assert settled.unconverged_options([option]) == []
+    settled.costs.rate(option.robot, option.q)
+    assert settled.costs.unconverged_options([option]) == []
 
 
 def test_a_leg_that_jams_its_cable_is_rerouted_then_blocked(two_robot_station):
     """The replay's verdict reaches the plan: a jam found while robot 0 runs its second leg blames that leg; the
     leg is re-routed (another OMPL route, or through Home), and once the re-routes are spent it is blocked for
     the solver. Another objective's planner does not inherit the re-routes."""
-    from dresspack.agents.station_planning import BLOCKED, REROUTES
+    from dresspack.agents.stations import BLOCKED, REROUTES
 
     planner = StationPlanner(two_robot_station, StationPlanConfig(kept_options=2, costed_options=2, cable_repairs=0,
                                                                   work=0.5))
@@ -627,24 +630,25 @@ def test_a_leg_that_jams_its_cable_is_rerouted_then_blocked(two_robot_station):
                                 np.array([70.0, 70.0]))
     qs = np.vstack([plan.task.homes, [o.q for o in plan.options]])
     path = [0, *plan.assignment.routes[0], 0]
-    assert planner.jammed_legs(plan, qs) == [(0, path[1], path[2])]
+    assert jammed_legs(plan, qs) == [(0, path[1], path[2])]
     # while it stands at the weld after the leg, the leg into that weld is still the one blamed
     tension[:] = 0.0
     tension[t >= s.leg_end()[1] + 0.1, 0] = 1e4
-    assert planner.jammed_legs(plan, qs) == [(0, path[1], path[2])]
+    assert jammed_legs(plan, qs) == [(0, path[1], path[2])]
     # a robot that stays Home has no leg to blame: its cable was pinned by another robot
     idle = copy.copy(plan)
     idle.assignment = replace(plan.assignment, routes=[[], plan.assignment.routes[1]])
-    assert planner.jammed_legs(idle, qs) == []
+    assert jammed_legs(idle, qs) == []
 
-    old = planner.leg(0, path[1], path[2], qs)
+    old = planner.legs.leg(0, path[1], path[2], qs)
     stops = ["Home"] * 2 + [o.weld for o in plan.options]
-    done = [planner._reroute(0, path[1], path[2], qs, stops, "test", 1.0)["now"] for _ in range(len(REROUTES) + 1)]
+    done = [reroute(planner.legs, two_robot_station.home, planner.names, 0, path[1], path[2], qs, stops, "test",
+                    1.0)["now"] for _ in range(len(REROUTES) + 1)]
     assert done[-1] == "blocked" and set(done[:-1]) <= {*REROUTES, "blocked"}
-    assert planner.leg(0, path[1], path[2], qs) is None
+    assert planner.legs.leg(0, path[1], path[2], qs) is None
     assert planner.problem(plan.task, plan.options).travel[0, path[1], path[2]] == BLOCKED
     other = planner.reconfigured(replace(planner.config, objective="wear"))
-    np.testing.assert_array_equal(other.leg(0, path[1], path[2], qs), old)
+    np.testing.assert_array_equal(other.legs.leg(0, path[1], path[2], qs), old)
 
 
 def test_the_solver_reads_a_simulated_leg_wear_where_there_is_one():
@@ -671,25 +675,25 @@ def test_a_simulated_leg_standing_still_wears_at_its_settled_rate(two_robot_stat
     planner = StationPlanner(two_robot_station, StationPlanConfig())
     task = make_station_task(two_robot_station, lambda r: None, ["r1_sill_1"])
     q = task.options["r1_sill_1"][0].q
-    rate = planner.cost_rate(0, q)
-    still = planner.leg_run(0, np.array([q, q]), 2.0)
+    rate = planner.costs.rate(0, q)
+    still = planner.legs.run(0, np.array([q, q]), 2.0)
     assert still.start_settled and not still.jammed
     assert still.wear == pytest.approx(2.0 * rate, rel=2e-3)
-    moved = planner.leg_run(0, np.array([two_robot_station.home[0], q]), 1.0)
+    moved = planner.legs.run(0, np.array([two_robot_station.home[0], q]), 1.0)
     assert moved.wear > 0 and moved.max_tension > 0
-    assert planner.leg_run(0, np.array([two_robot_station.home[0], q]), 1.0) is moved  # cached
+    assert planner.legs.run(0, np.array([two_robot_station.home[0], q]), 1.0) is moved  # cached
 
 
 def test_a_leg_that_jams_its_cable_alone_is_rerouted_while_planning(two_robot_station, monkeypatch):
     """The cable run of every chosen leg reaches the plan without a station replay: a leg whose run jams the
     cable is re-routed or blocked, logged with its reason, and the plan no longer uses it."""
-    from dresspack.agents.station_planning import LegRun
+    from dresspack.agents.stations import LegRun
 
     config = StationPlanConfig(kept_options=2, costed_options=2, cable_repairs=0, work=0.5)
     first = StationPlanner(two_robot_station, config).plan()
     bad = first.schedule.robot(0).legs[0]
     planner = StationPlanner(two_robot_station, config)
-    real = planner.leg_run
+    real = planner.legs.run
 
     def run(robot, leg, weld_time):
         out = real(robot, leg, weld_time)
@@ -697,7 +701,7 @@ def test_a_leg_that_jams_its_cable_alone_is_rerouted_while_planning(two_robot_st
             return LegRun(out.wear, 1e6, True, out.start_settled)
         return out
 
-    monkeypatch.setattr(planner, "leg_run", run)
+    monkeypatch.setattr(planner.legs, "run", run)
     plan = planner.plan()
     moved = plan.info["rerouted_legs"]
     assert moved and moved[0]["robot"] == "r1" and moved[0]["from"] == "Home"
@@ -711,20 +715,22 @@ def test_a_cable_repair_keeps_the_answers_found_before_it(two_robot_station, mon
     rounds before are still candidates then (their jammed leg re-routed), not thrown away."""
     config = StationPlanConfig(kept_options=2, costed_options=2, cable_repairs=1, work=0.5)
     planner = StationPlanner(two_robot_station, config)
-    real, before, calls = StationPlanner.jammed_legs, [], []
+    import dresspack.agents.stations.planner as planning
 
-    def jam_once(self, plan, qs):  # the first replay's verdict: the first leg of a robot that works jammed
-        calls.append(len(self._candidates))
+    before, calls = [], []
+
+    def jam_once(plan, qs):  # the first replay's verdict: the first leg of a robot that works jammed
+        calls.append(len(planner.candidates))
         if not before:
-            before.extend(self._candidates)
+            before.extend(planner.candidates)
             r = next(r for r, route in enumerate(plan.assignment.routes) if route)
             return [(r, r, plan.assignment.routes[r][0])]
-        return real(self, plan, qs)
+        return jammed_legs(plan, qs)
 
-    monkeypatch.setattr(StationPlanner, "jammed_legs", jam_once)
+    monkeypatch.setattr(planning, "jammed_legs", jam_once)
     planner.plan()
     assert len(calls) == 2 and calls[1] > calls[0]  # the repair's rounds added answers to the earlier ones
-    assert before and all(any(c is b for c in planner._candidates) for b in before)
+    assert before and all(any(c is b for c in planner.candidates) for b in before)
 
 
 def brute_force_wear(p: RoutingProblem, cap: float) -> float:
@@ -795,8 +801,8 @@ def test_an_objective_plans_the_same_whatever_was_planned_before_it(two_robot_st
     first = StationPlanner(two_robot_station, config)
     timed = first.plan()
     solved = []
-    original = StationPlanner._plan_legs
-    monkeypatch.setattr(StationPlanner, "_plan_legs",
+    original = StationPlanner._rounds
+    monkeypatch.setattr(StationPlanner, "_rounds",
                         lambda self, *a, **k: solved.append(self.config.objective) or original(self, *a, **k))
     after = first.reconfigured(replace(config, objective="wear")).plan()
     assert solved == ["wear"]  # the time candidate is the time plan above, not planned again
@@ -816,30 +822,30 @@ def test_planned_ratio_times_unplanned_moves_like_the_detours_planned_so_far(two
     keep their exact times, and ``"straight"`` keeps the straight-move time (a lower bound)."""
     planner = StationPlanner(two_robot_station, StationPlanConfig(kept_options=2, costed_options=2,
                                                                   blocked_estimate="straight"))
-    task = make_station_task(two_robot_station, lambda r: planner.leg_planners[r].validity.checker.collides)
-    options = planner._choose_options(task)
-    planner.check_straight_moves(task, options)
+    task = make_station_task(two_robot_station, lambda r: planner.legs.planners[r].validity.checker.collides)
+    options = planner.costs.choose(task, planner.config.costed_options, planner.config.kept_options)
+    planner.legs.check_straight_moves(task, options)
     qs = np.vstack([task.homes, [o.q for o in options]])
-    straight = planner.straight_times(qs)
+    straight = straight_times(qs, planner.legs.limits)
     base = planner.problem(task, options).travel
     node_robot = np.concatenate([[0, 1], [o.robot for o in options]])
     own = [(r, i, j) for r in range(2) for i, j in itertools.permutations(range(len(qs)), 2)
            if node_robot[i] == r == node_robot[j]]
-    blocked = [(r, i, j) for r, i, j in own if _leg_key(r, qs[i], qs[j]) not in planner._known]
+    blocked = [(r, i, j) for r, i, j in own if _leg_key(r, qs[i], qs[j]) not in planner.legs.known]
     assert len(blocked) >= 2
     np.testing.assert_array_equal(base, straight)  # nothing planned but straight moves: all straight times
     (r, i, j), rest = blocked[0], blocked[1:]
     detour = np.array([qs[i], 0.5 * (qs[i] + qs[j]) + 0.2, qs[j]])  # a planned leg by a via point
     key = _leg_key(r, qs[i], qs[j])
-    planner._legs[key] = detour
-    planner._known.add(key)
-    exact = time_law.path_duration(detour, planner.limits[r])
+    planner.legs.paths[key] = detour
+    planner.legs.known.add(key)
+    exact = time_law.path_duration(detour, planner.legs.limits[r])
     ratio = exact / straight[r, i, j]
     assert ratio > 1.0
     lower = planner.problem(task, options).travel
     assert lower[r, i, j] == exact and all(lower[x] == straight[x] for x in rest)
     scaled = planner.reconfigured(replace(planner.config, blocked_estimate="planned_ratio"))
-    scaled._known = set(planner._known)
+    scaled.legs.known = set(planner.legs.known)
     travel = scaled.problem(task, options).travel
     assert travel[r, i, j] == exact
     for x in rest:
@@ -874,27 +880,27 @@ def test_every_move_planned_up_front_is_exact_both_ways_and_resumes_from_its_cac
     each the same path both ways, and the solver times every one of them exactly. The legs go to a
     cache file as they finish; a later run reads them back (a torn last line is planned again), and a cache
     written with other settings is ignored. Workers change nothing."""
-    from dresspack.agents import station_legs
+    from dresspack.agents.stations import legs_up_front as station_legs
 
     cfg = StationPlanConfig(kept_options=1, costed_options=1)
     planner = StationPlanner(two_robot_station, cfg)
-    task = make_station_task(two_robot_station, lambda r: planner.leg_planners[r].validity.checker.collides)
-    options = planner._choose_options(task)
-    planner.check_straight_moves(task, options)
+    task = make_station_task(two_robot_station, lambda r: planner.legs.planners[r].validity.checker.collides)
+    options = planner.costs.choose(task, planner.config.costed_options, planner.config.kept_options)
+    planner.legs.check_straight_moves(task, options)
     cache = tmp_path / "planned_legs.jsonl"
-    planner.plan_every_move(task, options, cache, workers=2)
+    planner.legs.plan_every_move(task, options, cache, workers=2)
     qs = np.vstack([task.homes, [o.q for o in options]])
     node_robot = np.concatenate([[0, 1], [o.robot for o in options]])
     own = [(r, i, j) for r in range(2) for i, j in itertools.permutations(range(len(qs)), 2)
            if node_robot[i] == r == node_robot[j]]
-    assert all(_leg_key(r, qs[i], qs[j]) in planner._known for r, i, j in own)
+    assert all(_leg_key(r, qs[i], qs[j]) in planner.legs.known for r, i, j in own)
     travel = planner.problem(task, options).travel
     detours = 0
     for r, i, j in own:
-        leg, back = planner._legs[_leg_key(r, qs[i], qs[j])], planner._legs[_leg_key(r, qs[j], qs[i])]
+        leg, back = planner.legs.paths[_leg_key(r, qs[i], qs[j])], planner.legs.paths[_leg_key(r, qs[j], qs[i])]
         np.testing.assert_array_equal(leg, back[::-1])
-        assert planner.leg_planners[r].validity.path_valid(leg)
-        assert travel[r, i, j] == planner.leg_motion(r, leg).duration == pytest.approx(travel[r, j, i], abs=1e-12)
+        assert planner.legs.planners[r].validity.path_valid(leg)
+        assert travel[r, i, j] == planner.legs.motion(r, leg).duration == pytest.approx(travel[r, j, i], abs=1e-12)
         detours += len(leg) > 2
     assert detours >= 2  # some moves are blocked as straight moves: these are planned paths
     planned = [line for line in cache.read_text().splitlines()[1:]]
@@ -904,11 +910,12 @@ def test_every_move_planned_up_front_is_exact_both_ways_and_resumes_from_its_cac
         raise AssertionError("a cached leg was planned again")
 
     again = StationPlanner(two_robot_station, cfg)
-    again.check_straight_moves(task, options)
+    again.legs.check_straight_moves(task, options)
     monkeypatch.setattr(station_legs, "plan_leg", refuse)
-    again.plan_every_move(task, options, cache, workers=1)
+    again.legs.plan_every_move(task, options, cache, workers=1)
     for r, i, j in own:
-        np.testing.assert_array_equal(again._legs[_leg_key(r, qs[i], qs[j])], planner._legs[_leg_key(r, qs[i], qs[j])])
+        key = _leg_key(r, qs[i], qs[j])
+        np.testing.assert_array_equal(again.legs.paths[key], planner.legs.paths[key])
     monkeypatch.undo()
     # an interrupted write: the last line torn in half is planned again, in one worker, to the same leg
     text = cache.read_text()
@@ -917,11 +924,12 @@ def test_every_move_planned_up_front_is_exact_both_ways_and_resumes_from_its_cac
     original = station_legs.plan_leg
     monkeypatch.setattr(station_legs, "plan_leg", lambda *a: calls.append(a) or original(*a))
     torn = StationPlanner(two_robot_station, cfg)
-    torn.check_straight_moves(task, options)
-    torn.plan_every_move(task, options, cache, workers=1)
+    torn.legs.check_straight_moves(task, options)
+    torn.legs.plan_every_move(task, options, cache, workers=1)
     assert len(calls) == 1
     for r, i, j in own:
-        np.testing.assert_array_equal(torn._legs[_leg_key(r, qs[i], qs[j])], planner._legs[_leg_key(r, qs[i], qs[j])])
+        key = _leg_key(r, qs[i], qs[j])
+        np.testing.assert_array_equal(torn.legs.paths[key], planner.legs.paths[key])
     assert len(cache.read_text().splitlines()) == len(text.splitlines()) + 1  # the torn line stays, unread
     # another seed: the cache does not apply
     assert station_legs._read_cache(cache, station_legs.fingerprint(two_robot_station.config, FastLegPlanner,
@@ -943,7 +951,7 @@ def test_legs_up_front_make_every_move_exact_for_the_wear_objective_only(two_rob
     node_weld = [None, None, *(o.weld for o in plan.options)]
     own = [(r, i, j) for r in range(2) for i, j in itertools.permutations(range(len(qs)), 2)
            if node_robot[i] == r == node_robot[j] and (node_weld[i] is None or node_weld[i] != node_weld[j])]
-    assert all(_leg_key(r, qs[i], qs[j]) in wear._known for r, i, j in own)
+    assert all(_leg_key(r, qs[i], qs[j]) in wear.legs.known for r, i, j in own)
     assert plan.info["planned_legs"] >= len(own)
     assert cache.is_file() and len(cache.read_text().splitlines()) > 1
     assert plan.schedule.makespan <= plan.coordination["makespan_cap"] + 1e-9
@@ -956,7 +964,7 @@ def test_legs_up_front_make_every_move_exact_for_the_wear_objective_only(two_rob
 
 
 def test_planning_every_move_up_front_refuses_a_bad_worker_count(two_robot_station):
-    from dresspack.agents.station_legs import plan_moves
+    from dresspack.agents.stations.legs_up_front import plan_moves
 
     with pytest.raises(ConfigError, match="workers"):
         plan_moves(two_robot_station.config, FastLegPlanner, 100, 0, [], workers=0)

@@ -4,7 +4,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from dresspack.agents.map_roadmap import MapRoadmap, fine_wear, motion_time
+from dresspack.agents.planners.map_roadmap import MapRoadmap, fine_wear, motion_time
 
 from dresspack_gym.cable.shape import span_slack
 from dresspack_gym.errors import ConfigError
@@ -265,7 +265,7 @@ def test_wear_map_command_builds_a_loadable_map_and_names_bad_input(tmp_path, ca
 
 
 def test_planner_uses_the_shipped_map_or_says_it_has_none():
-    from dresspack.agents.planning import make_planner
+    from dresspack.agents.planners.registry import make_planner
 
     with_map = make_planner("ompl-wear", Station(load_station("thesis_tension")))
     assert with_map.wear_map is not None and with_map.routes.roadmap is not None

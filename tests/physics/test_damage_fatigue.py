@@ -213,7 +213,7 @@ def test_planner_leg_cost_with_the_damage_variant_integrates_the_damage_rate():
     """The planners' leg objective with cost_variant='damage': its wear part is the time integral of the worst
     segment's damage rate, which bounds each segment's value-term damage of the same leg from above."""
     pytest.importorskip("ompl")
-    from dresspack.agents.leg_cost import LegCost
+    from dresspack.agents.planners.leg_cost import LegCost
 
     station = Station(load_station("default"))
     task = make_task(station, 0, None, ["b_pillar_outer"])

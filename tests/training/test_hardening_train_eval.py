@@ -259,3 +259,57 @@ def test_close_vec_env_frees_a_close_stuck_on_an_answer_already_read():
     close_vec_env(venv, timeout=1.0)
     assert time.time() - t0 < 15.0
     assert not any(p.is_alive() for p in venv.processes)
+
+
+def _interrupt_after_first_row(argv: list[str], log: Path) -> tuple[int, list[str]]:
+    """Run ``argv``, press Ctrl-C (SIGINT to its process group) once ``log`` holds a finished row, and return
+    (exit code, the stderr lines that are not progress bars)."""
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    deadline = time.time() + 180
+    while time.time() < deadline and not (log.is_file() and log.read_text().count("\n") >= 1):
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        return -1, []
+    return proc.returncode, [line for line in err.replace("\r", "\n").splitlines() if line.strip()
+                             and not line.startswith("evaluating")]
+
+
+def test_ctrl_c_in_eval_prints_one_line_and_exits_130(tmp_path):
+    out = tmp_path / "e"
+    args = ["--methods", "ompl", "--tasks", "roof_rail_top", "sill_front", "roof_rail_top,sill_front", "--seeds",
+            "0", "1", "--iterations", "300", "--no-render", "--out", str(out)]
+    code, lines = _interrupt_after_first_row([sys.executable, "-m", "dresspack.eval.compare", *args],
+                                             out / "results.jsonl")
+    assert code == 130 and len(lines) == 1, lines
+    assert lines[0].startswith("interrupted: ") and "finished runs saved in" in lines[0]
+    assert lines[0].endswith("resume with: dresspack-eval " + " ".join(args))
+
+
+def test_the_run_records_its_version_without_touching_the_repository(tmp_path):
+    """``git status`` would refresh the index (taking .git/index.lock and rewriting .git/index) of a checkout
+    whose files were touched: the version is read without writing anything, and a changed file still counts."""
+    from dresspack.training.train import git_state
+
+    def git(*args):
+        subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *args], cwd=tmp_path, check=True,
+                       capture_output=True)
+
+    git("init", "-q")
+    (tmp_path / "a.txt").write_text("a\n")
+    git("add", "a.txt")
+    git("commit", "-q", "-m", "a")
+    time.sleep(1.1)
+    os.utime(tmp_path / "a.txt")  # same content, newer time: a stat-dirty index entry that a refresh rewrites
+    index = tmp_path / ".git" / "index"
+    before = (index.read_bytes(), index.stat().st_mtime_ns)
+    commit, dirty = git_state(tmp_path)
+    assert len(commit) == 40 and dirty is False
+    assert (index.read_bytes(), index.stat().st_mtime_ns) == before
+    (tmp_path / "a.txt").write_text("b\n")
+    assert git_state(tmp_path)[1] is True
+    assert (index.read_bytes(), index.stat().st_mtime_ns) == before

@@ -101,7 +101,7 @@ def test_shipped_training_config_loads_and_holds_out_its_evaluation_tasks():
 
 def test_masked_policy_never_enters_a_forbidden_configuration(tmp_path):
     """Even an untrained network, acting with masks, only visits valid configurations (asserted from info["q"])."""
-    from dresspack.agents.policy import PolicyAgent
+    from dresspack.agents.learned.policy import PolicyAgent
 
     from dresspack_gym.env.dresspack_env import DresspackEnv
 
@@ -243,7 +243,7 @@ def test_select_model_validates_every_saved_model_on_the_same_episodes_and_resum
 
 def test_self_imitation_keeps_each_episodes_best_rollout_fits_the_actor_alone_and_resumes(tmp_path, capsys):
     import torch
-    from dresspack.agents.policy import resolve_policy
+    from dresspack.agents.learned.policy import resolve_policy
     from dresspack.training.self_imitation import self_imitate
     from sb3_contrib import MaskablePPO
 
@@ -303,7 +303,7 @@ def test_self_imitation_keeps_each_episodes_best_rollout_fits_the_actor_alone_an
 
 
 def test_self_imitation_refuses_a_policy_whose_env_config_is_wrong_before_rolling_out(tmp_path):
-    from dresspack.agents.policy import resolve_policy
+    from dresspack.agents.learned.policy import resolve_policy
     from dresspack.training.self_imitation import self_imitate
 
     model, config = resolve_policy("goal_conditioned")

@@ -10,12 +10,11 @@ from dresspack_gym.maps.wear_map import WearMap, load_wear_map
 
 from .composed import ComposedPlanner
 from .fmt_routes import FMT_SAMPLES, FMT_WEIGHTS, FmtSearch
-from .leg_cost import LegCost
+from .leg_cost import TENSION_PEAK_TIME, LegCost, check_tension_peak_time
 from .map_roadmap import MapRoadmap
 from .map_routes import ROADMAP_WEIGHTS, MapRoutes
 from .refine import LocalRefiner
 from .routes import ViaRoutes
-from .tension_peak import TENSION_PEAK_TIME, check_tension_peak_time
 
 
 class OmplWearPlanner(ComposedPlanner):

@@ -27,9 +27,9 @@ import numpy as np
 from dresspack_gym.robots import time_law
 from dresspack_gym.stations.validity import MotionValidity
 
-from .budget import Allowance
-from .composed import ComposedPlanner
-from .ompl_connect import OmplConnector
+from ..planners.budget import Allowance
+from ..planners.composed import ComposedPlanner
+from ..planners.ompl_connect import OmplConnector
 
 VIA_SAMPLES = 256  # candidate via points per blocked move (timed in bulk, cheap)
 VIA_CHECKS = 40  # ... of which at most this many valid ones are tried as two segments (the costly part)

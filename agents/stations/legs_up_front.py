@@ -2,7 +2,7 @@
 
 The station planner plans legs lazily: the solver times unplanned moves by an estimate and only the moves its
 answers choose are planned. Planning every robot's moves between its Home and its options instead gives the real
-time of every move (``StationPlanner.plan_every_move``), and so a bound of the plans over the planner's own legs
+time of every move (``LegBook.plan_every_move``), and so a bound of the plans over the planner's own legs
 (``scripts/station_leg_bound.py``). A leg depends only on its ends, the station, the leg planner and its seed (the
 planners re-seed per plan), so which worker plans it, and in which order, changes nothing."""
 
@@ -18,7 +18,7 @@ import numpy as np
 from dresspack_gym.fields import check_integer
 from dresspack_gym.stations.tasks import Task
 
-from .base import PlanningError
+from ..planners.base import PlanningError
 
 CHUNK = 16  # moves per work unit sent to a worker (and per append to the cache file)
 
@@ -64,6 +64,7 @@ def plan_moves(station_config, leg_planner: type, iterations: int, seed: int,
     units = [[(k, *moves[k]) for k in todo[s:s + CHUNK]] for s in range(0, len(todo), CHUNK)]
     writer = None
     if cache is not None and units:
+        cache.parent.mkdir(parents=True, exist_ok=True)
         fresh = not cache.is_file() or not done
         torn = not fresh and not cache.read_bytes().endswith(b"\n")  # an interrupted write's partial line
         writer = cache.open("w" if fresh else "a")

@@ -18,7 +18,7 @@ from dresspack_gym.fields import check_choice
 
 # how a move not planned yet is timed for the solver (StationPlanConfig.blocked_estimate)
 BLOCKED_ESTIMATES = ("straight", "planned_ratio")
-# how a blocked move's leg is planned (station_planning.LEG_PLANNERS; named here, with the solver's settings, so
+# how a blocked move's leg is planned (config.LEG_PLANNERS; named here, with the solver's settings, so
 # the command line offers them without importing the planners)
 LEG_ROUTES = ("fastest", "ompl")
 OBJECTIVES = ("time", "wear", "balanced")
@@ -164,7 +164,8 @@ class RoutingProblem:
         solver = _deterministic_solver(DEFAULT_WORK)
         status = solver.solve(m)
         if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):  # every order is feasible: cannot happen
-            raise RuntimeError(f"timing {len(pairs)} conflicting weld pairs: CP-SAT status {solver.status_name(status)}")
+            raise RuntimeError(f"timing {len(pairs)} conflicting weld pairs: CP-SAT status "
+                               f"{solver.status_name(status)}")
         return (solver.value(makespan) / TIME_SCALE, {n: solver.value(e) for n, e in end.items()},
                 [solver.value(x) for x in rets], {k: bool(solver.value(x)) for k, x in first.items()})
 

@@ -13,11 +13,10 @@ from dresspack_gym.physics.wear_cost import cost_function
 from dresspack_gym.stations.station import Station
 from dresspack_gym.stations.tasks import Task, make_task
 
+from ..learned.policy import PolicyPlanner, RandomMaskedPlanner
 from .base import Planner, PlanResult
 from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES
-from .ompl_planner import OmplPlanner
-from .policy import PolicyPlanner, RandomMaskedPlanner
-from .thesis_local import ThesisLocalPlanner
+from .composed import OmplPlanner, ThesisLocalPlanner
 from .wear_global import OmplFmtWearPlanner, OmplWearPlanner
 
 PLANNERS: dict[str, type[Planner]] = {p.name: p for p in (
@@ -62,7 +61,7 @@ def plan_station(station_ref: str | Station, planner: str = "ompl", *, robot: in
                  task: Task | None = None, cost_variant: str = "thesis", **planner_kwargs) -> PlannedRun:
     """Plan ``task`` (default: Home -> ``welds`` -> Home) and replay it; ``planner_kwargs`` go to the planner
     (e.g. ``policy=`` for ``ppo``). The budget is ``iterations`` / ``evaluations`` / ``routes`` (work units, see
-    :class:`~dresspack.agents.budget.Budget`), with ``time_budget`` [s] as an optional wall-time cap.
+    :class:`~dresspack.agents.planners.budget.Budget`), with ``time_budget`` [s] as an optional wall-time cap.
     ``cost_variant`` is the wear cost the wear-aware planners minimise and the replay reports (thesis, normalized,
     damage)."""
     cost_function(cost_variant)  # a bad name fails before planning, naming the field

@@ -9,8 +9,8 @@ Why FMT* and how the objective is written (both measured on thesis_tension, see 
   joint-space length, and in the ompl 2.0.1 bindings its C++ ``motionCost`` does not call a ``stateCost``
   overridden in Python (it silently optimises path length).
 - FMT* asks for hundreds of thousands of edge costs per search; each call is a few microseconds of plain Python
-  (rates cached per sample, the time from :class:`~dresspack_gym.robots.time_law.AccelerationBound`), so a search of 1,000
-  samples takes seconds. The candidate routes are then ranked by the real cable simulation in path order.
+  (rates cached per sample, the time from :class:`~dresspack_gym.robots.time_law.AccelerationBound`), so a search of
+  1,000 samples takes seconds. The candidate routes are then ranked by the real cable simulation in path order.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from dresspack_gym.maps.map_cost import MapStateCost
 from dresspack_gym.robots import time_law
 from dresspack_gym.stations.validity import MotionValidity
 
-from .map_roadmap import fine_wear, motion_time, simplify_route
+from .map_roadmap import simplify_route
 from .ompl_connect import _ompl, _vector, joint_space, seed_ompl
 
 # Samples per FMT* search (its work unit) and the time/wear weights searched per leg (one search each). Measured on
@@ -67,7 +67,8 @@ class FmtSearch:
     def __init__(self, validity: MotionValidity, cost: MapStateCost, limits: time_law.JointLimits, *,
                  samples: int = FMT_SAMPLES, radius_multiplier: float = 1.0):
         if isinstance(samples, bool) or not isinstance(samples, int) or not 10 <= samples <= 10**6:
-            raise ConfigError("fmt_samples", f"must be an integer in [10, 1000000] (samples per search), got {samples!r}")
+            raise ConfigError("fmt_samples",
+                              f"must be an integer in [10, 1000000] (samples per search), got {samples!r}")
         if not 0.1 <= radius_multiplier <= 10.0:
             raise ConfigError("fmt_radius_multiplier", f"must be in [0.1, 10], got {radius_multiplier!r}")
         self.validity, self.cost = validity, cost
@@ -126,13 +127,4 @@ class FmtSearch:
         path = pdef.getSolutionPath()
         pts = np.array([_vector(path.getState(i)) for i in range(path.getStateCount())])
         pts[0], pts[-1] = a, b
-        return self.simplify(pts, weight)
-
-    def simplify(self, route: np.ndarray, weight: float) -> np.ndarray:
-        """Drop waypoints whose neighbours join directly at no higher objective (every waypoint is a stop)."""
-        def objective(p, q):
-            t = motion_time(p, q, self.limits)
-            return t + weight * fine_wear(self.cost, p, q, t)
-
-        return simplify_route(route, objective, self.validity.segment_valid)
-
+        return simplify_route(pts, weight, self.cost, self.limits, self.validity)

@@ -17,7 +17,12 @@ from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, All
 
 
 class PlanningError(DresspackError):
-    """No valid trajectory was found within the planning budget (or the task itself is invalid)."""
+    """No valid trajectory was found within the planning budget (or the task itself is invalid). ``field``, if
+    given, names what to look at (e.g. ``robots.r1``), as a ConfigError does; the message then starts with it."""
+
+    def __init__(self, message: str, field: str = ""):
+        self.field = field
+        super().__init__(f"{field}: {message}" if field else message)
 
 
 @dataclass

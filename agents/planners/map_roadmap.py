@@ -32,15 +32,20 @@ def fine_wear(cost: MapStateCost, a: np.ndarray, b: np.ndarray, t: float) -> flo
     return t * (0.5 * (rates[0] + rates[-1]) + sum(rates[1:-1])) / steps
 
 
-def simplify_route(route: np.ndarray, objective, segment_valid) -> np.ndarray:
-    """Drop waypoints whose neighbours join directly (``segment_valid``) at no higher ``objective(p, q)`` than the
-    route between them: every waypoint is a stop."""
+def simplify_route(route: np.ndarray, weight: float, cost: MapStateCost, limits: time_law.JointLimits,
+                   validity: MotionValidity) -> np.ndarray:
+    """Drop waypoints whose neighbours join directly (a valid segment) at no higher objective, motion time +
+    ``weight`` x the map's ∫C dt, than the route between them: every waypoint is a stop."""
+    def objective(p, q):
+        t = motion_time(p, q, limits)
+        return t + weight * fine_wear(cost, p, q, t)
+
     along = np.concatenate([[0.0], np.cumsum([objective(p, q) for p, q in zip(route[:-1], route[1:])])])
     out, i = [route[0]], 0
     while i < len(route) - 1:
         j = len(route) - 1
         while j > i + 1 and not (objective(route[i], route[j]) <= along[j] - along[i]
-                                 and segment_valid(route[i], route[j])):
+                                 and validity.segment_valid(route[i], route[j])):
             j -= 1
         out.append(route[j])
         i = j
@@ -160,16 +165,8 @@ class MapRoadmap:
                         changed = True
                         break
             if not changed:
-                return self.simplify(np.array([point(i) for i in path]), weight)
+                return simplify_route(np.array([point(i) for i in path]), weight, self.cost, self.limits, self.validity)
         return None
-
-    def simplify(self, route: np.ndarray, weight: float) -> np.ndarray:
-        """Drop milestones whose neighbours join directly at no higher objective (every waypoint is a stop)."""
-        def objective(p, q):
-            t = motion_time(p, q, self.limits)
-            return t + weight * fine_wear(self.cost, p, q, t)
-
-        return simplify_route(route, objective, self.validity.segment_valid)
 
     @staticmethod
     def _dijkstra(source, target, neighbours, edge_cost, retired):

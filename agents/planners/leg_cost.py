@@ -1,17 +1,41 @@
 """The wear-aware objective of one leg: motion time + integral of the wear cost (4.10), by simulating the cable
-along the leg in path order from the cable state the previous legs left (thesis §5.3)."""
+along the leg in path order from the cable state the previous legs left (thesis §5.3); its weights' range checks."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from dresspack_gym.errors import ConfigError
 from dresspack_gym.physics.simulation import CableSimulator
 from dresspack_gym.physics.trajectory import Trajectory, replay
 from dresspack_gym.physics.wear_cost import cost_function
 from dresspack_gym.stations.station import Station
 
-from .tension_peak import check_tension_peak_time
-from .time_weight import check_time_weight
+# Largest cost of one second of cycle time against one unit of ∫C dt: a second then outweighs a leg's whole
+# wear integral (tens to hundreds), so the wear term no longer ranks routes (the README measures the trade-off).
+MAX_TIME_WEIGHT = 1000.0
+# [s] a leg's highest tension term charged as if it lasted this long (see LegCost). Measured on thesis_tension's
+# cuboid moved -10 cm, the four seeds whose routes peaked at 64-85 N under (4.10) alone: 0.1 s left two of them
+# above 60 N, 0.25 s brought all four under 43 N, 0.5 s and 1 s lowered some of those peaks by 2-10 N more at
+# no shorter cycle times (README "Finding the low route every time").
+TENSION_PEAK_TIME = 0.25
+MAX_TENSION_PEAK_TIME = 60.0  # [s] a peak charged as if it lasted a minute outweighs any leg's motion time
+
+
+def check_time_weight(value) -> float:
+    """``time_weight`` as a float, or a ConfigError naming the field and the allowed range."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= MAX_TIME_WEIGHT:
+        raise ConfigError("time_weight", f"must be a number in [0, {MAX_TIME_WEIGHT:g}] (cost of one second of "
+                                         f"cycle time against one unit of ∫C dt; 0: wear alone), got {value!r}")
+    return float(value)
+
+
+def check_tension_peak_time(value) -> float:
+    """``tension_peak_time`` as a float, or a ConfigError naming the field and the allowed range."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= MAX_TENSION_PEAK_TIME:
+        raise ConfigError("tension_peak_time",
+                          f"must be a number of seconds in [0, {MAX_TENSION_PEAK_TIME:g}], got {value!r}")
+    return float(value)
 
 
 class LegCost:

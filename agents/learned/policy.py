@@ -16,9 +16,10 @@ from dresspack_gym.shipped import find_shipped, shipped_root
 from dresspack_gym.stations.station import Station
 from dresspack_gym.stations.tasks import Task
 
-from .base import Planner, PlanningError, out_of_time_error
+from ..planners.base import Planner, PlanningError, out_of_time_error
 
-POLICY_DIR = shipped_root(__package__) / "policies"  # package data: agents/policies/<name>/
+SHIPPED_IN = "dresspack.agents"  # the package whose data holds the shipped policies: agents/policies/<name>/
+POLICY_DIR = shipped_root(SHIPPED_IN) / "policies"
 DEFAULT_POLICY = "stud_welding"
 ATTEMPTS = 3  # rollouts per task: the most probable action each step, then actions sampled (see PolicyPlanner)
 # Only the episode-sampling arguments differ between training and acting on a given task.
@@ -31,7 +32,7 @@ def resolve_policy(ref: str | Path | None) -> tuple[Path, dict]:
     ref = DEFAULT_POLICY if ref is None else ref
     path = Path(ref)
     if not path.exists():
-        path = find_shipped(ref, "policies", "policy", package=__package__, suffix="")
+        path = find_shipped(ref, "policies", "policy", package=SHIPPED_IN, suffix="")
     if path.is_dir():
         for name in ("model.zip", "best/best_model.zip", "final_model.zip"):
             if (path / name).is_file():
@@ -110,8 +111,8 @@ class PolicyPlanner(Planner):
         env_kwargs = {k: v for k, v in (config.get("env_kwargs") or {}).items() if k not in _TRAINING_ONLY}
         margin = float(env_kwargs.pop("collision_margin", 0.0))
         # the planners' margin (at least): every step the masks allow then passes Planner.plan's validity check
-        self.env = DresspackEnv(station=station, robot=robot, collision_margin=max(margin, self.validity.checker.margin),
-                                **env_kwargs)
+        margin = max(margin, self.validity.checker.margin)
+        self.env = DresspackEnv(station=station, robot=robot, collision_margin=margin, **env_kwargs)
         self.agent = self._make_agent(model_path)
         expected = self.agent.n_actions
         if self.env.action_space.n != expected:

@@ -1,4 +1,5 @@
-"""A planner assembled from parts: a route generator, optionally a leg cost and a refiner (legs in path order)."""
+"""A planner assembled from parts: a route generator, optionally a leg cost and a refiner (legs in path order); the
+two planners of direct routes: the wear-unaware OMPL baseline and the thesis's local wear-aware planner."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from .base import Planner
 from .leg_cost import LegCost
 from .ompl_connect import OmplConnector
 from .refine import LocalRefiner
+from .routes import DirectRoute
 
 
 class ComposedPlanner(Planner):
@@ -68,3 +70,32 @@ class ComposedPlanner(Planner):
             info.update(objective_nominal=before, objective=after, cable_evaluations=cost.evaluations,
                         route_scores=route_scores)  # per leg, each candidate route's leg cost before refinement
         return traj, info
+
+
+class OmplPlanner(ComposedPlanner):
+    """Wear-unaware baseline (today's practice, no cable): joint-space RRTConnect with limits + joint restrictions
+    + collision as validity, and path simplification per leg; shortest-time leg."""
+
+    name = "ompl"
+    color = "#d95f02"
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.routes = DirectRoute(self.connector, self.budget.iterations)
+
+
+class ThesisLocalPlanner(ComposedPlanner):
+    """Thesis-style wear-aware planner (thesis §5.3): a nominal path from OMPL (no cable), then stochastic local
+    search on each leg's interior waypoints with the cost time + (4.10), legs optimised in path order so the cable
+    state carries over."""
+
+    name = "thesis-local"
+    color = "#7570b3"
+
+    def __init__(self, *args, n_interior: int = 3, step_deg: float = 15.0, time_weight: float = 1.0,
+                 wear_weight: float = 1.0, cost_variant: str = "thesis", **kwargs):
+        super().__init__(*args, **kwargs)
+        self.routes = DirectRoute(self.connector, self.budget.iterations)
+        self.leg_cost = LegCost(self.station, self.robot, time_weight=time_weight, wear_weight=wear_weight,
+                                cost_variant=cost_variant)
+        self.refiner = LocalRefiner(self.validity, self.leg_cost, n_interior, step_deg)

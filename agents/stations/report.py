@@ -41,7 +41,8 @@ def write_summary(station, plans: dict, out: Path) -> dict:
                 line += f"; the least-wear routes it found estimate {b['best']:.4g}"
             time_wear = rows.get("time", {}).get("replay", {}).get("cost")
             if time_wear:
-                line += f"; that bound is {100 * (1 - b['bound'] / time_wear):.1f} % below the time plan's replayed wear"
+                below = 100 * (1 - b["bound"] / time_wear)
+                line += f"; that bound is {below:.1f} % below the time plan's replayed wear"
             lines += ["", line + "."]
     for name, s in rows.items():
         moved = s["info"].get("rerouted_legs") or []

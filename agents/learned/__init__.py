@@ -1,0 +1,1 @@
+"""The learned policy (MaskablePPO) behind the Planner interface."""
