@@ -24,7 +24,7 @@ ENV_IDS = {
 PUBLIC = {
     "load_station": "io.loading", "Station": "stations.station", "CableSimulator": "physics.simulation",
     "wear_cost": "physics.wear_cost", "Trajectory": "physics.trajectory", "replay": "physics.trajectory",
-    "DresspackEnv": "env.dresspack_env",
+    "DresspackEnv": "env.dresspack_env", "EnvConfig": "env.config",
 }
 
 

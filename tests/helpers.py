@@ -51,3 +51,33 @@ def default_station_dict():
 # midpoint via leaves toward Home (docs/primitive_reach.json)
 STUCK_WELD = np.array([0.7407122213013433, 1.0980702748831073, -0.7737209529340379, 3.4157926055470913,
                        -1.0514117569148649, 2.196833986149849])
+
+
+NEAR_SIDE = ("r1_sill_1", "r1_b_pillar_1", "r2_b_pillar_1", "r2_sill_1")
+
+
+def near_side_yaml(tmp_path, welds=NEAR_SIDE, extra=()):
+    """The near side of the shipped side-framing station as a YAML file: robots r1 and r2, four of their welds (and
+    any ``extra`` weld points)."""
+    import yaml
+
+    from dresspack_gym.shipped import find_shipped
+
+    data = yaml.safe_load(find_shipped("side_framing_4r", "stations", "station").read_text())
+    data["name"] = "near_side_2r"
+    data["robots"] = data["robots"][:2]
+    data["weld_points"] = [w for w in data["weld_points"] if w["name"] in welds] + list(extra)
+    path = tmp_path / "near_side_2r.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def station_with_weld_csv(tmp_path, data: bytes):
+    """The default station with its weld points read from a CSV file of these bytes (millimetres)."""
+    from dresspack_gym.io.loading import station_from_dict
+
+    (tmp_path / "welds.csv").write_bytes(data)
+    d = default_station_dict()
+    d["weld_points"] = []
+    d["weld_points_csv"] = {"path": str(tmp_path / "welds.csv"), "units": "mm"}
+    return station_from_dict(d)

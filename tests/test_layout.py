@@ -5,6 +5,7 @@ import importlib
 import subprocess
 import sys
 import warnings
+from pathlib import Path
 
 import pytest
 
@@ -60,3 +61,15 @@ def test_the_split_config_module_offers_every_dataclass_it_held():
 def test_a_module_nobody_moved_is_still_missing():
     with pytest.raises(ModuleNotFoundError):
         importlib.import_module("dresspack_gym.no_such_module")
+
+
+def test_every_package_folder_is_listed_for_the_wheel():
+    """A folder of modules missing from pyproject's ``packages`` installs nowhere (an installed command then fails)."""
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11 and newer
+    root = Path(__file__).resolve().parents[1]
+    listed = set(tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    folders = {"dresspack_gym": "dresspack_gym", "agents": "dresspack.agents", "training": "dresspack.training",
+               "eval": "dresspack.eval"}
+    found = {name + "".join("." + part for part in init.parent.relative_to(root / folder).parts)
+             for folder, name in folders.items() for init in (root / folder).rglob("__init__.py")}
+    assert found <= listed, f"not in pyproject.toml's packages: {sorted(found - listed)}"

@@ -3,8 +3,6 @@ their exact times; then two robots re-solved at a time; the best answer coordina
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from dresspack_gym.errors import ConfigError
@@ -19,18 +17,16 @@ from .plan import StationPlan
 from .problem import BLOCKED, straight_times
 from .solver import INTERLOCKS, PAIR_IMPROVEMENTS, PAIR_WORK, Assignment, RoutingProblem, improve_by_pairs, solve
 
-if TYPE_CHECKING:
-    from .planner import StationPlanner
-
 EXACT_TOLERANCE = 0.02  # a chosen leg whose planned duration exceeds its estimate by more is re-solved with it
 
 
-def solve_rounds(planner: StationPlanner, task: StationTask, options: list[WeldOption], qs: np.ndarray,
+def solve_rounds(planner, task: StationTask, options: list[WeldOption], qs: np.ndarray,
                  stops: list[str], given: list[Assignment] = (), reference: float | None = None) -> StationPlan:
     """Solve, plan the chosen legs, re-solve with their exact times (``exact_rounds``); coordinate; verify.
-    ``given``: answers found elsewhere whose legs are planned, candidates beside this objective's;
-    ``reference``: the time plan's makespan, which the wear objective's slack is measured from. The rounds'
-    candidates are left in ``planner.candidates``."""
+    ``planner``: the StationPlanner running these rounds (its parts, settings and progress bar; passed in, not
+    imported, since the planner is what composes this module). ``given``: answers found elsewhere whose legs are
+    planned, candidates beside this objective's; ``reference``: the time plan's makespan, which the wear objective's
+    slack is measured from. The rounds' candidates are left in ``planner.candidates``."""
     cfg, legs = planner.config, planner.legs
     candidates = list(given)
     straight = straight_times(qs, legs.limits)
@@ -71,7 +67,7 @@ def solve_rounds(planner: StationPlanner, task: StationTask, options: list[WeldO
                        wear_bound=wear_bound)
 
 
-def _solve_until_exact(planner: StationPlanner, task: StationTask, options: list[WeldOption], qs: np.ndarray,
+def _solve_until_exact(planner, task: StationTask, options: list[WeldOption], qs: np.ndarray,
                        stops: list[str], straight: np.ndarray, candidates: list[Assignment]) -> tuple:
     """The rounds: solve, plan the chosen legs, re-solve until no chosen leg is slower (or wears more) than its
     estimate, ``exact_rounds`` at most (more while no answer has every leg planned). Every answer is appended to
@@ -131,7 +127,7 @@ def _solve_until_exact(planner: StationPlanner, task: StationTask, options: list
     return rounds, solves, bound, wear_failures
 
 
-def plan_chosen_legs(planner: StationPlanner, problem: RoutingProblem, assignment: Assignment, qs: np.ndarray,
+def plan_chosen_legs(planner, problem: RoutingProblem, assignment: Assignment, qs: np.ndarray,
                      stops: list[str]) -> int:
     """Plan every leg of the assignment and run it with its robot's cable (a leg that jams the cable is
     re-routed or blocked); the number that took longer, or (objectives with wear) wore more, than estimated."""
@@ -154,7 +150,7 @@ def plan_chosen_legs(planner: StationPlanner, problem: RoutingProblem, assignmen
     return changed
 
 
-def _pair_improvements(planner: StationPlanner, task: StationTask, options: list[WeldOption], qs: np.ndarray,
+def _pair_improvements(planner, task: StationTask, options: list[WeldOption], qs: np.ndarray,
                        stops: list[str], best: Assignment, schedule: StationSchedule, coordination: dict,
                        pairs: RobotPairDistance) -> list[Assignment]:
     """Better answers than ``best`` (the rounds' best, coordinated as ``schedule``), two robots re-solved at a

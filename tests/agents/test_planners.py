@@ -203,23 +203,34 @@ def test_leg_cost_charges_the_peak_tension_term_as_if_it_lasted_tension_peak_tim
     assert j1 - j0 == pytest.approx(0.25 * station.config.wear_cost.w_tension * peak_f ** 2, rel=1e-9)
 
 
-@pytest.mark.parametrize("bad", [-0.1, float("nan"), 61.0, True, "0.25"])
-def test_a_bad_tension_peak_time_is_an_error_naming_it(bad):
+BAD_LEG_COST_SETTINGS = (
+    [("ompl-wear", "tension_peak_time", bad, r"must be a number of seconds in \[0, 60\]")
+     for bad in (-0.1, float("nan"), 61.0, True, "0.25")]
+    + [(planner, "time_weight", bad, r"must be a number in \[0, 1000\]") for planner in ("ompl-wear", "thesis-local")
+       for bad in (-0.5, -1.0, 1000.5, float("nan"), float("inf"), True, "2")])
+
+
+@pytest.mark.parametrize("planner,name,bad,message", BAD_LEG_COST_SETTINGS)
+def test_a_bad_leg_cost_setting_is_an_error_naming_it(planner, name, bad, message):
     from dresspack.agents.planners.registry import make_planner
 
     from dresspack_gym.errors import ConfigError
 
-    with pytest.raises(ConfigError, match=r"^tension_peak_time: must be a number of seconds in \[0, 60\]"):
-        make_planner("ompl-wear", Station(load_station("thesis_curvature")), tension_peak_time=bad)
+    with pytest.raises(ConfigError, match=f"^{name}: {message}"):
+        make_planner(planner, Station(load_station("thesis_curvature")), **{name: bad})
 
 
-def test_plan_cli_tension_peak_time_only_for_the_global_wear_planners(capsys):
-    assert cli_main(["plan", "thesis_curvature", "--planner", "ompl", "--tension-peak-time", "0.5"]) == 2
-    assert "tension_peak_time: --tension-peak-time applies to ompl-wear and ompl-wear-fmt only, not ompl" \
-        in capsys.readouterr().err
+@pytest.mark.parametrize("flag,applies_to,value,message", [
+    ("--tension-peak-time", "ompl-wear and ompl-wear-fmt only", "0.5", "must be a number in [0, 60.0] s"),
+    ("--time-weight", "thesis-local, ompl-wear, ompl-wear-fmt only", "5", "must be a number in [0, 1000.0] per s"),
+])
+def test_plan_cli_leg_cost_flags_only_for_the_planners_that_use_them(capsys, flag, applies_to, value, message):
+    name = flag[2:].replace("-", "_")
+    assert cli_main(["plan", "thesis_curvature", "--planner", "ompl", flag, value]) == 2
+    assert f"{name}: {flag} applies to {applies_to}, not ompl" in capsys.readouterr().err
     with pytest.raises(SystemExit):
-        cli_main(["plan", "thesis_curvature", "--planner", "ompl-wear", "--tension-peak-time", "-1"])
-    assert "must be a number in [0, 60.0] s" in capsys.readouterr().err
+        cli_main(["plan", "thesis_curvature", "--planner", "ompl-wear", flag, "-1"])
+    assert message in capsys.readouterr().err
 
 
 def test_leg_cost_time_weight_charges_each_second_that_much_more():
@@ -235,26 +246,6 @@ def test_leg_cost_time_weight_charges_each_second_that_much_more():
     j12, _, _ = faster.cost(state, leg)
     assert s1["cycle_time"] > 1.0
     assert j12 - j1 == pytest.approx(11.5 * s1["cycle_time"], rel=1e-9)
-
-
-@pytest.mark.parametrize("planner", ["ompl-wear", "thesis-local"])
-@pytest.mark.parametrize("bad", [-0.5, -1.0, 1000.5, float("nan"), float("inf"), True, "2"])
-def test_a_bad_time_weight_is_an_error_naming_it(planner, bad):
-    from dresspack.agents.planners.registry import make_planner
-
-    from dresspack_gym.errors import ConfigError
-
-    with pytest.raises(ConfigError, match=r"^time_weight: must be a number in \[0, 1000\]"):
-        make_planner(planner, Station(load_station("thesis_curvature")), time_weight=bad)
-
-
-def test_plan_cli_time_weight_only_for_the_wear_aware_planners(capsys):
-    assert cli_main(["plan", "thesis_curvature", "--planner", "ompl", "--time-weight", "5"]) == 2
-    assert "time_weight: --time-weight applies to thesis-local, ompl-wear, ompl-wear-fmt only, not ompl" \
-        in capsys.readouterr().err
-    with pytest.raises(SystemExit):
-        cli_main(["plan", "thesis_curvature", "--planner", "ompl-wear", "--time-weight", "-1"])
-    assert "must be a number in [0, 1000.0] per s" in capsys.readouterr().err
 
 
 def test_a_wall_cap_that_cuts_the_wear_aware_search_returns_the_route_found_with_a_flag(curvature_station):

@@ -7,28 +7,14 @@ import json
 from dataclasses import replace
 
 import pytest
-import yaml
 from dresspack.agents.planners.base import PlanningError
 from dresspack.agents.stations import StationPlanConfig, StationPlanner
+from helpers import NEAR_SIDE, near_side_yaml
 
 from dresspack_gym.cli.main import main
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.io.loading import load_station
-from dresspack_gym.shipped import find_shipped
 from dresspack_gym.stations.station import Station
-
-NEAR_SIDE = ("r1_sill_1", "r1_b_pillar_1", "r2_b_pillar_1", "r2_sill_1")
-
-
-def _near_side_yaml(tmp_path, extra=()):
-    """The near side of the shipped side-framing station as a YAML file: robots r1 and r2, four of their welds."""
-    data = yaml.safe_load(find_shipped("side_framing_4r", "stations", "station").read_text())
-    data["name"] = "near_side_2r"
-    data["robots"] = data["robots"][:2]
-    data["weld_points"] = [w for w in data["weld_points"] if w["name"] in NEAR_SIDE] + list(extra)
-    path = tmp_path / "near_side_2r.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
 
 
 def test_more_kept_options_than_costed_ones_is_refused_naming_the_field(tmp_path, capsys):
@@ -66,7 +52,7 @@ def test_a_refused_run_leaves_no_output_folder(tmp_path, capsys, monkeypatch):
     """A weld no robot can reach is refused (naming it) before anything is written: neither the --out folder nor
     the default ./station_plans is left behind, empty."""
     far = {"name": "far_away", "robot": "r1", "pos": [20.0, 0.0, 1.0], "approach": [0, 0, -1]}
-    station = _near_side_yaml(tmp_path, extra=[far])
+    station = near_side_yaml(tmp_path, extra=[far])
     out = tmp_path / "x"
     assert main(["station-plan", str(station), "--out", str(out), "--json"]) == 2
     assert json.loads(capsys.readouterr().out)["field"] == "weld_points.far_away"
@@ -79,7 +65,7 @@ def test_a_refused_run_leaves_no_output_folder(tmp_path, capsys, monkeypatch):
 def test_an_interrupted_run_says_what_it_saved_and_how_to_resume(tmp_path, capsys, monkeypatch):
     """Ctrl-C while the solver rounds run (the options are costed and saved by then): one line on stderr,
     interrupted, what is saved, the command that resumes, and exit status 130 as the shell gives it."""
-    station = _near_side_yaml(tmp_path)
+    station = near_side_yaml(tmp_path)
     out = tmp_path / "plans"
 
     def interrupted(*args, **kwargs):

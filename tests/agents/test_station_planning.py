@@ -22,6 +22,7 @@ from dresspack.agents.stations.solver import (
     solve,
     wear_relaxation_bound,
 )
+from helpers import near_side_yaml
 
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.io.loading import load_station
@@ -484,24 +485,12 @@ def test_plan_config_errors_name_the_field():
     assert isinstance(StationConfig, type)
 
 
-def _two_robot_yaml(tmp_path, welds=("r1_sill_1", "r1_b_pillar_1", "r2_b_pillar_1", "r2_sill_1"), extra=()):
-    import yaml
-
-    from dresspack_gym.shipped import find_shipped
-
-    data = yaml.safe_load(find_shipped("side_framing_4r", "stations", "station").read_text())
-    data["name"] = "near_side_2r"
-    data["robots"] = data["robots"][:2]
-    data["weld_points"] = [w for w in data["weld_points"] if w["name"] in welds] + list(extra)
-    path = tmp_path / "near_side_2r.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
 
 
 def test_station_plan_command_writes_plans_pictures_and_a_comparison(tmp_path, capsys):
     from dresspack_gym.cli.main import main
 
-    station = _two_robot_yaml(tmp_path)
+    station = near_side_yaml(tmp_path)
     out = tmp_path / "plans"
     code = main(["station-plan", str(station), "--objective", "time", "wear", "--work", "0.5", "--out", str(out)])
     text = capsys.readouterr().out
@@ -569,7 +558,7 @@ def test_station_plan_command_names_a_weld_no_robot_can_reach(tmp_path, capsys):
     from dresspack_gym.cli.main import main
 
     far = {"name": "far_away", "robot": "r1", "pos": [20.0, 0.0, 1.0], "approach": [0, 0, -1]}
-    station = _two_robot_yaml(tmp_path, extra=[far])
+    station = near_side_yaml(tmp_path, extra=[far])
     assert main(["station-plan", str(station), "--out", str(tmp_path / "x"), "--json"]) == 2
     import json
 

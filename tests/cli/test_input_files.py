@@ -15,11 +15,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import default_station_dict
+from helpers import station_with_weld_csv
 
 from dresspack_gym import ConfigError
 from dresspack_gym.cli.main import main
-from dresspack_gym.io.loading import load_robot, load_station, station_from_dict
+from dresspack_gym.io.loading import load_robot, load_station
 from dresspack_gym.io.weld_csv import OPTIONAL, REQUIRED
 from dresspack_gym.physics.trajectory import plan_fingerprint
 
@@ -50,12 +50,6 @@ CSV_HEADER = list(REQUIRED + OPTIONAL[1:]) + ["robot"]
 CSV_ROW = ["stud_a", "1085", "0", "1100", "1", "0", "0", "0", "90", "30", "r1"]
 
 
-def _csv_station(tmp_path, data: bytes):
-    (tmp_path / "welds.csv").write_bytes(data)
-    d = default_station_dict()
-    d["weld_points"] = []
-    d["weld_points_csv"] = {"path": str(tmp_path / "welds.csv"), "units": "mm"}
-    return station_from_dict(d)
 
 
 def _csv(header=CSV_HEADER, rows=(CSV_ROW,)) -> bytes:
@@ -86,7 +80,7 @@ def _csv_cases():
             if col == "spin_step_deg" and bad == "-inf":
                 expect = f"{row}.spin_step_deg"
             yield (f"csv {col}={bad!r}", lambda t, c, data=_csv(rows=[cells]): refused_field(
-                lambda: _csv_station(t, data)), expect)
+                lambda: station_with_weld_csv(t, data)), expect)
     structural = {
         "latin-1 byte": (_csv().replace(b"stud_a", "stud_\xe4".encode("latin-1")), row),
         "header only": (_csv(rows=()), "weld_points_csv"),
@@ -101,7 +95,7 @@ def _csv_cases():
         "binary": (bytes(range(256)) * 4, "weld_points_csv[welds.csv:row 2]"),  # 0x80 follows the first 0x0a
     }
     for name, (data, expect) in structural.items():
-        yield f"csv {name}", lambda t, c, data=data: refused_field(lambda: _csv_station(t, data)), expect
+        yield f"csv {name}", lambda t, c, data=data: refused_field(lambda: station_with_weld_csv(t, data)), expect
 
 
 # --------------------------------------------------------------------------------------------- URDF models

@@ -5,22 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import default_station_dict
+from helpers import station_with_weld_csv
 
 from dresspack_gym import ConfigError
-from dresspack_gym.io.loading import station_from_dict
 
 HEADER = ["name", "x", "y", "z", "approach_x", "approach_y", "approach_z", "spin_min_deg", "spin_max_deg"]
 ROWS = [["stud_a", "1085", "0", "1100", "1", "0", "0", "", ""],
         ["stud_b", "1150.5", "-600", "675", "0.3", "0", "-1", "0", "90"]]
 
 
-def _station(tmp_path, data: bytes):
-    (tmp_path / "welds.csv").write_bytes(data)
-    d = default_station_dict()
-    d["weld_points"] = []
-    d["weld_points_csv"] = {"path": str(tmp_path / "welds.csv"), "units": "mm"}
-    return station_from_dict(d)
 
 
 def _text(rows, sep=",", end="\n", header=HEADER) -> str:
@@ -28,13 +21,13 @@ def _text(rows, sep=",", end="\n", header=HEADER) -> str:
 
 
 def test_what_spreadsheets_write_reads_as_the_plain_file(tmp_path):
-    plain = _station(tmp_path, _text(ROWS).encode()).weld_points
+    plain = station_with_weld_csv(tmp_path, _text(ROWS).encode()).weld_points
     european = [[c.replace(".", ",") for c in r] for r in ROWS]  # decimal commas where ';' separates
     for data in (b"\xef\xbb\xbf" + _text(ROWS).encode(),  # "CSV UTF-8": a byte-order mark first
                  _text(ROWS, end="\r\n").encode(),  # CRLF
                  b"\xef\xbb\xbf" + _text(european, sep=";", end="\r\n").encode(),
                  _text(ROWS + [[""] * 9, [""] * 9]).encode()):  # trailing empty rows of a spreadsheet
-        got = _station(tmp_path, data).weld_points
+        got = station_with_weld_csv(tmp_path, data).weld_points
         assert [w.name for w in got] == [w.name for w in plain]
         for a, b in zip(got, plain):
             np.testing.assert_allclose(a.pos, b.pos, atol=1e-12)
@@ -56,7 +49,7 @@ def test_bad_csv_is_refused_naming_row_and_column(tmp_path, data, field, match):
     """Each file is the header row followed by ``data``."""
     data = _text([]).encode() + data
     with pytest.raises(ConfigError) as err:
-        _station(tmp_path, data)
+        station_with_weld_csv(tmp_path, data)
     assert err.value.field == field and match in str(err.value), str(err.value)
 
 
@@ -64,13 +57,13 @@ def test_a_spin_range_is_bounded_before_it_is_made(tmp_path):
     """0..360 deg in steps of 1e-3 deg would be 360 001 spins, each solved for every IK branch: refused from its
     count; 0..1e9 deg (7.28 TiB of spins in steps of 1e-3) from its range."""
     with pytest.raises(ConfigError) as err:
-        _station(tmp_path, _text([["a", "1085", "0", "1100", "1", "0", "0", "0", "360", "0.001"]],
+        station_with_weld_csv(tmp_path, _text([["a", "1085", "0", "1100", "1", "0", "0", "0", "360", "0.001"]],
                                  header=HEADER + ["spin_step_deg"]).encode())
     assert err.value.field == "weld_points_csv[welds.csv:row 2].spin_step_deg"
     assert "360001 candidate spins, more than 721" in str(err.value)
     with pytest.raises(ConfigError, match="outside"):
-        _station(tmp_path, _text([["a", "1085", "0", "1100", "1", "0", "0", "0", "1e9", "0.001"]],
+        station_with_weld_csv(tmp_path, _text([["a", "1085", "0", "1100", "1", "0", "0", "0", "1e9", "0.001"]],
                                  header=HEADER + ["spin_step_deg"]).encode())
-    assert _station(tmp_path, _text([["a", "1085", "0", "1100", "1", "0", "0", "-360", "360", "1"]],
+    assert station_with_weld_csv(tmp_path, _text([["a", "1085", "0", "1100", "1", "0", "0", "-360", "360", "1"]],
                                     header=HEADER + ["spin_step_deg"]).encode()).weld_points[0].spin[-1] == \
         pytest.approx(np.radians(360))

@@ -11,7 +11,6 @@ from .base import ActionSet
 
 if TYPE_CHECKING:
     from ...stations.validity import MotionValidity
-    from ..config import EnvConfig
 
 N_JOINT_ACTIONS = 12
 STAY = 12
@@ -35,7 +34,9 @@ class JointSteps(ActionSet):
         self.fallback = np.zeros(self.n_actions, dtype=bool)
 
     @classmethod
-    def from_config(cls, config: EnvConfig, validity: MotionValidity, joint_limits: np.ndarray) -> JointSteps:
+    def from_config(cls, config, validity: MotionValidity, joint_limits: np.ndarray) -> JointSteps:
+        """The set an envs ``EnvConfig`` asks for (passed in, not imported: the config checks its action set
+        against this package)."""
         return cls(math.radians(config.joint_step_deg), config.goal_action)
 
     def target(self, q: np.ndarray, a: int, goal: np.ndarray) -> np.ndarray:

@@ -13,7 +13,6 @@ from .base import ActionSet
 
 if TYPE_CHECKING:
     from ...stations.validity import MotionValidity
-    from ..config import EnvConfig
 
 # where a via configuration is taken from, as the fraction of the way toward the goal
 VIA_ANCHORS = {"midpoint": 0.5, "here": 0.0}
@@ -62,7 +61,9 @@ class Primitives(ActionSet):
         self._approach_cache: dict[bytes, np.ndarray] = {}  # goal -> its approach configurations
 
     @classmethod
-    def from_config(cls, config: EnvConfig, validity: MotionValidity, joint_limits: np.ndarray) -> Primitives:
+    def from_config(cls, config, validity: MotionValidity, joint_limits: np.ndarray) -> Primitives:
+        """The set an envs ``EnvConfig`` asks for (passed in, not imported: the config checks its action set
+        against this package)."""
         postures = np.radians(np.array(config.via_postures_deg, dtype=float).reshape(-1, 6))
         for k, posture in enumerate(postures):
             check_within_limits(posture, joint_limits, f"via_postures_deg[{k}]")
