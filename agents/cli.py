@@ -34,15 +34,15 @@ def add_plan_command(sub) -> None:
 
     p = sub.add_parser("plan", help="plan the station's weld cycle and measure it in the cable simulator")
     p.add_argument("station", help="station or thesis scenario (YAML or shipped name, e.g. thesis_tension)")
-    p.add_argument("--planner", choices=list(PLANNERS), default="ompl")
-    p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--planner", choices=list(PLANNERS), default="ompl", help="planning method (default: %(default)s)")
+    p.add_argument("--seed", type=seed, default=0, help="the planner's random seed (default %(default)s)")
     p.add_argument("--robot", type=number(0, 7, integer=True), default=0,
                    help="index of the robot to plan for (default 0; its weld points by default)")
     add_budget_arguments(p)
     p.add_argument("--welds", nargs="+", default=None, help="weld point names in visiting order (default: all)")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis",
                    help="wear cost the wear-aware planners minimise and the replay reports: thesis (4.10), "
-                        "normalized, or damage (the worst segment's damage rate; see the README)")
+                        "normalized, or damage (the worst segment's damage rate; see the README); default: %(default)s")
     p.add_argument("--tension-peak-time", type=number(0, MAX_TENSION_PEAK_TIME, unit="s"), default=None,
                    metavar="SECONDS",
                    help="ompl-wear and ompl-wear-fmt only: charge each leg's highest tension term w_F F² as if it "
@@ -57,7 +57,7 @@ def add_plan_command(sub) -> None:
                    help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3; missing folders are made)")
     p.add_argument("--out", type=output_file, default=None,
                    help="save the planned trajectory (.npz) for `dresspack export` (missing folders are made)")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--json", action="store_true", help="print the plan's summary (or its failure) as one JSON object")
     p.set_defaults(func=cmd_plan)
 
 

@@ -37,7 +37,8 @@ def add_station_plan_command(sub) -> None:
                    help="solver work budget per solve, in CP-SAT deterministic seconds (machine-independent; "
                         f"default {DEFAULT_WORK:g})")
     p.add_argument("--time-budget", type=number(0, 86400, lo_open=True, unit="s"), default=None, metavar="SECONDS",
-                   help="optional wall-time cap per solve [s]; a solve stopped by it depends on machine load")
+                   help="optional wall-time cap per solve [s]; a solve stopped by it depends on machine load "
+                        "(default: none)")
     p.add_argument("--iterations", type=WORK, default=DEFAULT_ITERATIONS,
                    help=f"OMPL iterations per leg that is not a straight move (default {DEFAULT_ITERATIONS})")
     p.add_argument("--blocked-estimate", choices=list(BLOCKED_ESTIMATES), default="planned_ratio",
@@ -69,8 +70,9 @@ def add_station_plan_command(sub) -> None:
                         "cached in OUT/planned_legs.jsonl for a later run; the time objective plans lazily anyway)")
     p.add_argument("--leg-workers", type=number(1, 64, integer=True), default=2,
                    help="processes planning the legs up front (default 2; the legs do not depend on it)")
-    p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis")
-    p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis",
+                   help="wear cost the options, the wear objective and the replays use (default: %(default)s)")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the solver and the leg planners (default %(default)s)")
     p.add_argument("--cable-repairs", type=number(0, 100, integer=True), default=3,
                    help="times a plan is run in the cable simulator and the legs that jammed a cable re-routed "
                         "before it is final (default 3)")
@@ -79,7 +81,8 @@ def add_station_plan_command(sub) -> None:
     p.add_argument("--out", type=output_dir, default=Path("station_plans"),
                    help="output folder (default: station_plans/): per objective a folder with plan.json, one "
                         "trajectory per robot, gantt.png, wear.png, assignment.png; summary.md compares them")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--json", action="store_true", help="print the summary of every objective's plan as one JSON "
+                                                        "object (no progress bars)")
     p.set_defaults(func=cmd_station_plan)
 
 

@@ -26,29 +26,39 @@ from .summary import by_method, fmt, json_summary
 
 
 def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec()) -> None:
-    p.add_argument("--station", default=defaults.station, help="station YAML or shipped name (default: default)")
+    methods = "all" if set(defaults.methods) == set(PLANNERS) else " ".join(defaults.methods)
+    tasks = " ".join(",".join(t) for t in defaults.tasks)
+    if defaults.tasks == EvalSpec.tasks:
+        tasks += ": the two weld pairs held out from the shipped policy's training"
+    p.add_argument("--station", default=defaults.station, help="station YAML or shipped name (default: %(default)s)")
     p.add_argument("--methods", nargs="+", default=list(defaults.methods), metavar="METHOD",
-                   help=f"any of {list(PLANNERS)} (default: all)")
+                   help=f"any of {list(PLANNERS)} (default: {methods})")
     p.add_argument("--tasks", nargs="+", default=[",".join(t) for t in defaults.tasks], metavar="WELDS",
-                   help="one task per argument: comma-separated weld names in visiting order "
-                        "(default: the two weld pairs held out from the shipped policy's training)")
-    p.add_argument("--seeds", nargs="+", type=seed, default=list(defaults.seeds))
+                   help=f"one task per argument: comma-separated weld names in visiting order (default: {tasks})")
+    p.add_argument("--seeds", nargs="+", type=seed, default=list(defaults.seeds),
+                   help="seeds each method runs each task with (the planners' seed, the start's draw) "
+                        f"(default: {' '.join(map(str, defaults.seeds))})")
     p.add_argument("--drawn-tasks", type=number(0, 10_000, integer=True), default=defaults.drawn_tasks, metavar="N",
-                   help="instead of --tasks: N single welds drawn on the station's parts (weld k from --drawn-seed, k)")
-    p.add_argument("--drawn-seed", type=seed, default=defaults.drawn_seed)
+                   help="instead of --tasks: N single welds drawn on the station's parts (weld k from --drawn-seed, "
+                        f"k; default {defaults.drawn_tasks}: --tasks)")
+    p.add_argument("--drawn-seed", type=seed, default=defaults.drawn_seed,
+                   help=f"seed of the welds --drawn-tasks draws (default {defaults.drawn_seed})")
     add_budget_arguments(p, defaults.iterations, defaults.evaluations, defaults.routes, defaults.time_budget)
     p.add_argument("--start-noise-deg", type=number(0, 90, unit="deg"), default=defaults.start_noise_deg,
-                   help="> 0: each seed starts at a valid configuration within this many degrees of Home")
-    p.add_argument("--policy", default=None, help="ppo/random: run folder, model .zip or shipped policy name")
+                   help="> 0: each seed starts at a valid configuration within this many degrees of Home "
+                        f"(default {defaults.start_noise_deg:g}: at Home)")
+    p.add_argument("--policy", default=None,
+                   help="ppo/random: run folder, model .zip or shipped policy name (default: stud_welding)")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default=defaults.cost_variant,
-                   help="wear cost the wear-aware planners minimise and the tables report (default: thesis)")
+                   help="wear cost the wear-aware planners minimise and the tables report (default: %(default)s)")
     p.add_argument("--time-weight", type=number(0, MAX_TIME_WEIGHT, unit="per s"), default=defaults.time_weight,
                    help="wear-aware planners: cost of one second of cycle time against one unit of ∫C dt in "
-                        "their leg cost (default: 1; larger trades wear for speed)")
-    p.add_argument("--robustness-map", default=None, help="robustness map folder to include in the report")
+                        f"their leg cost (default: {defaults.time_weight:g}; larger trades wear for speed)")
+    p.add_argument("--robustness-map", default=None,
+                   help="robustness map folder to include in the report (default: none)")
     p.add_argument("--no-render", action="store_true", help="skip the rendered worst-wear frames")
     p.add_argument("--out", type=output_dir, default="out/eval",
-                   help="report folder (an interrupted run resumes there)")
+                   help="report folder; an interrupted run resumes there (default: %(default)s)")
     p.add_argument("--json", action="store_true", help="print the per-method summary as JSON")
 
 
@@ -111,15 +121,19 @@ def compare_plans_and_report(args) -> int:
     return 0 if all(r["collisions"] == 0 and not r["jammed"] for r in rows) else 1
 
 
-def main(argv: list[str] | None = None) -> int:
+def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="dresspack-eval", description=__doc__.split("\n")[0])
     add_eval_arguments(p)
     p.add_argument("--station-plans", nargs="+", type=Path, default=None, metavar="DIR",
                    help="instead of methods: plan folders written by `dresspack station-plan` (e.g. "
                         "station_plans/time station_plans/wear), each replayed on --station and measured alike; "
                         "the first is the reference of the relative columns")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    args = p.parse_args(argv)
+    args = build_parser().parse_args(argv)
     try:
         if args.station_plans:
             return compare_plans_and_report(args)

@@ -131,14 +131,16 @@ def add_select_command(sub) -> None:
                                    "episodes (their own seeds) and picks the best: success first, ties by mean "
                                    "return. Resumable; writes select_<seed>_<episodes>.json into the run folder.")
     p.add_argument("run", help="training run folder (runs/train/<name>)")
-    p.add_argument("--episodes", type=number(1, MAX_EPISODES, integer=True), default=SELECT_EPISODES)
+    p.add_argument("--episodes", type=number(1, MAX_EPISODES, integer=True), default=SELECT_EPISODES,
+                   help=f"held-out episodes each model is rolled out on (default {SELECT_EPISODES})")
     p.add_argument("--seed", type=seed, default=SELECT_SEED, help=f"first episode's seed (default {SELECT_SEED})")
     p.add_argument("--from-steps", type=number(0, None, integer=True), default=0,
-                   help="only models saved at this many env steps or later")
+                   help="only models saved at this many env steps or later (default 0: every model)")
     p.add_argument("--attempts", type=number(1, 10, integer=True), default=ATTEMPTS,
                    help=f"rollouts per episode: the most probable actions, then sampled ones, as the evaluation's "
                         f"ppo (default {ATTEMPTS}; 1: the most probable only, as the training callback)")
-    p.add_argument("--jobs", type=number(1, 64, integer=True), default=1, help="processes (one per core)")
+    p.add_argument("--jobs", type=number(1, 64, integer=True), default=1,
+                   help="processes (one per core; default 1)")
     p.set_defaults(func=cmd_select)
 
 

@@ -208,13 +208,18 @@ def add_self_imitate_command(sub) -> None:
                                    "policy folder (--policy OUT).")
     p.add_argument("policy", help="shipped policy name, run folder or model .zip")
     p.add_argument("--out", required=True, help="folder for the rollouts and the fine-tuned policy")
-    p.add_argument("--episodes", type=number(1, MAX_EPISODES, integer=True), default=IMITATION_EPISODES)
+    p.add_argument("--episodes", type=number(1, MAX_EPISODES, integer=True), default=IMITATION_EPISODES,
+                   help=f"training episodes rolled out (default {IMITATION_EPISODES})")
     p.add_argument("--samples", type=number(2, 64, integer=True), default=SAMPLES,
                    help=f"rollouts per episode (default {SAMPLES})")
     p.add_argument("--seed", type=seed, default=IMITATION_SEED, help=f"first episode's seed (default {IMITATION_SEED})")
-    p.add_argument("--epochs", type=number(0, 100, integer=True), default=EPOCHS)
-    p.add_argument("--learning-rate", type=number(0.0, 1.0, lo_open=True), default=LEARNING_RATE)
-    p.add_argument("--jobs", type=number(1, 64, integer=True), default=1, help="processes (one per core)")
+    p.add_argument("--epochs", type=number(0, 100, integer=True), default=EPOCHS,
+                   help=f"passes of the fine-tune over the best rollouts' steps (default {EPOCHS}; 0: the policy "
+                        "unchanged)")
+    p.add_argument("--learning-rate", type=number(0.0, 1.0, lo_open=True), default=LEARNING_RATE,
+                   help=f"the fine-tune's Adam learning rate (default {LEARNING_RATE:g})")
+    p.add_argument("--jobs", type=number(1, 64, integer=True), default=1,
+                   help="processes collecting the rollouts (one per core; default 1)")
     p.set_defaults(func=cmd_self_imitate)
 
 

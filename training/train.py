@@ -43,12 +43,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("config", nargs="?", help="training YAML (path, or a name in configs/training/)")
     p.add_argument("--run-dir", help="run folder (default: runs/train/<config name>)")
     p.add_argument("--resume", metavar="RUN_DIR", help="continue the run in RUN_DIR from its newest checkpoint")
-    p.add_argument("--total-timesteps", type=number(1, MAX_TIMESTEPS, integer=True), help="override total_timesteps")
-    p.add_argument("--n-envs", type=number(1, MAX_ENVS, integer=True), help="override n_envs")
-    p.add_argument("--seed", type=seed, help="override seed")
+    p.add_argument("--total-timesteps", type=number(1, MAX_TIMESTEPS, integer=True),
+                   help="environment steps to train for in all (default: the config's total_timesteps)")
+    p.add_argument("--n-envs", type=number(1, MAX_ENVS, integer=True),
+                   help="parallel environments (default: the config's n_envs)")
+    p.add_argument("--seed", type=seed, help="seed of the model and the training envs (default: the config's seed)")
     p.add_argument("--force", action="store_true",
                    help="train into a run folder that holds a finished or begun run, deleting it first")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--no-progress", action="store_true", help="draw no progress bar (on stderr by default)")
     return p
 
 

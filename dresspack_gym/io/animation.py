@@ -49,12 +49,13 @@ def _strip(rep: Replay, width: int, height: int) -> tuple[np.ndarray, callable]:
 
 def animate(sim: CableSimulator, traj: Trajectory, out: str | Path, *, robot: int = 0, fps: float = 20.0,
             width: int = 640, height: int = 360, strip_height: int = 120, camera=None,
-            measured: Replay | None = None) -> dict:
+            measured: Replay | None = None, progress=None) -> dict:
     """Write the video of ``traj`` replayed from its start; returns {"path", "frames", "duration_s"}.
 
     Frames are the replay's samples every 1/fps s of motion time (the settles at the welds take no motion time,
     so they show as one frame), rendered during a second, identical replay (the simulation is deterministic);
-    ``measured``, a replay of the same trajectory already made, saves the first."""
+    ``measured``, a replay of the same trajectory already made, saves the first. ``progress(label, total)``, a
+    tqdm-like bar factory, shows the replay's samples, then the frames written."""
     out = Path(out)
     if out.suffix not in VIDEO_FORMATS:
         raise ConfigError("out", f"{out.name}: the video format is chosen by the suffix, one of {list(VIDEO_FORMATS)}")
@@ -62,15 +63,24 @@ def animate(sim: CableSimulator, traj: Trajectory, out: str | Path, *, robot: in
         raise ConfigError("fps", f"must be in [1, 60], got {fps}")
     import imageio.v2 as imageio
 
-    rep = measured if measured is not None else replay(sim, traj, robot=robot, record_every=1.0 / fps,
-                                                       record_states=False)
+    bar = progress or _NoBar
+    samples = 0  # the frames the rendering replay will write (it samples as this one does)
+    rep = measured
+    if rep is None:
+        with bar("replaying", None) as replayed:
+            def sampled(t: float) -> None:
+                nonlocal samples
+                samples += 1
+                replayed.update(1)
+
+            rep = replay(sim, traj, robot=robot, record_every=1.0 / fps, record_states=False, on_sample=sampled)
     strip, column = _strip(rep, width, strip_height)
     renderer = StationRenderer(sim.station.model, width=width, height=height)
     cam = camera if camera is not None else default_camera(sim.station.model)
     kwargs = {"fps": fps, "macro_block_size": 2, "codec": "libx264", "quality": 6} if out.suffix == ".mp4" else \
         {"duration": 1.0 / fps, "loop": 0}
     frames = 0
-    with imageio.get_writer(out, **kwargs) as writer:
+    with imageio.get_writer(out, **kwargs) as writer, bar("rendering", samples or None) as written:
         def frame(t: float) -> None:
             nonlocal frames
             below = strip.copy()
@@ -78,7 +88,24 @@ def animate(sim: CableSimulator, traj: Trajectory, out: str | Path, *, robot: in
             below[:, max(0, x - 1):x + 1] = (230, 60, 60)  # the time cursor
             writer.append_data(np.vstack([renderer.render(sim.data, cam), below]))
             frames += 1
+            written.update(1)
 
         replay(sim, traj, robot=robot, record_every=1.0 / fps, record_states=False, on_sample=frame)
     renderer.close()
     return {"path": str(out), "frames": frames, "duration_s": frames / fps}
+
+
+class _NoBar:
+    """A progress bar that shows nothing."""
+
+    def __init__(self, label: str, total: int | None):
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        pass
+
+    def update(self, n: int = 1) -> None:
+        pass

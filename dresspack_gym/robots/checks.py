@@ -44,12 +44,15 @@ def _singular(kin: RobotKinematics, q: np.ndarray, base_pos) -> bool:
 
 
 def ik_round_trip(robot: RobotConfig, poses: int = 1000, seed: int = 0, base_pos=(0.0, 0.0, 0.0),
-                  base_yaw: float = 0.0) -> IkRoundTrip:
+                  base_yaw: float = 0.0, progress=None) -> IkRoundTrip:
+    """The round trip over ``poses`` random configurations; ``progress``, a tqdm-like bar, counts them."""
     kin = RobotKinematics(robot, base_pos, base_yaw)
     rng = np.random.default_rng(seed)
     lim = kin.limits
     pose_err, joint_err, branches, raw_max, found, checked = 0.0, 0.0, [], 0, True, 0
     for q in rng.uniform(lim[:, 0], lim[:, 1], size=(poses, 6)):
+        if progress is not None:
+            progress.update(1)
         if _singular(kin, q, base_pos):
             continue
         target = kin.tcp_pose(q)
