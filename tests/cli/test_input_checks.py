@@ -149,8 +149,9 @@ def test_grid_size_is_bounded_before_anything_is_allocated():
 
 # ------------------------------------------------------------------------------------- dresspack flags
 def _numeric_flags():
-    """(subcommand, flag, parse function) of every ranged numeric flag of the `dresspack` command line."""
-    parser = build_parser(extensions=[])
+    """(subcommand, flag, parse function) of every ranged numeric flag of the `dresspack` command line, the
+    subcommands the packages built on the core register (plan, station-plan, demo, ...) included."""
+    parser = build_parser()
     sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
     for name, p in sub.choices.items():
         for a in p._actions:
@@ -163,7 +164,8 @@ REQUIRED = {"render": ["default", "--out", "x.png"], "robustness-map": ["--grid"
             "robustness-paths": ["--grid", "small", "--station", "default", "--out", "m"],
             "restrictions": ["default"], "twist-sweep": ["default"], "bench": ["physics"], "inspect": ["default"],
             "export": ["p.npz", "--format", "csv"], "animate": ["p.npz", "--out", "x.mp4"], "wear-map": ["default"],
-            "robots": []}
+            "robots": [], "plan": ["default"], "station-plan": ["default"], "demo": [], "select-model": ["run"],
+            "self-imitate": ["policy", "--out", "o"]}
 
 
 def _out_of_range(bounds):
@@ -186,14 +188,16 @@ def test_the_flag_fuzz_table_covers_every_ranged_flag():
     flags = {(c, f) for c, f, _, _ in FLAG_CASES}
     assert len(flags) >= 20 and len(FLAG_CASES) >= 120
     assert {("render", "--distance"), ("bench", "--repeats"), ("robustness-map", "--limit"),
-            ("robustness-map", "--threshold"), ("render", "--width")} <= flags
+            ("robustness-map", "--threshold"), ("render", "--width"), ("station-plan", "--weld-time"),
+            ("plan", "--iterations"), ("demo", "--seeds")} <= flags
 
 
 @pytest.mark.parametrize("cmd,flag,value,nargs", FLAG_CASES, ids=[f"{c} {f} {v}" for c, f, v, _ in FLAG_CASES])
 def test_every_numeric_flag_refuses_out_of_range_values_naming_itself(cmd, flag, value, nargs, capsys):
-    given = [f"{flag}={value}"] if nargs is None else [flag, *[value] * nargs]  # "=": "-inf" is no option
+    count = nargs if isinstance(nargs, int) else 1  # a list flag ("+") with one bad value
+    given = [f"{flag}={value}"] if nargs is None else [flag, *[value] * count]  # "=": "-inf" is no option
     with pytest.raises(SystemExit) as exc:
-        build_parser(extensions=[]).parse_args([cmd, *REQUIRED[cmd], *given])
+        build_parser().parse_args([cmd, *REQUIRED[cmd], *given])
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert f"argument {flag}" in err and "must be" in err and "Traceback" not in err
