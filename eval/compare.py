@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shlex
 import sys
 from pathlib import Path
@@ -23,6 +24,9 @@ from dresspack_gym.physics.wear_cost import COST_VARIANTS
 from .report import write_report
 from .runs import EvalSpec, run_evaluation
 from .summary import by_method, fmt, json_summary
+
+MAX_JOBS = 64
+ALL_CORES = min(os.cpu_count() or 1, MAX_JOBS)  # --jobs' default: one process per core
 
 
 def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec()) -> None:
@@ -56,6 +60,9 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
                         f"their leg cost (default: {defaults.time_weight:g}; larger trades wear for speed)")
     p.add_argument("--robustness-map", default=None,
                    help="robustness map folder to include in the report (default: none)")
+    p.add_argument("--jobs", type=number(1, MAX_JOBS, integer=True), default=ALL_CORES,
+                   help="processes the runs are spread over (one per core; the rows do not depend on it) "
+                        f"(default {ALL_CORES}: all cores)")
     p.add_argument("--no-render", action="store_true", help="skip the rendered worst-wear frames")
     p.add_argument("--out", type=output_dir, default="out/eval",
                    help="report folder; an interrupted run resumes there (default: %(default)s)")
@@ -80,7 +87,7 @@ def evaluate_and_report(args) -> int:
             from dresspack_gym.maps.robustness.query import RobustnessMap
 
             RobustnessMap(args.robustness_map)
-        rows, replays = run_evaluation(spec, args.out, progress=not args.json)
+        rows, replays = run_evaluation(spec, args.out, progress=not args.json, jobs=args.jobs)
         paths = write_report(spec, rows, args.out, replays, robustness_map=args.robustness_map,
                              render=not args.no_render)
     except DresspackError as exc:

@@ -18,7 +18,7 @@ from dresspack.agents.planners.leg_cost import check_time_weight
 from dresspack.agents.planners.registry import PLANNERS, POLICY_METHODS, WEAR_AWARE, make_planner
 from tqdm.auto import tqdm
 
-from dresspack_gym.errors import ConfigError
+from dresspack_gym.errors import ConfigError, DresspackError
 from dresspack_gym.io.loading import load_station
 from dresspack_gym.physics.simulation import CableSimulator
 from dresspack_gym.physics.trajectory import Replay, Trajectory, replay, smoothness
@@ -145,8 +145,12 @@ def _extends(stored: dict, new: dict) -> bool:
     return same and set(stored["methods"]) <= set(new["methods"])
 
 
-def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) -> tuple[list[dict], dict]:
-    """Every method x task x seed; returns the rows (in spec order) and the replays made in this call."""
+def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True,
+                   jobs: int = 1) -> tuple[list[dict], dict]:
+    """Every method x task x seed, on ``jobs`` processes; returns the rows (in spec order) and the replays made in
+    this call. Every run is seeded on its own, so the rows do not depend on ``jobs`` (but for wall-clock times)."""
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise ConfigError("jobs", f"must be an integer >= 1, got {jobs!r}")
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ConfigError("out", f"{out} is an existing file: give a folder for the report")
@@ -167,54 +171,138 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True) ->
     # rewrite the log with the complete rows only: a line cut by an interruption would otherwise swallow the
     # next row appended to it
     (out / "results.jsonl").write_text("".join(json.dumps(r) + "\n" for r in done.values()))
-    sim = CableSimulator(station)
-    limits = station.config.robots[spec.robot].robot.joint_motion_limits.at_speed(
-        station.config.simulation.speed_fraction)  # every method's motions timed by the one law
-    planners: dict[tuple[str, int], object] = {}
+    runs = [(m, w, s) for w in spec.tasks for m in spec.methods for s in spec.seeds]
+    todo = [run for run in runs if run_key(*run) not in done]
     replays: dict[str, Replay] = {}
-    todo = [(m, w, s) for w in spec.tasks for m in spec.methods for s in spec.seeds]
-    bar = tqdm(todo, desc="evaluating", unit="run", disable=not progress, dynamic_ncols=True)
-    for method, welds, seed in bar:
-        key = run_key(method, welds, seed)
-        if key in done:
-            continue
-        bar.set_postfix_str(f"{method} on {'+'.join(welds)}, seed {seed}")
-        kwargs = {"policy": spec.policy} if method in POLICY_METHODS else {}
-        if method in WEAR_AWARE:
-            kwargs["cost_variant"] = spec.cost_variant
-            kwargs["time_weight"] = spec.time_weight
-        if (method, seed) not in planners:  # loading a policy or building a validity checker once per seed
-            planners[(method, seed)] = make_planner(method, station, spec.robot, seed=seed,
-                                                    iterations=spec.iterations, evaluations=spec.evaluations,
-                                                    routes=spec.routes,
-                                                    time_budget=spec.time_budget, **kwargs)
-        planner = planners[(method, seed)]
-        task = tasks[(tuple(welds), seed)]
+    bar = tqdm(total=len(runs), initial=len(runs) - len(todo), desc="evaluating", unit="run",
+               disable=not progress, dynamic_ncols=True)
+    try:
+        for row, rep in _finished_runs(spec, out, tasks, todo, jobs, bar):
+            if rep is not None:
+                replays[row["key"]] = rep
+            with open(out / "results.jsonl", "a") as f:  # in finishing order; the rows returned are in spec order
+                f.write(json.dumps(row) + "\n")
+            done[row["key"]] = row
+            bar.update(1)
+    finally:  # an interrupted bar ends before the interruption's line is printed
+        bar.close()
+    rows = [done[run_key(*run)] for run in runs]
+    return rows, replays
+
+
+def _describe(run: tuple) -> str:
+    method, welds, seed = run
+    return f"{method} on {'+'.join(welds)}, seed {seed}"
+
+
+# Typical time per run, longest first (the demo: ompl-wear 40-110 s, thesis-local 15-30 s, random 20 s, ppo and
+# ompl 2-15 s). A pool starts the long runs first, so that no long run is left alone on one worker at the end.
+SLOWEST_FIRST = ("ompl-wear-fmt", "ompl-wear", "thesis-local", "random", "ppo", "ompl")
+
+
+def _slowest_first(runs: list[tuple]) -> list[tuple]:
+    rank = {m: i for i, m in enumerate(SLOWEST_FIRST)}
+    return sorted(runs, key=lambda run: rank.get(run[0], len(rank)))
+
+
+def _finished_runs(spec: EvalSpec, out: Path, tasks: dict, todo: list[tuple], jobs: int, bar):
+    """(row, replay or None) of every run in ``todo`` as it finishes: here, or on a pool of ``jobs`` processes."""
+    if jobs == 1 or len(todo) < 2:
+        runner = RunEvaluator(spec, out, tasks)
+        for run in todo:
+            bar.set_postfix_str(_describe(run))
+            yield runner.run(*run)
+        return
+    import multiprocessing
+
+    context = multiprocessing.get_context("spawn")  # no inherited MuJoCo, OMPL or torch state in the workers
+    with context.Pool(min(jobs, len(todo)), initializer=_init_worker, initargs=(spec, out, tasks)) as pool:
+        for row, rep, error in pool.imap_unordered(_run_in_worker, _slowest_first(todo)):
+            if error is not None:
+                raise DresspackError(error)
+            bar.set_postfix_str(f"done {_describe((row['method'], row['welds'], row['seed']))}")
+            yield row, rep
+
+
+class RunEvaluator:
+    """One process's share of an evaluation: runs (method, welds, seed), each planned, replayed and measured.
+
+    Holds the station, its simulator and one planner per (method, seed), built on first use: a planner restarts
+    every random stream from its seed at each plan, so a run's row does not depend on the runs before it."""
+
+    def __init__(self, spec: EvalSpec, out: Path, tasks: dict):
+        self.spec, self.out, self.tasks = spec, out, tasks
+        self.station = Station(load_station(spec.station))
+        self.sim = CableSimulator(self.station)
+        self.limits = self.station.config.robots[spec.robot].robot.joint_motion_limits.at_speed(
+            self.station.config.simulation.speed_fraction)  # every method's motions timed by the one law
+        self.planners: dict[tuple[str, int], object] = {}
+
+    def planner(self, method: str, seed: int):
+        spec = self.spec
+        if (method, seed) not in self.planners:  # loading a policy or building a validity checker once
+            kwargs = {"policy": spec.policy} if method in POLICY_METHODS else {}
+            if method in WEAR_AWARE:
+                kwargs["cost_variant"] = spec.cost_variant
+                kwargs["time_weight"] = spec.time_weight
+            self.planners[(method, seed)] = make_planner(method, self.station, spec.robot, seed=seed,
+                                                         iterations=spec.iterations, evaluations=spec.evaluations,
+                                                         routes=spec.routes, time_budget=spec.time_budget, **kwargs)
+        return self.planners[(method, seed)]
+
+    def run(self, method: str, welds, seed: int) -> tuple[dict, Replay | None]:
+        """The run's row and replay (None if planning failed); its trajectory is saved before the row is returned,
+        so a row in the log means its trajectory is on disk."""
+        spec, key = self.spec, run_key(method, welds, seed)
+        planner = self.planner(method, seed)
+        task = self.tasks[(tuple(welds), seed)]
         row = {"key": key, "method": method, "task": task_label(welds), "welds": list(welds), "seed": seed,
                "start_deg": np.round(np.degrees(task.start), 3).tolist()}
         try:
             result = planner.plan(task)
         except PlanningError as exc:
             row.update(success=False, error=str(exc), **dict.fromkeys(METRICS))
-        else:
-            rep = replay(sim, result.trajectory, robot=spec.robot, cost_variant=spec.cost_variant)
-            replays[key] = rep
-            s = {**rep.summary(), **smoothness(result.trajectory, limits)}
-            row.update(success=True, error=None, planning_time=round(result.planning_time, 4),
-                       waypoints=len(result.trajectory.waypoints),
-                       **{k: s[k] for k in METRICS if k != "planning_time"},
-                       cost_terms=s["cost_terms"], max_cost=s["max_cost"], weakest_segment_m=s["weakest_segment_m"],
-                       unconverged_stops=s["unconverged_stops"])  # settles that missed the residual: flagged
-            if "inference_s" in result.info:  # a policy: the network's share of its planning time
-                row["inference_time"] = result.info["inference_s"]
-            np.savez(_trajectory_path(out, key), waypoints=result.trajectory.waypoints,
-                     stops=np.array(result.trajectory.stops))
-        with open(out / "results.jsonl", "a") as f:
-            f.write(json.dumps(row) + "\n")
-        done[key] = row
-    bar.close()
-    rows = [done[run_key(m, w, s)] for w in spec.tasks for m in spec.methods for s in spec.seeds]
-    return rows, replays
+            return row, None
+        rep = replay(self.sim, result.trajectory, robot=spec.robot, cost_variant=spec.cost_variant)
+        s = {**rep.summary(), **smoothness(result.trajectory, self.limits)}
+        row.update(success=True, error=None, planning_time=round(result.planning_time, 4),
+                   waypoints=len(result.trajectory.waypoints),
+                   **{k: s[k] for k in METRICS if k != "planning_time"},
+                   cost_terms=s["cost_terms"], max_cost=s["max_cost"], weakest_segment_m=s["weakest_segment_m"],
+                   unconverged_stops=s["unconverged_stops"])  # settles that missed the residual: flagged
+        if "inference_s" in result.info:  # a policy: the network's share of its planning time
+            row["inference_time"] = result.info["inference_s"]
+        np.savez(_trajectory_path(self.out, key), waypoints=result.trajectory.waypoints,
+                 stops=np.array(result.trajectory.stops))
+        return row, rep
+
+
+_WORKER: dict = {}  # a pool worker's evaluation: its arguments, then its RunEvaluator (built by the first run)
+
+
+def _init_worker(spec: EvalSpec, out: Path, tasks: dict) -> None:
+    """A pool worker leaves Ctrl-C to the parent (which prints its line and ends the pool). Nothing that can fail
+    runs here: a failing initializer makes the pool start workers forever."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _WORKER.update(args=(spec, out, tasks))
+
+
+def _run_in_worker(run: tuple) -> tuple[dict | None, Replay | None, str | None]:
+    try:
+        if "evaluator" not in _WORKER:
+            spec = _WORKER["args"][0]
+            if any(m in POLICY_METHODS for m in spec.methods):
+                import torch
+
+                # one thread per process: torch's intra-op pool would otherwise take every core in every worker
+                # (MuJoCo steps single-threaded: nothing here gives it a thread pool)
+                torch.set_num_threads(1)
+            _WORKER["evaluator"] = RunEvaluator(*_WORKER["args"])
+        return (*_WORKER["evaluator"].run(*run), None)
+    except DresspackError as exc:  # sent back as its message: a ConfigError's arguments do not survive pickling
+        return None, None, str(exc)
 
 
 def _read_rows(path: Path) -> dict[str, dict]:
