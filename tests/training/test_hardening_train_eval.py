@@ -283,7 +283,7 @@ def test_ctrl_c_in_eval_prints_one_line_and_exits_130(tmp_path):
     out = tmp_path / "e"
     # far more runs than can finish between the first row and the signal, however loaded the machine
     args = ["--methods", "ompl", "--tasks", "roof_rail_top", "sill_front", "roof_rail_top,sill_front", "--seeds",
-            *[str(s) for s in range(12)], "--iterations", "300", "--no-render", "--out", str(out)]
+            *[str(s) for s in range(12)], "--iterations", "300", "--no-render", "--jobs", "1", "--out", str(out)]
     code, lines = _interrupt_after_first_row([sys.executable, "-m", "dresspack.eval.compare", *args],
                                              out / "results.jsonl")
     assert code == 130 and len(lines) == 1, lines
