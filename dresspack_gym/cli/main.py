@@ -505,6 +505,15 @@ def _add_restrictions(sub) -> None:
     x.set_defaults(func=cmd_restrictions)
 
 
+def _add_worker_flags(p, result: str) -> None:
+    """--workers and --backend of a robustness command (``result``: e.g. "the map does", which the count does not
+    change)."""
+    p.add_argument("--workers", type=number(1, MAX_WORKERS, integer=True), default=2,
+                   help=f"worker processes, one per core (default %(default)s; {result} not depend on it)")
+    p.add_argument("--backend", choices=["serial", "process", "ray"], default="process",
+                   help="where the workers run: this process, local processes or a Ray cluster (default: %(default)s)")
+
+
 def _add_robustness_map(sub) -> None:
     """``dresspack robustness-map``."""
     from ..maps.robustness.algorithm import START_MODES
@@ -515,11 +524,7 @@ def _add_robustness_map(sub) -> None:
                     help="station YAML or shipped name (its robot and dresspack are mapped)")
     rm.add_argument("--out", required=True, type=output_dir,
                     help="output folder; rerunning with the same folder resumes")
-    rm.add_argument("--workers", type=number(1, MAX_WORKERS, integer=True), default=2,
-                    help="worker processes, one per core (default %(default)s; the map does not depend on it)")
-    rm.add_argument("--backend", choices=["serial", "process", "ray"], default="process",
-                    help="where the workers run: this process, local processes or a Ray cluster "
-                         "(default: %(default)s)")
+    _add_worker_flags(rm, "the map does")
     rm.add_argument("--ray-address", default=None,
                     help="address of an existing Ray cluster (backend ray; default: start a local one)")
     rm.add_argument("--threshold", type=number(0, 10, lo_open=True, unit="m"), default=None,
@@ -565,11 +570,7 @@ def _add_robustness_paths(sub) -> None:
     rp.add_argument("--sample", type=positive_int, default=100, help="configurations drawn from the grid (default 100)")
     rp.add_argument("--seed", type=seed, default=0,
                     help="seed of the sample and of the K random paths (default %(default)s)")
-    rp.add_argument("--workers", type=number(1, MAX_WORKERS, integer=True), default=2,
-                    help="worker processes, one per core (default %(default)s; the maps do not depend on it)")
-    rp.add_argument("--backend", choices=["serial", "process", "ray"], default="process",
-                    help="where the workers run: this process, local processes or a Ray cluster "
-                         "(default: %(default)s)")
+    _add_worker_flags(rp, "the maps do")
     rp.add_argument("--json", action="store_true", help="print the report as one JSON object (no progress bar)")
     rp.set_defaults(func=cmd_robustness_paths)
 
