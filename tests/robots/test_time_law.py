@@ -225,3 +225,17 @@ def test_flying_by_a_point_on_a_straight_line_keeps_to_the_line():
     f = q @ (b - a) / np.dot(b - a, b - a)
     np.testing.assert_allclose(q, f[:, None] * (b - a), atol=1e-9)
     assert within and path_duration(pts[[0, 2]], LIMITS) < fly.duration < 2 * half.duration
+
+
+@pytest.mark.parametrize("deg", [0.05, 2.0, 10.0, 45.0, 170.0])  # no a, a without v, v reached
+def test_peak_jerk_of_a_single_joint_move_is_its_jerk_limit(deg):
+    """A time-optimal rest-to-rest move switches between ±J at every phase boundary, whichever limits it reaches:
+    the export check's peak jerk of the path fraction [1/s^3], times the joint's change, is the joint's jerk limit
+    (and its peak rate the speed limit once the move is long enough to reach it)."""
+    dq = np.zeros(6)
+    dq[0] = np.radians(deg)
+    m = SegmentMotion(dq, LIMITS)
+    assert m.peak_jerk * dq[0] == pytest.approx(LIMITS.jerk[0], rel=1e-9)
+    assert m.peak_rate * dq[0] <= LIMITS.velocity[0] * (1 + 1e-9)
+    if deg >= 45.0:
+        assert m.peak_rate * dq[0] == pytest.approx(LIMITS.velocity[0], rel=1e-9)
