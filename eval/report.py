@@ -19,6 +19,7 @@ from dresspack_gym.plots.replay import plot_replays
 from dresspack_gym.plots.restrictions import plot_restrictions
 from dresspack_gym.stations.station import Station
 
+from .conclusion import conclude
 from .runs import METRICS, EvalSpec, load_trajectory
 from .summary import OPTIONAL, by_method, by_task, fmt, json_summary, rows_to_csv
 
@@ -27,6 +28,9 @@ HEADERS = {"cycle_time": "cycle time [s]", "max_curvature": "max κ [1/m]", "max
            "damage": "damage (worst seg.)", "life_cycles": "life [cycles]", "reversals_per_s": "reversals [1/s]",
            "peak_joint_acceleration": "peak q̈ [rad/s²]", "planning_time": "plan/infer [s]",
            "inference_time": "network [s]"}
+# the overview's panels and which way is better on each
+OVERVIEW = {"cycle_time": "lower", "cost": "lower", "max_curvature": "lower", "max_tension": "lower",
+            "min_clearance": "higher", "planning_time": "lower"}
 
 
 def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dict[str, Replay] | None = None, *,
@@ -46,13 +50,34 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
                                                  indent=2) + "\n")
     (out / "results.csv").write_text(rows_to_csv(rows))
 
-    blocks: list[tuple] = [("h1", f"dresspack-gym evaluation: {station.config.name}"),
-                           ("p", _intro(spec, station))]
-    blocks += [("h2", "All tasks"), ("table", _table(by_method(rows, methods)))]
-    figures = {"overview": _overview_plot(by_method(rows, methods), fig_dir / "overview.png")}
-    blocks.append(("img", figures["overview"], "Mean ± std over the successful runs; bar labels give success."))
+    answer = conclude(rows, methods, spec.time_weight)
+    blocks: list[tuple] = [("h1", f"dresspack-gym evaluation: {station.config.name}"), ("h2", "Answer"),
+                           ("ul", answer["bullets"])]
+    if answer["table"]["rows"]:
+        blocks.append(("table", answer["table"]))
+    blocks += [("h2", "Setup"), ("p", _intro(spec, station)), ("h2", "All tasks"),
+               ("table", _table(by_method(rows, methods)))]
+    figures = {}
+    tasks = list(dict.fromkeys(r["task"] for r in rows))
+    if len(methods) > 1 or len(tasks) > 1:
+        # one method: its bars over the tasks (bars over one method would be six panels of one bar each)
+        groups = (by_method(rows, methods) if len(methods) > 1
+                  else {t: per[methods[0]] for t, per in by_task(rows, methods).items()})
+        colors = [COLORS.get(g if len(methods) > 1 else methods[0], "#444") for g in groups]
+        wear = station.config.wear_cost
+        thresholds = {"max_curvature": ("κ0", wear.curvature_threshold, "1/m"),
+                      "min_clearance": ("c", wear.clearance, "m")}
+        figures["overview"] = _overview_plot(groups, colors, thresholds, fig_dir / "overview.png")
+        over = "method" if len(methods) > 1 else f"task ({methods[0]})"
+        blocks.append(("img", figures["overview"],
+                       f"Per {over}: mean ± std over the successful runs; the label at each bar's foot is its "
+                       "success rate ('failed': no successful run, no bar). Dashed red: the wear cost's curvature "
+                       "threshold κ0 and clearance threshold c.", "Overview of the headline metrics"))
+    else:
+        blocks.append(("p", "One method on one task: the table above is the whole overview."))
     blocks.append(("p", _settle_note(rows)))
     sim = CableSimulator(station)
+    explained: set[str] = set()  # figure kinds whose legend a caption has explained (each explanation once)
     for task, per_method in by_task(rows, methods).items():
         blocks += [("h2", f"Task: home → {task} → home"), ("table", _table(per_method))]
         task_replays = {}
@@ -66,20 +91,27 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
         failed = [m for m in methods if not any(r["success"] for r in rows if r["task"] == task and r["method"] == m)]
         if task_replays:
             name = "measures_" + _slug(task) + ".png"
-            plot_replays(task_replays, fig_dir / name)
+            plot_replays(task_replays, fig_dir / name, colors=COLORS)
             figures[f"measures {task}"] = str(fig_dir / name)
-            blocks.append(("img", str(fig_dir / name), "Measures over time (thesis Figures A.1–A.3): κ with the κ0 "
-                           "line, F, d with the c line; dotted lines mark the welds and the return Home."
-                           + (f" Not shown (failed every seed): {', '.join(failed)}." if failed else "")))
-            blocks += _damage_figures(task, task_replays, fig_dir, figures)
+            caption = _once(explained, "measures", f"Measures over time on {task}",
+                            " (thesis Figures A.1–A.3): the largest curvature κ, tension F and twist rate and the "
+                            "smallest clearance d along the cable; dashed red: the thresholds κ0 and c; dotted: the "
+                            "welds and the return Home")
+            blocks.append(("img", str(fig_dir / name),
+                           caption + "." + (f" Not shown (failed every seed): {', '.join(failed)}." if failed else ""),
+                           f"Measures over time on {task}"))
+            blocks += _damage_figures(task, task_replays, fig_dir, figures, explained)
             if render:
-                blocks += _animations(task, rows, methods, station, out, fig_dir, figures, spec.robot, replays)
+                blocks += _animations(task, rows, methods, station, out, fig_dir, figures, spec.robot, replays,
+                                      explained)
     blocks += [("h2", "Damage and fatigue life"), *_life_blocks(rows, methods, replays)]
     blocks.append(("h2", "Joint restrictions"))
     restr = fig_dir / "restrictions.png"
     plot_restrictions(station.config, str(restr))
     figures["restrictions"] = str(restr)
-    blocks.append(("img", str(restr), "Forbidden j5 zones over j6 (thesis Figure 4.2 style) at Home's j1–j4."))
+    blocks.append(("img", str(restr), "Where the joint restrictions forbid the wrist (thesis Figure 4.2 style): "
+                                      "j5 over j6 in degrees, j1–j4 at Home; each shaded zone is labelled with the "
+                                      "restriction that forbids it.", "Joint restrictions"))
     if robustness_map is not None:
         blocks += [("h2", "Robustness map")] + _robustness_blocks(robustness_map, fig_dir, figures)
     if render:
@@ -107,7 +139,8 @@ def _intro(spec: EvalSpec, station: Station) -> str:
             f"connection, {spec.routes} sampled routes per leg (ompl-wear) and {spec.evaluations} cable-leg "
             "evaluations of refinement per plan"
             + (f", capped at {spec.time_budget:g} s. " if spec.time_budget is not None else ". ")
-            + "Metrics are mean ± std over the successful runs; a method that failed every run shows 'failed'.")
+            + "Metrics are mean ± std over the successful runs (the mean alone where one run succeeded); a method "
+              "that failed every run shows 'failed'.")
 
 
 def _settle_note(rows: list[dict]) -> str:
@@ -130,24 +163,31 @@ def _table(per_method: dict[str, dict]) -> dict:
     return {"header": header, "rows": body}
 
 
-def _overview_plot(per_method: dict[str, dict], path: Path) -> str:
+def _overview_plot(groups: dict[str, dict], colors: list[str], thresholds: dict[str, tuple], path: Path) -> str:
+    """A bar per group (method, or task of the one method) on each headline metric; each panel says which way is
+    better; the wear cost's thresholds are dashed lines with a legend entry."""
     import matplotlib.pyplot as plt
 
-    keys = ["cycle_time", "cost", "max_curvature", "max_tension", "min_clearance", "planning_time"]
-    methods = list(per_method)
+    labels = list(groups)
     fig, axes = plt.subplots(2, 3, figsize=(12, 6.5))
-    for ax, k in zip(axes.ravel(), keys):
-        means = [per_method[m][k]["mean"] if per_method[m][k] else 0.0 for m in methods]
-        stds = [per_method[m][k]["std"] if per_method[m][k] else 0.0 for m in methods]
+    for ax, (k, better) in zip(axes.ravel(), OVERVIEW.items()):
+        means = [groups[g][k]["mean"] if groups[g][k] else 0.0 for g in labels]
+        stds = [groups[g][k]["std"] if groups[g][k] else 0.0 for g in labels]
         yerr = [np.minimum(stds, means), stds] if k != "min_clearance" else stds  # no error bar below 0
-        bars = ax.bar(methods, means, yerr=yerr, capsize=3, color=[COLORS.get(m, "#444") for m in methods])
-        for b, m in zip(bars, methods):
-            a = per_method[m]
+        bars = ax.bar(labels, means, yerr=yerr, capsize=3, color=colors)
+        for b, g in zip(bars, labels):
+            a = groups[g]
             ax.annotate("failed" if a[k] is None else f"{a['success_rate']:.0%}", (b.get_x() + b.get_width() / 2, 0),
                         xytext=(0, 3), textcoords="offset points", ha="center", fontsize=7, color="black")
+        if k in thresholds:
+            symbol, value, unit = thresholds[k]
+            ax.axhline(value, color="r", ls="--", lw=1, label=f"{symbol} = {value:g} {unit}")
+            ax.set_ylim(0, 1.3 * max(value, *(m + s for m, s in zip(means, stds))))  # room for the legend
+            ax.legend(fontsize=7, loc="upper right")
         if k in ("cost", "max_tension"):
             ax.set_yscale("symlog", linthresh=1.0)
         ax.set_title(HEADERS[k], fontsize=10)
+        ax.set_ylabel(f"{better} is better", fontsize=8)
         ax.tick_params(axis="x", labelrotation=30, labelsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -155,7 +195,16 @@ def _overview_plot(per_method: dict[str, dict], path: Path) -> str:
     return str(path)
 
 
-def _damage_figures(task: str, task_replays: dict[str, Replay], fig_dir: Path, figures: dict) -> list[tuple]:
+def _once(explained: set[str], kind: str, what: str, explanation: str) -> str:
+    """``what`` plus ``explanation`` the first time a figure of ``kind`` appears; ``what`` alone after."""
+    if kind in explained:
+        return what
+    explained.add(kind)
+    return what + explanation
+
+
+def _damage_figures(task: str, task_replays: dict[str, Replay], fig_dir: Path, figures: dict,
+                    explained: set[str]) -> list[tuple]:
     """Damage and life along the cable per method, and the damage strip of the method whose cable lives least."""
     with_life = {k: r for k, r in task_replays.items() if r.fatigue is not None}
     if not with_life:
@@ -166,10 +215,13 @@ def _damage_figures(task: str, task_replays: dict[str, Replay], fig_dir: Path, f
     strip = fig_dir / f"damage_strip_{_slug(task)}.png"
     plot_damage_strip(with_life[worst], strip, f"Damage strip: {worst} on {task} (shortest life)")
     figures[f"damage {task}"], figures[f"damage strip {task}"] = str(along), str(strip)
-    return [("img", str(along), "Damage per cycle (all weighted terms) and fatigue life per segment along the "
-                                "cable, per method."),
-            ("img", str(strip), f"Where and when the cable of {worst}, the method whose cable lives least on this "
-                                "task, accrues damage (segment × time; dotted lines: welds and Home).")]
+    along_caption = _once(explained, "damage", f"Damage and fatigue life along the cable on {task}",
+                          ": damage per cycle (all weighted terms, lower is better) and fatigue life (higher is "
+                          "better) per segment, per method")
+    strip_caption = _once(explained, "strip", f"Where and when the cable of {worst}, the shortest-lived on {task}, "
+                                              "accrues damage", " (segment × time; dotted: welds and Home)")
+    return [("img", str(along), along_caption + ".", f"Damage along the cable on {task}"),
+            ("img", str(strip), strip_caption + ".", f"Damage strip of {worst} on {task}")]
 
 
 def _life_blocks(rows: list[dict], methods, replays: dict[str, Replay]) -> list[tuple]:
@@ -222,11 +274,14 @@ def _robustness_blocks(folder, fig_dir: Path, figures: dict) -> list[tuple]:
     rmap = RobustnessMap(folder)
     blocks = [("p", f"Map {folder}: {rmap.n_measured} of {len(rmap.grid)} configurations measured, "
                     f"threshold {rmap.threshold * 1000:g} mm.")]
+    explained: set[str] = set()
     for path in plot_map(folder, rmap.grid, rmap.threshold):
         dest = fig_dir / ("robustness_" + Path(path).name)
         shutil.copyfile(path, dest)
         figures[dest.stem] = str(dest)
-        blocks.append(("img", str(dest), "Robustness (thesis Figures 4.5 / 4.7 style)."))
+        caption = _once(explained, "robustness", f"Robustness map: {Path(path).stem}",
+                        " (thesis Figures 4.5 / 4.7 style)")
+        blocks.append(("img", str(dest), caption + ".", f"Robustness map {Path(path).stem}"))
     return blocks
 
 
@@ -234,7 +289,7 @@ ANIMATION = {"fps": 10.0, "width": 320, "height": 180, "strip_height": 70}  # sm
 
 
 def _animations(task: str, rows, methods, station, out: Path, fig_dir: Path, figures: dict, robot,
-                replays: dict[str, Replay]) -> list[tuple]:
+                replays: dict[str, Replay], explained: set[str]) -> list[tuple]:
     """A short video per method of its first successful run on ``task``: the cable moving, measures underneath."""
     from dresspack_gym.io.animation import animate
 
@@ -247,7 +302,8 @@ def _animations(task: str, rows, methods, station, out: Path, fig_dir: Path, fig
         path = fig_dir / f"anim_{_slug(task)}_{_slug(m)}.mp4"
         animate(CableSimulator(station), traj, path, robot=robot, measured=replays.get(row["key"]), **ANIMATION)
         figures[f"animation {task} {m}"] = str(path)
-        blocks.append(("video", str(path), f"{m} (seed {row['seed']}): κ, F/10 and 10·d under the picture"))
+        blocks.append(("video", str(path), _once(explained, "animation", f"{m} (seed {row['seed']}) on {task}",
+                                                 ": κ, F/10 and 10·d under the picture")))
     return blocks
 
 
@@ -279,7 +335,8 @@ def _worst_frames(rows, methods, replays, station, sim, out, fig_dir, figures, r
             i = int(np.argmax(rep.cost))
             blocks.append(("img", str(path), f"{m}: {worst['task']} (seed {worst['seed']}) at t = {t:.2f} s, "
                            f"C = {rep.cost[i]:.3g} (κ {rep.measures['curvature'][i]:.2f} 1/m, "
-                           f"F {rep.measures['tension'][i]:.1f} N, d {rep.measures['clearance'][i]:.3f} m)."))
+                           f"F {rep.measures['tension'][i]:.1f} N, d {rep.measures['clearance'][i]:.3f} m).",
+                           f"Worst-wear moment of {m}"))
     finally:
         if renderer is not None:
             renderer.close()
@@ -299,12 +356,14 @@ def _markdown(blocks, out: Path) -> str:
             lines += [f"## {b[1]}", ""]
         elif b[0] == "p":
             lines += [b[1], ""]
+        elif b[0] == "ul":
+            lines += [f"- {item}" for item in b[1]] + [""]
         elif b[0] == "table":
             t = b[1]
             lines += ["| " + " | ".join(t["header"]) + " |", "|" + "---|" * len(t["header"])]
             lines += ["| " + " | ".join(row) + " |" for row in t["rows"]] + [""]
         elif b[0] == "img":
-            lines += [f"![{b[2]}]({Path(b[1]).relative_to(out)})", "", f"*{b[2]}*", ""]
+            lines += [f"![{b[3]}]({Path(b[1]).relative_to(out)})", "", f"*{b[2]}*", ""]
         elif b[0] == "video":
             lines += [f"[video: {b[2]}]({Path(b[1]).relative_to(out)})", ""]
     return "\n".join(lines)
@@ -326,6 +385,8 @@ def _html(blocks, title: str) -> str:
             parts.append(f"<{b[0]}>{html.escape(b[1])}</{b[0]}>")
         elif b[0] == "p":
             parts.append(f"<p>{html.escape(b[1])}</p>")
+        elif b[0] == "ul":
+            parts.append("<ul>" + "".join(f"<li>{html.escape(item)}</li>" for item in b[1]) + "</ul>")
         elif b[0] == "table":
             t = b[1]
             head = "".join(f"<th>{html.escape(h)}</th>" for h in t["header"])
@@ -334,7 +395,7 @@ def _html(blocks, title: str) -> str:
             parts.append(f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
         elif b[0] == "img":
             data = base64.b64encode(Path(b[1]).read_bytes()).decode()
-            parts.append(f"<figure><img src='data:image/png;base64,{data}' alt='{html.escape(b[2])}'>"
+            parts.append(f"<figure><img src='data:image/png;base64,{data}' alt='{html.escape(b[3])}'>"
                          f"<figcaption>{html.escape(b[2])}</figcaption></figure>")
         elif b[0] == "video":
             data = base64.b64encode(Path(b[1]).read_bytes()).decode()

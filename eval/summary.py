@@ -21,12 +21,13 @@ CSV_FIELDS = ("method", "task", "seed", "success", *METRICS, "weakest_segment_m"
 
 
 def aggregate(rows: list[dict]) -> dict:
-    """``{"n_runs", "n_success", "success_rate", metric: {"mean", "std"} | None}`` for a group of rows."""
+    """``{"n_runs", "n_success", "success_rate", metric: {"mean", "std", "n"} | None}`` for a group of rows."""
     ok = [r for r in rows if r["success"]]
     out = {"n_runs": len(rows), "n_success": len(ok), "success_rate": len(ok) / len(rows) if rows else 0.0}
     for m in (*METRICS, *OPTIONAL):
         values = np.array([r[m] for r in ok if r.get(m) is not None], dtype=float)  # rows older than a metric lack it
-        out[m] = {"mean": float(values.mean()), "std": float(values.std())} if len(values) else None
+        out[m] = ({"mean": float(values.mean()), "std": float(values.std()), "n": len(values)} if len(values)
+                  else None)
     return out
 
 
@@ -47,13 +48,18 @@ def json_summary(rows: list[dict], methods) -> dict[str, dict]:
 
 
 def fmt(stat: dict | None, digits: int = 3) -> str:
-    """``mean ± std`` with ``digits`` significant digits; "failed" when no run succeeded."""
+    """``mean ± std`` with ``digits`` significant digits; the mean alone for one run (its spread is unknown, not
+    0); "failed" when no run succeeded."""
     if stat is None:
         return "failed"
-    return f"{_sig(stat['mean'], digits)} ± {_sig(stat['std'], 2)}"
+    if stat.get("n") == 1:
+        return significant(stat["mean"], digits)
+    std = stat["std"] if stat["std"] > 1e-9 * abs(stat["mean"]) else 0.0  # round-off of equal values: no spread
+    return f"{significant(stat['mean'], digits)} ± {significant(std, 2)}"
 
 
-def _sig(x: float, digits: int) -> str:
+def significant(x: float, digits: int) -> str:
+    """``x`` to ``digits`` significant digits (numbers of more integer digits keep them all)."""
     if x == 0 or not math.isfinite(x):
         return f"{x:g}"
     if abs(x) < 1e-3:

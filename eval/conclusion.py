@@ -1,0 +1,142 @@
+"""The report's opening answer from the rows: the best on W·T + ∫C dt and on life, by how much, where each fails."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .summary import significant
+
+WEAR_UNAWARE = "ompl"  # the baseline every ratio is also given against: plans for time alone
+
+
+def objective_name(time_weight: float) -> str:
+    return "T + ∫C dt" if time_weight == 1 else f"{time_weight:g}·T + ∫C dt"
+
+
+def conclude(rows: list[dict], methods, time_weight: float = 1.0) -> dict:
+    """``{"bullets": [sentence, ...], "table": {"header", "rows"}}``.
+
+    A method's score is its mean over the tasks that every ranked method solved (a method ranks if it solved
+    any task; on a task it is the mean over its successful seeds), so every method is scored on the same tasks.
+    Life is the geometric mean of each run's shortest segment life over the same tasks (lives span decades)."""
+    methods = list(methods)
+    tasks = list(dict.fromkeys(r["task"] for r in rows))
+    objective = _per_task(rows, methods, tasks, lambda r: _objective(r, time_weight), np.mean)
+    ranked = [m for m in methods if objective[m]]
+    common = [t for t in tasks if all(t in objective[m] for m in ranked)]
+    name = objective_name(time_weight)
+    bullets = []
+    if not ranked:
+        bullets.append("No method completed any run: nothing to rank.")
+    elif not common:
+        bullets.append(f"No task was solved by every method that solved one ({', '.join(ranked)}): no "
+                       f"like-for-like ranking on {name}; see the per-task tables.")
+    else:
+        score = {m: float(np.mean([objective[m][t] for t in common])) for m in ranked}
+        who = "it" if len(ranked) == 1 else "every ranked method"
+        over = (f"mean over the {len(common)} tasks {who} solved" if len(common) > 1
+                else f"on {common[0]}, the one task {who} solved")
+        alone = "the only method evaluated" if len(methods) == 1 else "the only method that solved a task"
+        bullets.append(_ranking(f"{name} (lower is better)", score, lower_better=True, over=over, unit="",
+                                alone=alone))
+        life = _per_task(rows, ranked, common, lambda r: r.get("life_cycles"), _geometric_mean)
+        if all(len(life[m]) == len(common) for m in ranked):
+            lives = {m: _geometric_mean([life[m][t] for t in common]) for m in ranked}
+            bullets.append(_ranking("fatigue life (higher is better)", lives, lower_better=False,
+                                    over=over.replace("mean", "geometric mean"), unit=" cycles", alone=alone))
+            by_objective, by_life = min(score, key=score.get), max(lives, key=lives.get)
+            if by_objective != by_life:
+                bullets.append(f"The two answers differ: {by_objective} has the lowest {name}, {by_life}'s cable "
+                               "lives longest; choose by what the cell pays for.")
+        unranked = [m for m in methods if m not in ranked]
+        if unranked:
+            bullets.append(f"Not ranked, having solved no task: {', '.join(unranked)}.")
+    bullets += [_failures(rows, m) for m in methods]
+    return {"bullets": bullets, "table": _table(rows, ranked, common, time_weight)}
+
+
+def _objective(row: dict, time_weight: float) -> float | None:
+    if row.get("cycle_time") is None or row.get("cost") is None:
+        return None
+    return time_weight * row["cycle_time"] + row["cost"]
+
+
+def _per_task(rows, methods, tasks, value, reduce) -> dict[str, dict[str, float]]:
+    """Per method, per task it solved: ``reduce`` of ``value`` over its successful seeds."""
+    out = {}
+    for m in methods:
+        out[m] = {}
+        for t in tasks:
+            values = [value(r) for r in rows if r["method"] == m and r["task"] == t and r["success"]]
+            values = [v for v in values if v is not None]
+            if values:
+                out[m][t] = float(reduce(values))
+    return out
+
+
+def _geometric_mean(values) -> float:
+    return float(np.exp(np.mean(np.log(np.maximum(values, 1e-300)))))
+
+
+def _ranking(what: str, score: dict[str, float], *, lower_better: bool, over: str, unit: str, alone: str) -> str:
+    """One sentence: the best method, its score, and by what factor (>= 1) it beats the runner-up and the
+    wear-unaware baseline: the other's score over the best's when lower is better, the inverse when higher is."""
+    order = sorted(score, key=score.get, reverse=not lower_better)
+    best = order[0]
+    if len(order) == 1:
+        return f"{what[0].upper()}{what[1:]}: {best}, {significant(score[best], 3)}{unit} ({over}); {alone}."
+    text = f"Best on {what}: {best}, {significant(score[best], 3)}{unit} ({over})"
+
+    def against(other: str, role: str) -> str:
+        a, b = score[best], score[other]
+        ratio = b / a if lower_better else a / b
+        factor = f"{ratio:.2f}×" if math.isfinite(ratio) and ratio > 0 else "an undefined factor"
+        if lower_better:
+            return f"{role} {other} {significant(b, 3)}{unit} ({factor} as much)"
+        return f"{factor} the {role} {other}'s {significant(b, 3)}{unit}"
+
+    runner_up = order[1]
+    if runner_up == WEAR_UNAWARE:
+        text += "; " + against(runner_up, "runner-up and wear-unaware")
+    else:
+        text += "; " + against(runner_up, "runner-up")
+        if best == WEAR_UNAWARE:
+            text += f"; {WEAR_UNAWARE} is itself the wear-unaware baseline"
+        elif WEAR_UNAWARE in score:
+            text += "; " + against(WEAR_UNAWARE, "wear-unaware")
+    return text + "."
+
+
+def _failures(rows: list[dict], method: str) -> str:
+    mine = [r for r in rows if r["method"] == method]
+    ok = sum(r["success"] for r in mine)
+    text = f"{method}: {ok}/{len(mine)} runs succeeded ({ok / len(mine):.0%})" if mine else f"{method}: no runs"
+    failed = []
+    for t in dict.fromkeys(r["task"] for r in mine):
+        runs = [r for r in mine if r["task"] == t]
+        bad = sum(not r["success"] for r in runs)
+        if bad:
+            failed.append(f"{t} ({bad}/{len(runs)} seeds)" if len(runs) > 1 else t)
+    return text + (f"; failed on {', '.join(failed)}." if failed else "; no failure.")
+
+
+def _table(rows, ranked, common, time_weight) -> dict:
+    """The ranked methods, best first, with the per-task means the answer rests on."""
+    header = ["method", f"{objective_name(time_weight)} (lower is better)", "cycle time T [s]", "∫C dt",
+              "life [cycles] (higher is better)", "tasks compared"]
+    if not ranked or not common:
+        return {"header": header, "rows": []}
+
+    def mean(key, reduce=np.mean):
+        per = _per_task(rows, ranked, common, key, reduce)
+        return {m: (float(reduce([per[m][t] for t in common])) if len(per[m]) == len(common) else None)
+                for m in ranked}
+
+    objective = mean(lambda r: _objective(r, time_weight))
+    cycle, cost = mean(lambda r: r.get("cycle_time")), mean(lambda r: r.get("cost"))
+    life = mean(lambda r: r.get("life_cycles"), _geometric_mean)
+    body = [[m, *(significant(v[m], 3) if v[m] is not None else "–" for v in (objective, cycle, cost, life)),
+             str(len(common))] for m in sorted(ranked, key=objective.get)]
+    return {"header": header, "rows": body}
