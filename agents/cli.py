@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from dresspack_gym.cli.args import ensure_parent, number, output_file, seed
+from dresspack_gym.cli.args import add_station_argument, ensure_parent, number, output_file, seed
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
@@ -16,7 +16,7 @@ WORK = number(1, MAX_WORK, integer=True)
 
 def add_budget_arguments(p, iterations: int = DEFAULT_ITERATIONS, evaluations: int = DEFAULT_EVALUATIONS,
                          routes: int = DEFAULT_ROUTES, time_budget: float | None = None) -> None:
-    """The planning budget flags (shared by ``dresspack plan``, ``dresspack-eval`` and ``dresspack demo``)."""
+    """The planning budget flags (shared by ``dresspack plan``, ``dresspack eval`` and ``dresspack demo``)."""
     p.add_argument("--iterations", type=WORK, default=iterations,
                    help=f"OMPL planner iterations per connection (work units; default {iterations})")
     p.add_argument("--evaluations", type=WORK, default=evaluations,
@@ -33,13 +33,15 @@ def add_plan_command(sub) -> None:
     from .planners.registry import PLANNERS
 
     p = sub.add_parser("plan", help="plan the station's weld cycle and measure it in the cable simulator")
-    p.add_argument("station", help="station or thesis scenario (YAML or shipped name, e.g. thesis_tension)")
+    add_station_argument(p, "station or thesis scenario: YAML or shipped name, e.g. thesis_tension (default: "
+                            "%(default)s)", deprecated_positional=True)
     p.add_argument("--planner", choices=list(PLANNERS), default="ompl", help="planning method (default: %(default)s)")
     p.add_argument("--seed", type=seed, default=0, help="the planner's random seed (default %(default)s)")
     p.add_argument("--robot", type=number(0, 7, integer=True), default=0,
                    help="index of the robot to plan for (default 0; its weld points by default)")
     add_budget_arguments(p)
-    p.add_argument("--welds", nargs="+", default=None, help="weld point names in visiting order (default: all)")
+    p.add_argument("--welds", nargs="+", default=None, metavar="WELD",
+                   help="weld point names, one per argument, in visiting order (default: all the robot's)")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis",
                    help="wear cost the wear-aware planners minimise and the replay reports: thesis (4.10), "
                         "normalized, or damage (the worst segment's damage rate; see the README); default: %(default)s")

@@ -8,7 +8,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from dresspack_gym.cli.args import number, output_dir, seed
+from dresspack_gym.cli.args import add_station_argument, number, output_dir, seed
 from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
 from .planners.budget import DEFAULT_ITERATIONS, MAX_WORK
@@ -21,14 +21,16 @@ INTERRUPTED = 130  # the shell's exit status of a command ended by Ctrl-C (128 +
 def add_station_plan_command(sub) -> None:
     p = sub.add_parser("station-plan", help="assign, order and plan the welds of a multi-robot station, "
                                             "coordinate the robots, and measure every cable")
-    p.add_argument("station", help="station YAML or shipped name (e.g. side_framing_4r)")
+    add_station_argument(p, "station YAML or shipped name, e.g. side_framing_4r (default: %(default)s)",
+                         deprecated_positional=True)
     p.add_argument("--objective", nargs="+", choices=OBJECTIVES, default=["time", "wear"],
                    help="time: shortest makespan; wear: least estimated wear within --makespan-slack of the "
                         "time plan's makespan; balanced: time + wear in equal measure. Several: one plan each, "
                         "compared (default: time wear)")
     p.add_argument("--weld-time", type=number(0, 600, unit="s"), default=1.0,
                    help="seconds a robot stands still at each weld (default 1)")
-    p.add_argument("--welds", nargs="+", default=None, help="weld point names to plan (default: all)")
+    p.add_argument("--welds", nargs="+", default=None, metavar="WELD",
+                   help="weld point names to plan, one per argument (default: all)")
     p.add_argument("--fixed-assignment", action="store_true",
                    help="each weld by the robot its YAML names (default: by any robot that reaches it)")
     p.add_argument("--makespan-slack", type=number(0, 10), default=0.10,

@@ -1,7 +1,7 @@
-"""``dresspack-eval``: compare methods on the same tasks and seeds and write the report folder.
+"""``dresspack eval``: compare planners on the same welds and seeds and write the report folder.
 
-    dresspack-eval --methods ppo ompl ompl-wear --tasks sill_rear,roof_rail_top --seeds 0 1 --out out/eval
-    dresspack-eval --station-plans station_plans/time station_plans/wear --station side_framing_4r --out out/plans
+    dresspack eval --planners ppo ompl ompl-wear --welds sill_rear,roof_rail_top --seeds 0 1 --out out/eval
+    dresspack eval --station-plans station_plans/time station_plans/wear --station side_framing_4r --out out/plans
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from dresspack.agents.cli import add_budget_arguments
 from dresspack.agents.planners.leg_cost import MAX_TIME_WEIGHT
 from dresspack.agents.planners.registry import PLANNERS
 
-from dresspack_gym.cli.args import number, output_dir, seed
+from dresspack_gym.cli.args import Renamed, add_station_argument, number, output_dir, seed, warn_deprecated
 from dresspack_gym.errors import DresspackError
 from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
@@ -34,17 +34,21 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
     tasks = " ".join(",".join(t) for t in defaults.tasks)
     if defaults.tasks == EvalSpec.tasks:
         tasks += ": the two weld pairs held out from the shipped policy's training"
-    p.add_argument("--station", default=defaults.station, help="station YAML or shipped name (default: %(default)s)")
-    p.add_argument("--methods", nargs="+", default=list(defaults.methods), metavar="METHOD",
-                   help=f"any of {list(PLANNERS)} (default: {methods})")
-    p.add_argument("--tasks", nargs="+", default=[",".join(t) for t in defaults.tasks], metavar="WELDS",
-                   help=f"one task per argument: comma-separated weld names in visiting order (default: {tasks})")
+    add_station_argument(p, default=defaults.station)
+    p.add_argument("--planners", "--methods", action=Renamed, nargs="+", choices=list(PLANNERS),
+                   default=list(defaults.methods), metavar="NAME",
+                   help=f"the planners compared, any of {list(PLANNERS)} (default: {methods}; --methods: deprecated "
+                        "spelling)")
+    p.add_argument("--welds", "--tasks", action=Renamed, nargs="+", default=[",".join(t) for t in defaults.tasks],
+                   metavar="WELDS",
+                   help="one task per argument: its weld names, comma-separated, in visiting order (e.g. "
+                        f"sill_rear,roof_rail_top) (default: {tasks}; --tasks: deprecated spelling)")
     p.add_argument("--seeds", nargs="+", type=seed, default=list(defaults.seeds),
-                   help="seeds each method runs each task with (the planners' seed, the start's draw) "
+                   help="seeds each planner runs each task with (the planners' seed, the start's draw) "
                         f"(default: {' '.join(map(str, defaults.seeds))})")
     p.add_argument("--drawn-tasks", type=number(0, 10_000, integer=True), default=defaults.drawn_tasks, metavar="N",
-                   help="instead of --tasks: N single welds drawn on the station's parts (weld k from --drawn-seed, "
-                        f"k; default {defaults.drawn_tasks}: --tasks)")
+                   help="instead of --welds: N tasks of one weld each, drawn on the station's parts (weld k from "
+                        f"--drawn-seed, k; default {defaults.drawn_tasks}: --welds)")
     p.add_argument("--drawn-seed", type=seed, default=defaults.drawn_seed,
                    help=f"seed of the welds --drawn-tasks draws (default {defaults.drawn_seed})")
     add_budget_arguments(p, defaults.iterations, defaults.evaluations, defaults.routes, defaults.time_budget)
@@ -70,8 +74,8 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
 
 
 def spec_from_args(args) -> EvalSpec:
-    return EvalSpec(station=args.station, methods=tuple(args.methods),
-                    tasks=tuple(tuple(w for w in t.split(",") if w) for t in args.tasks), seeds=tuple(args.seeds),
+    return EvalSpec(station=args.station, methods=tuple(args.planners),
+                    tasks=tuple(tuple(w for w in t.split(",") if w) for t in args.welds), seeds=tuple(args.seeds),
                     iterations=args.iterations, evaluations=args.evaluations, routes=args.routes,
                     time_budget=args.time_budget,
                     start_noise_deg=args.start_noise_deg, policy=args.policy, cost_variant=args.cost_variant,
@@ -128,26 +132,37 @@ def compare_plans_and_report(args) -> int:
     return 0 if all(r["collisions"] == 0 and not r["jammed"] for r in rows) else 1
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="dresspack-eval", description=__doc__.split("\n")[0])
+def add_eval_command(sub) -> None:
+    """``dresspack eval`` (a ``dresspack`` subcommand, registered by entry point)."""
+    p = sub.add_parser("eval", help="compare planners on the same welds, seeds and station and write a report folder",
+                       description="Runs every planner on every task and seed, replays each plan in the same cable "
+                                   "simulator and writes report.html / report.md with the tables and figures; an "
+                                   "interrupted run resumes in its --out folder. With --station-plans: compares "
+                                   "plan folders of `dresspack station-plan` instead.")
     add_eval_arguments(p)
     p.add_argument("--station-plans", nargs="+", type=Path, default=None, metavar="DIR",
-                   help="instead of methods: plan folders written by `dresspack station-plan` (e.g. "
+                   help="instead of planners: plan folders written by `dresspack station-plan` (e.g. "
                         "station_plans/time station_plans/wear), each replayed on --station and measured alike; "
-                        "the first is the reference of the relative columns")
-    return p
+                        "the first is the reference of the relative columns (default: none)")
+    p.set_defaults(func=cmd_eval)
 
 
-def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
-    args = build_parser().parse_args(argv)
+def cmd_eval(args) -> int:
     try:
         if args.station_plans:
             return compare_plans_and_report(args)
         return evaluate_and_report(args)
     except KeyboardInterrupt:
-        print(f"\ninterrupted: {_saved(args)}; resume with: dresspack-eval {shlex.join(argv)}", file=sys.stderr)
+        print(f"\ninterrupted: {_saved(args)}; resume with: dresspack {shlex.join(args.argv)}", file=sys.stderr)
         return INTERRUPTED
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The ``dresspack-eval`` executable, kept for one release: ``dresspack eval`` with the same arguments."""
+    from dresspack_gym.cli.main import main as dresspack_main
+
+    warn_deprecated("dresspack-eval is deprecated; use dresspack eval")
+    return dresspack_main(["eval", *(sys.argv[1:] if argv is None else argv)])
 
 
 INTERRUPTED = 130  # the shell's exit status of a command ended by Ctrl-C (128 + SIGINT)

@@ -1,9 +1,9 @@
-"""``dresspack-eval --station-plans``: station plans (e.g. time-only against wear-aware) compared like single-robot
+"""``dresspack eval --station-plans``: station plans (e.g. time-only against wear-aware) compared like single-robot
 methods: each plan replayed in the same cable simulator, checked by the same dense collision check and measured the
 same way (makespan, ∫C dt, peak measures, smoothness), into one table, a JSON/CSV and a picture of the wear over the
 cycle.
 
-    dresspack-eval --station-plans station_plans/time station_plans/wear --station side_framing_4r --out out/plans
+    dresspack eval --station-plans station_plans/time station_plans/wear --station side_framing_4r --out out/plans
 """
 
 from __future__ import annotations
@@ -109,7 +109,8 @@ def _plot_wear(rows: list[dict], replays: list, path: Path, station_name: str) -
 
     fig, ax = plt.subplots(figsize=(8, 4))
     for row, rep in zip(rows, replays):
-        ax.plot(rep.time, rep.running_cost().sum(axis=1), label=f"{row['plan']}: {row['cost']:.4g} in {row['makespan']:.2f} s")
+        label = f"{row['plan']}: {row['cost']:.4g} in {row['makespan']:.2f} s"
+        ax.plot(rep.time, rep.running_cost().sum(axis=1), label=label)
     ax.set_xlabel("station clock [s]")
     ax.set_ylabel("∫C dt, all cables")
     ax.set_title(f"{station_name}: wear over the cycle")

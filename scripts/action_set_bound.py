@@ -4,7 +4,7 @@ acts in, for the planners' objective (motion time + ∫C dt), its best sequence 
     PYTHONPATH=. .venv/bin/python scripts/action_set_bound.py --policy goal_conditioned --drawn-tasks 30 \
         --tasks 0 1 2 3 --compare ppo=runs/eval/drawn30/results.json --out docs/action_set_bound.json
 
-The tasks are `dresspack-eval --drawn-tasks N --seeds S --start-noise-deg D`'s (Home-ish start, one weld drawn on
+The tasks are `dresspack eval --drawn-tasks N --seeds S --start-noise-deg D`'s (Home-ish start, one weld drawn on
 the parts, back Home). The env is the one the `ppo` method rolls out (the policy's training config, the task's own
 goals and start). Each leg (to the weld, then Home from the best few weld-leg ends) is searched breadth first with
 ``DresspackEnv.snapshot``/``restore``: every unmasked action of every kept sequence is tried, and the ``--beam``

@@ -6,14 +6,14 @@ support's position p(s) partway along the direct Home -> Weld motion, with both 
 the family is p(s) + delta * z (+ h * the horizontal direction away from the robot, for the controls that break
 the condition). For every node this runs
 
-- the direct motion (`dresspack plan STATION --planner ompl`): its peak curvature, and its curvature at Home and
-  at the weld;
+- the direct motion (`dresspack plan --station STATION --planner ompl`): its peak curvature, and its curvature at
+  Home and at the weld;
 - on the shipped node and three around it, also `thesis-local` and `ompl-wear`: their peak curvature against the
   direct one.
 
     .venv/bin/python scripts/curvature_node_family.py [--seeds 0] [--out docs/curvature_node_family.json]
 
-Every plan goes through `dresspack plan VARIANT.yaml --planner P --seed S --json --out TRAJ.npz` (the default
+Every plan goes through `dresspack plan --station VARIANT.yaml --planner P --seed S --json --out TRAJ.npz` (the default
 work budgets, given explicitly) and is replayed from its saved trajectory for the curves over time, which must
 reproduce the plan's own peak. Writes the JSON (rows, summary and the curves),
 docs/thesis_curvature_scenario.png (the shipped node, like the thesis's Figure A.1) and
@@ -90,7 +90,7 @@ def with_node(station_dict: dict, node: np.ndarray) -> dict:
 
 
 def plan(dresspack: list[str], station_yaml: Path, planner: str, seed: int, out: Path) -> dict:
-    cmd = [*dresspack, "plan", str(station_yaml), "--planner", planner, "--seed", str(seed), "--json",
+    cmd = [*dresspack, "plan", "--station", str(station_yaml), "--planner", planner, "--seed", str(seed), "--json",
            "--out", str(out)] + [a for k, v in BUDGET.items() for a in (f"--{k}", str(v))]
     done = subprocess.run(cmd, capture_output=True, text=True)
     if done.returncode != 0:

@@ -2,7 +2,7 @@
 
     python scripts/damage_study.py out/demo [--axial-stiffness 1.8e6] [--figures docs/]
 
-Replays every successful trajectory of an evaluation folder (``dresspack demo`` / ``dresspack-eval``) with the
+Replays every successful trajectory of an evaluation folder (``dresspack demo`` / ``dresspack eval``) with the
 station's dresspack (optionally with the conductors' own axial stiffness), prints per method the shortest life,
 where, and the geometric-mean life beside the mean integral of C, ranks the methods both ways, and writes the damage
 figures of the task on which the shortest-lived method is worst.

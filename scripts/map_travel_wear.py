@@ -4,8 +4,8 @@ coarse_step simulation (what the policy is trained on today) and the wear map's 
 samples (a candidate training reward with no cable physics between the welds), and times the map against the
 simulation per motion second.
 
-    .venv/bin/dresspack wear-map default --samples 2000 --out runs/maps/default_2k.npz     # 3 min
-    .venv/bin/dresspack wear-map default --samples 16000 --out runs/maps/default_16k.npz   # ~30 min
+    .venv/bin/dresspack wear-map --station default --samples 2000 --out runs/maps/default_2k.npz     # 3 min
+    .venv/bin/dresspack wear-map --station default --samples 16000 --out runs/maps/default_16k.npz   # ~30 min
     PYTHONPATH=. .venv/bin/python scripts/map_travel_wear.py --map runs/maps/default_2k.npz \
         --map runs/maps/default_16k.npz --episodes 40 --out docs/map_travel_wear.json
 

@@ -4,7 +4,7 @@
     PYTHONPATH=. .venv/bin/python scripts/primitive_reach.py --station default --drawn-tasks 30 \
         --anchors midpoint --anchors midpoint,here --anchors midpoint,here/here --out docs/primitive_reach.json
 
-The tasks are `dresspack-eval --drawn-tasks N --seeds 0`'s (Home to one weld drawn on the parts, back Home). Each
+The tasks are `dresspack eval --drawn-tasks N --seeds 0`'s (Home to one weld drawn on the parts, back Home). Each
 leg is searched breadth first: at most ``--vias`` actions (every unmasked via of the env: its own targets, masks and
 continuous check, ``DresspackEnv.masks_at``), then the straight segment to the leg's end must be free. A set
 ``ANCHORS/FALLBACKS`` (e.g. ``midpoint,here/here``) makes the anchors after the slash fallbacks (the env's

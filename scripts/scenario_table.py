@@ -1,6 +1,7 @@
 """The README's table of the thesis scenarios: every planner on thesis_curvature, thesis_tension and
-thesis_distance, seeds 0 and 1, default work budgets (what `dresspack plan SCENARIO --planner P --seed S --json`
-gives, with those budgets passed explicitly), one plan after another.
+thesis_distance, seeds 0 and 1, default work budgets (what
+`dresspack plan --station SCENARIO --planner P --seed S --json` gives, with those budgets passed explicitly), one plan
+after another.
 
     .venv/bin/python scripts/scenario_table.py [--out docs/scenario_table.json] [--seeds 0 1] [--scenarios curvature]
 
@@ -24,7 +25,7 @@ COLUMNS = (("cycle_time", "{:.2f}"), ("max_curvature", "{:.1f}"), ("max_tension"
 
 
 def plan(dresspack: list[str], scenario: str, planner: str, seed: int) -> dict:
-    cmd = [*dresspack, "plan", f"thesis_{scenario}", "--planner", planner, "--seed", str(seed), "--json",
+    cmd = [*dresspack, "plan", "--station", f"thesis_{scenario}", "--planner", planner, "--seed", str(seed), "--json",
            *[a for k, v in BUDGET.items() for a in (f"--{k}", str(v))]]
     done = subprocess.run(cmd, capture_output=True, text=True)
     if done.returncode != 0:

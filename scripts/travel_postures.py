@@ -1,7 +1,7 @@
 """Travel postures from a wear-aware planner's plans: the via configurations its routes pass through most often,
 for a policy's ``via_postures_deg`` (the env's "via travel posture k" actions).
 
-    .venv/bin/dresspack-eval --methods ompl-wear --drawn-tasks 16 --drawn-seed 4242 --seeds 0 \
+    .venv/bin/dresspack eval --planners ompl-wear --drawn-tasks 16 --drawn-seed 4242 --seeds 0 \
         --start-noise-deg 10 --no-render --out runs/eval/postures_4242
     PYTHONPATH=. .venv/bin/python scripts/travel_postures.py runs/eval/postures_4242 [more folders] --count 4
 

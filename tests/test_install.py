@@ -68,11 +68,25 @@ def test_wheel_installs_under_the_project_names_only(installed):
 
 def test_installed_commands_run_outside_the_checkout(installed):
     _, venv, tmp = installed
-    out = run([venv / "bin" / "dresspack", "inspect", "default", "--json"], cwd=tmp)
+    out = run([venv / "bin" / "dresspack", "inspect", "--station", "default", "--json"], cwd=tmp)
     assert out.returncode == 0, out.stderr
     report = json.loads(out.stdout)
     assert report["station"] == "stud_welding_default" and report["weld_points"] and report["max_curvature"] > 0
-    out = run([venv / "bin" / "dresspack", "plan", "thesis_curvature", "--planner", "ompl", "--json"], cwd=tmp)
+    out = run([venv / "bin" / "dresspack", "plan", "--station", "thesis_curvature", "--planner", "ompl", "--json"],
+              cwd=tmp)
     assert out.returncode == 0, out.stderr
     plan = json.loads(out.stdout)
     assert plan["success"] is True and plan["cycle_time"] > 0
+
+
+def test_installed_eval_and_train_are_subcommands_and_the_old_executables_still_run(installed):
+    """`dresspack eval` and `dresspack train` come from their packages' entry points; `dresspack-eval` and
+    `dresspack-train` are installed for one release and run the subcommand after one deprecation line."""
+    _, venv, tmp = installed
+    listing = run([venv / "bin" / "dresspack", "--help"], cwd=tmp)
+    assert listing.returncode == 0 and "eval" in listing.stdout and "train" in listing.stdout
+    for old, new in (("dresspack-eval", "eval"), ("dresspack-train", "train")):
+        out = run([venv / "bin" / old, "--help"], cwd=tmp)
+        assert out.returncode == 0, out.stderr
+        assert out.stderr.splitlines() == [f"dresspack: {old} is deprecated; use dresspack {new}"]
+        assert out.stdout.startswith(f"usage: dresspack {new} ")

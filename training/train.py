@@ -1,7 +1,7 @@
 """Train MaskablePPO on a dresspack environment from a YAML config: run folder, TensorBoard, checkpoints, resume.
 
-    dresspack-train configs/training/stud_welding.yaml            # or: python -m dresspack.training.train stud_welding
-    dresspack-train --resume runs/train/stud_welding               # continue after Ctrl-C or a crash
+    dresspack train stud_welding                        # or a YAML path: configs/training/stud_welding.yaml
+    dresspack train --resume runs/train/stud_welding    # continue after Ctrl-C or a crash
 
 Run folder: ``config.yaml`` (resolved), ``command.txt`` (every launch), ``versions.json``, ``tb/`` (TensorBoard),
 ``checkpoints/`` (periodic + on Ctrl-C), ``best/best_model.zip`` and ``best/best.json`` (evaluation callback, by
@@ -11,7 +11,6 @@ Run folder: ``config.yaml`` (resolved), ``command.txt`` (every launch), ``versio
 
 from __future__ import annotations
 
-import argparse
 import functools
 import json
 import os
@@ -28,7 +27,7 @@ from pathlib import Path
 import yaml
 
 from dresspack_gym import __version__
-from dresspack_gym.cli.args import number, seed
+from dresspack_gym.cli.args import number, seed, warn_deprecated
 from dresspack_gym.errors import ConfigError, DresspackError
 from dresspack_gym.io.loading import read_yaml
 from dresspack_gym.shipped import find_shipped
@@ -38,8 +37,11 @@ from .config import MAX_ENVS, MAX_TIMESTEPS, TrainConfig, apply_overrides, check
 CHECKPOINT_PREFIX = "ckpt"
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="dresspack-train", description=__doc__.split("\n")[0])
+def add_train_command(sub) -> None:
+    """``dresspack train`` (a ``dresspack`` subcommand, registered by entry point)."""
+    p = sub.add_parser("train", help="train a MaskablePPO planner from a training config, with checkpoints and resume",
+                       description=__doc__.split("\n")[0] + " The run folder holds config.yaml, checkpoints/, "
+                                   "best/, tb/ (TensorBoard), final_model.zip and summary.json.")
     p.add_argument("config", nargs="?", help="training YAML (path, or a name in configs/training/)")
     p.add_argument("--run-dir", help="run folder (default: runs/train/<config name>)")
     p.add_argument("--resume", metavar="RUN_DIR", help="continue the run in RUN_DIR from its newest checkpoint")
@@ -51,7 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true",
                    help="train into a run folder that holds a finished or begun run, deleting it first")
     p.add_argument("--no-progress", action="store_true", help="draw no progress bar (on stderr by default)")
-    return p
+    p.set_defaults(func=cmd_train)
 
 
 def latest_checkpoint(run_dir: Path) -> Path | None:
@@ -210,7 +212,7 @@ def train(cfg: TrainConfig, run_dir: Path, *, resume: bool = False, progress: bo
             path = ckpt_dir / f"{CHECKPOINT_PREFIX}_{model.num_timesteps}_steps.zip"
             ckpt_dir.mkdir(parents=True, exist_ok=True)
             model.save(path)
-            print(f"\ninterrupted: saved {path}; continue with: dresspack-train --resume {run_dir}", file=sys.stderr)
+            print(f"\ninterrupted: saved {path}; continue with: dresspack train --resume {run_dir}", file=sys.stderr)
         for e in (env, eval_env):
             if e is not None:
                 close_vec_env(e)
@@ -316,8 +318,7 @@ def resolve_run(args) -> tuple[TrainConfig, Path, bool]:
     return cfg, run_dir, False
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def cmd_train(args) -> int:
     try:
         cfg, run_dir, resume = resolve_run(args)
         check_env_kwargs(cfg)
@@ -334,6 +335,14 @@ def main(argv: list[str] | None = None) -> int:
     print(json.dumps(summary, indent=2))
     print(f"run folder: {run_dir}  (tensorboard --logdir {run_dir / 'tb'})")
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The ``dresspack-train`` executable, kept for one release: ``dresspack train`` with the same arguments."""
+    from dresspack_gym.cli.main import main as dresspack_main
+
+    warn_deprecated("dresspack-train is deprecated; use dresspack train")
+    return dresspack_main(["train", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":

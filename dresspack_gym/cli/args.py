@@ -1,4 +1,4 @@
-"""Argument types of the command lines: ranged numbers, seeds and output paths, checked before any work starts.
+"""Arguments of the command lines: ranged numbers, seeds, output paths and ``--station``, and deprecated spellings.
 
 argparse turns an ``ArgumentTypeError`` into ``error: argument --flag: <message>`` and exit code 2, so every
 bad flag is refused at parse time, naming the flag and what it allows, before a station is even loaded.
@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 MAX_SEED = 2**32 - 1  # numpy's and OMPL's seed range
@@ -77,3 +78,64 @@ def ensure_parent(path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     return path
+
+
+# ------------------------------------------------------------------------------------- deprecated spellings
+def warn_deprecated(message: str) -> None:
+    """The one line on stderr a deprecated spelling prints: it still works for one release."""
+    print(f"dresspack: {message}", file=sys.stderr)
+
+
+def _given_as(parser, namespace, dest: str, name: str, spelling: str) -> None:
+    """Remember that ``dest`` was given as ``spelling``; refuse it if another spelling of ``name`` gave it already."""
+    given = namespace.__dict__.setdefault("_given_as", {})
+    first = given.setdefault(dest, spelling)
+    if first != spelling:
+        parser.error(f"argument {name}: given both as {first} and as {spelling}; give {name} only")
+
+
+class Renamed(argparse.Action):
+    """argparse's ``store`` for a flag that has deprecated spellings: its first option string is its name, every
+    further one (``add_argument("--planners", "--methods", action=Renamed, ...)``) a deprecated spelling that still
+    works for one release and prints one line to stderr when used. A value given by two spellings is refused."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        name = self.option_strings[0]
+        _given_as(parser, namespace, self.dest, name, option_string)
+        if option_string != name:
+            warn_deprecated(f"{option_string} is deprecated; use {name}")
+        setattr(namespace, self.dest, values)
+
+
+class DeprecatedPositional(argparse.Action):
+    """A positional argument kept for one release as the deprecated spelling of the flag ``flag`` (a
+    :class:`Renamed` flag of the same dest): given, it prints one line to stderr and stores its value as the flag
+    would; given beside the flag, it is refused."""
+
+    def __init__(self, option_strings, dest, flag: str, what: str, **kwargs):
+        super().__init__(option_strings, dest, **kwargs)
+        self.flag, self.what = flag, what
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        _given_as(parser, namespace, self.dest, self.flag, f"the positional {self.metavar}")
+        warn_deprecated(f"the positional {self.what} is deprecated; use {self.flag} NAME")
+        setattr(namespace, self.dest, values)
+
+
+STATION_HELP = "station YAML file or shipped station name (default: %(default)s)"
+
+
+def add_station_argument(parser, help: str = STATION_HELP, *, default: str | None = "default",
+                         required: bool = False, deprecated_positional: bool = False) -> None:
+    """``--station NAME_OR_YAML``, the one spelling of a command's station (``default``: the station used when the
+    flag is not given), and where the command took the station as its positional argument before, that positional
+    as a deprecated spelling (``deprecated_positional``)."""
+    if required and deprecated_positional:
+        raise ValueError("a required --station cannot have a positional spelling: argparse would demand the flag")
+    parser.add_argument("--station", action=Renamed, default=default, required=required, metavar="NAME_OR_YAML",
+                        help=help)
+    if deprecated_positional:
+        parser.add_argument("station", nargs="?", default=argparse.SUPPRESS, action=DeprecatedPositional,
+                            flag="--station", what="station", metavar="STATION",
+                            help="deprecated: the station as a positional argument (works for one release); "
+                                 "use --station")

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, DresspackError
-from .args import ensure_parent, number, output_dir, output_file, positive_int, seed
+from .args import add_station_argument, ensure_parent, number, output_dir, output_file, positive_int, seed
 
 
 def _load(station_ref: str):
@@ -472,7 +472,7 @@ MAX_WORKERS = 256  # worker processes (one per core; Ray clusters may have more)
 def _add_inspect(sub) -> None:
     """``dresspack inspect``."""
     q = sub.add_parser("inspect", help="build a station, settle at Home and print robot, cable and wear measures")
-    q.add_argument("station", help="station YAML file or shipped station name (e.g. default)")
+    add_station_argument(q, deprecated_positional=True)
     q.add_argument("--json", action="store_true", help="print one JSON object")
     q.set_defaults(func=cmd_inspect)
 
@@ -482,7 +482,7 @@ def _add_render(sub) -> None:
     from ..stations.rendering import OFFSCREEN_HEIGHT, OFFSCREEN_WIDTH
 
     r = sub.add_parser("render", help="write a PNG picture of the station at Home")
-    r.add_argument("station", help="station YAML file or shipped station name (e.g. default)")
+    add_station_argument(r, deprecated_positional=True)
     r.add_argument("--out", required=True, type=output_file, help="output PNG path (missing folders are made)")
     r.add_argument("--width", type=number(1, OFFSCREEN_WIDTH, integer=True, unit="px"), default=960,
                    help="picture width [px] (default %(default)s)")
@@ -500,7 +500,7 @@ def _add_render(sub) -> None:
 def _add_restrictions(sub) -> None:
     """``dresspack restrictions``."""
     x = sub.add_parser("restrictions", help="list a station's joint restrictions and plot the forbidden j5/j6 zones")
-    x.add_argument("station", help="station YAML file or shipped station name (e.g. default)")
+    add_station_argument(x, deprecated_positional=True)
     x.add_argument("--plot", type=output_file, help="output PNG path for the forbidden-zone plot (thesis Figure 4.2)")
     x.set_defaults(func=cmd_restrictions)
 
@@ -520,8 +520,8 @@ def _add_robustness_map(sub) -> None:
 
     rm = sub.add_parser("robustness-map", help="map non-robust cable configurations (thesis Algorithm 1), resumable")
     rm.add_argument("--grid", required=True, help="grid YAML or shipped grid name (thesis_24336, thesis_67500, small)")
-    rm.add_argument("--station", required=True,
-                    help="station YAML or shipped name (its robot and dresspack are mapped)")
+    add_station_argument(rm, "station YAML or shipped name (its robot and dresspack are mapped; required)",
+                         default=None, required=True)
     rm.add_argument("--out", required=True, type=output_dir,
                     help="output folder; rerunning with the same folder resumes")
     _add_worker_flags(rm, "the map does")
@@ -561,8 +561,8 @@ def _add_robustness_paths(sub) -> None:
     """``dresspack robustness-paths``."""
     rp = sub.add_parser("robustness-paths", help="how often the thesis's 2-path test and a K-path test disagree")
     rp.add_argument("--grid", required=True, help="grid YAML or shipped grid name (the sample is drawn from it)")
-    rp.add_argument("--station", required=True, help="station YAML or shipped name (its robot and dresspack are "
-                                                     "mapped)")
+    add_station_argument(rp, "station YAML or shipped name (its robot and dresspack are mapped; required)",
+                         default=None, required=True)
     rp.add_argument("--out", required=True, type=output_dir,
                     help="output folder (two resumable maps and paths_report.json)")
     rp.add_argument("--k-paths", type=number(1, 1000, integer=True), default=8,
@@ -578,7 +578,7 @@ def _add_robustness_paths(sub) -> None:
 def _add_twist_sweep(sub) -> None:
     """``dresspack twist-sweep``."""
     tw = sub.add_parser("twist-sweep", help="clamp torque, twist and curvature against j4 + j6 (thesis 4.1)")
-    tw.add_argument("station", help="station YAML file or shipped station name (e.g. default)")
+    add_station_argument(tw, deprecated_positional=True)
     tw.add_argument("--span", type=number(0, 720, lo_open=True, unit="deg"), default=400.0,
                     help="largest change of j4 + j6 from Home, both ways [deg] (default 400)")
     tw.add_argument("--step", type=number(0, 720, lo_open=True, unit="deg"), default=10.0,
@@ -592,7 +592,7 @@ def _add_twist_sweep(sub) -> None:
 def _add_wear_map(sub) -> None:
     """``dresspack wear-map``."""
     wm = sub.add_parser("wear-map", help="settle the free cable over sampled configurations: the planners' wear map")
-    wm.add_argument("station", help="station YAML file or shipped station name (e.g. default)")
+    add_station_argument(wm, deprecated_positional=True)
     wm.add_argument("--robot", type=number(0, 63, integer=True), default=0, help="robot index (default 0)")
     wm.add_argument("--samples", type=number(1, 1_000_000, integer=True), default=16000,
                     help="configurations drawn (default 16000; those the cable cannot span are skipped)")
@@ -625,7 +625,7 @@ def _add_export(sub) -> None:
     ex.add_argument("plan", help="trajectory .npz from `dresspack plan --out` or an evaluation's trajectories/")
     ex.add_argument("--format", choices=list(PROGRAM_FORMATS), required=True, help="program format")
     ex.add_argument("--out", type=output_file, default=None, help="output file (default: print)")
-    ex.add_argument("--station", default=None, help="station (default: the one the plan was made for)")
+    add_station_argument(ex, "station YAML or shipped name (default: the one the plan was made for)", default=None)
     ex.add_argument("--robot", type=number(0, 63, integer=True), default=None, help="robot index (default: the plan's)")
     ex.add_argument("--speed-fraction", type=number(0, 1, lo_open=True), default=None,
                     help="of the rated joint speeds (default: the plan's, else the station's)")
@@ -643,7 +643,7 @@ def _add_animate(sub) -> None:
     an = sub.add_parser("animate", help="video of a planned trajectory with the wear measures under it (.mp4/.gif)")
     an.add_argument("plan", help="trajectory .npz from `dresspack plan --out` or an evaluation's trajectories/")
     an.add_argument("--out", type=output_file, required=True, help="video path: .mp4 or .gif")
-    an.add_argument("--station", default=None, help="station (default: the one the plan was made for)")
+    add_station_argument(an, "station YAML or shipped name (default: the one the plan was made for)", default=None)
     an.add_argument("--robot", type=number(0, 63, integer=True), default=None, help="robot index (default: the plan's)")
     an.add_argument("--fps", type=number(1, 60), default=20.0,
                     help="frames per second of motion time (default 20)")
@@ -656,13 +656,16 @@ def _add_animate(sub) -> None:
 
 def _add_bench(sub) -> None:
     """``dresspack bench``."""
-    b = sub.add_parser("bench", help="time the physics, joint restrictions, env steps, robustness map or collision "
-                                     "checks of a station on this machine")
+    b = sub.add_parser("bench", help="measure this machine's speed on a station: physics steps/s, restriction "
+                                     "checks, env steps/s, robustness-map configurations/s or collision queries",
+                       description="Measures one speed of a station's computations on this machine (the best of "
+                                   "--repeats) and prints each figure by name.")
     b.add_argument("what", choices=["physics", "restrictions", "env", "robustness", "collision"],
-                   help="physics: steps/s and a settled move; restrictions: checks per configuration; env: env "
-                        "steps/s against raw MuJoCo steps; robustness: map configurations/s with 1 and 2 workers; "
-                        "collision: clearance queries against posing the robot")
-    b.add_argument("--station", default="default", help="station YAML or shipped name (default: %(default)s)")
+                   help="physics: raw MuJoCo steps/s and the wall time of a settled 90 deg move; restrictions: "
+                        "microseconds per joint-restriction check; env: env steps/s against raw MuJoCo steps; "
+                        "robustness: map configurations/s with 1 and 2 workers; collision: microseconds per "
+                        "clearance query against posing the robot")
+    add_station_argument(b)
     b.add_argument("--repeats", type=number(1, 1000, integer=True), default=None,
                    help="repetitions, the best reported (default: 3; robustness 1)")
     b.add_argument("--json", action="store_true", help="print the timings as one JSON object")

@@ -124,7 +124,7 @@ def test_unreachable_goal_fails_within_the_time_budget(curvature_station):
 
 
 def test_plan_cli_prints_the_measures(tmp_path, capsys):
-    assert cli_main(["plan", "thesis_curvature", "--planner", "ompl", "--json", "--plot",
+    assert cli_main(["plan", "--station", "thesis_curvature", "--planner", "ompl", "--json", "--plot",
                      str(tmp_path / "p.png")]) == 0
     out = json.loads(capsys.readouterr().out)
     for key in ("success", "cycle_time", "planning_time", "max_curvature", "max_tension", "min_clearance",
@@ -132,7 +132,7 @@ def test_plan_cli_prints_the_measures(tmp_path, capsys):
         assert key in out
     assert out["success"] is True and (tmp_path / "p.png").stat().st_size > 10_000
     with pytest.raises(SystemExit):
-        cli_main(["plan", "thesis_curvature", "--planner", "rrt-magic"])
+        cli_main(["plan", "--station", "thesis_curvature", "--planner", "rrt-magic"])
 
 
 def test_core_package_imports_no_torch_sb3_or_ompl():
@@ -226,10 +226,10 @@ def test_a_bad_leg_cost_setting_is_an_error_naming_it(planner, name, bad, messag
 ])
 def test_plan_cli_leg_cost_flags_only_for_the_planners_that_use_them(capsys, flag, applies_to, value, message):
     name = flag[2:].replace("-", "_")
-    assert cli_main(["plan", "thesis_curvature", "--planner", "ompl", flag, value]) == 2
+    assert cli_main(["plan", "--station", "thesis_curvature", "--planner", "ompl", flag, value]) == 2
     assert f"{name}: {flag} applies to {applies_to}, not ompl" in capsys.readouterr().err
     with pytest.raises(SystemExit):
-        cli_main(["plan", "thesis_curvature", "--planner", "ompl-wear", flag, "-1"])
+        cli_main(["plan", "--station", "thesis_curvature", "--planner", "ompl-wear", flag, "-1"])
     assert message in capsys.readouterr().err
 
 

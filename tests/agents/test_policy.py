@@ -39,7 +39,7 @@ def test_shipped_policy_matches_its_training_config():
 
 
 def test_shipped_goal_conditioned_policy_is_what_its_training_command_trains():
-    """`dresspack-train goal_conditioned` must train the shipped policy's env and hyperparameters."""
+    """`dresspack train goal_conditioned` must train the shipped policy's env and hyperparameters."""
     _, config = resolve_policy("goal_conditioned")
     cfg = load_train_config("goal_conditioned")
     assert config["env_kwargs"] == cfg.env_kwargs and config["seed"] == cfg.seed

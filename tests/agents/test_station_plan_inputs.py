@@ -24,8 +24,8 @@ def test_more_kept_options_than_costed_ones_is_refused_naming_the_field(tmp_path
         StationPlanConfig(kept_options=9, costed_options=2)
     StationPlanConfig(kept_options=2, costed_options=2)  # as many as are costed: fine
     out = tmp_path / "plans"
-    code = main(["station-plan", "side_framing_4r", "--kept-options", "9", "--costed-options", "2", "--out", str(out),
-                 "--json"])
+    code = main(["station-plan", "--station", "side_framing_4r", "--kept-options", "9", "--costed-options", "2",
+                 "--out", str(out), "--json"])
     err = json.loads(capsys.readouterr().out)
     assert code == 2 and err["field"] == "kept_options" and "costed_options" in err["error"]
     assert not out.exists()
@@ -54,11 +54,11 @@ def test_a_refused_run_leaves_no_output_folder(tmp_path, capsys, monkeypatch):
     far = {"name": "far_away", "robot": "r1", "pos": [20.0, 0.0, 1.0], "approach": [0, 0, -1]}
     station = near_side_yaml(tmp_path, extra=[far])
     out = tmp_path / "x"
-    assert main(["station-plan", str(station), "--out", str(out), "--json"]) == 2
+    assert main(["station-plan", "--station", str(station), "--out", str(out), "--json"]) == 2
     assert json.loads(capsys.readouterr().out)["field"] == "weld_points.far_away"
     assert not out.exists()
     monkeypatch.chdir(tmp_path)
-    assert main(["station-plan", str(station), "--json"]) == 2
+    assert main(["station-plan", "--station", str(station), "--json"]) == 2
     assert not (tmp_path / "station_plans").exists()
 
 
@@ -72,7 +72,8 @@ def test_an_interrupted_run_says_what_it_saved_and_how_to_resume(tmp_path, capsy
         raise KeyboardInterrupt
 
     monkeypatch.setattr(StationPlanner, "_rounds", interrupted)
-    argv = ["station-plan", str(station), "--costed-options", "1", "--kept-options", "1", "--out", str(out)]
+    argv = ["station-plan", "--station", str(station), "--costed-options", "1", "--kept-options", "1", "--out",
+            str(out)]
     try:
         code = main(argv)
     except KeyboardInterrupt:
@@ -80,5 +81,5 @@ def test_an_interrupted_run_says_what_it_saved_and_how_to_resume(tmp_path, capsy
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 130
     assert err[-1] == (f"interrupted: saved option_costs.json in {out}; resume with: dresspack station-plan "
-                       f"{station} --costed-options 1 --kept-options 1 --out {out}")
+                       f"--station {station} --costed-options 1 --kept-options 1 --out {out}")
     assert (out / "option_costs.json").is_file()

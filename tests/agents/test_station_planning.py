@@ -492,7 +492,8 @@ def test_station_plan_command_writes_plans_pictures_and_a_comparison(tmp_path, c
 
     station = near_side_yaml(tmp_path)
     out = tmp_path / "plans"
-    code = main(["station-plan", str(station), "--objective", "time", "wear", "--work", "0.5", "--out", str(out)])
+    code = main(["station-plan", "--station", str(station), "--objective", "time", "wear", "--work", "0.5",
+                 "--out", str(out)])
     text = capsys.readouterr().out
     assert code == 0, text
     import json
@@ -530,12 +531,10 @@ def test_station_plan_command_writes_plans_pictures_and_a_comparison(tmp_path, c
     assert 0 < bound["bound"] <= bound["best"] + 1e-9
     assert "wear_estimate_bound" not in summary["time"]
     assert "have a wear estimate below" in (out / "summary.md").read_text()
-    # dresspack-eval compares the plans like methods: replayed again in the same simulator, the same figures
-    from dresspack.eval.compare import main as eval_main
-
+    # dresspack eval compares the plans like planners: replayed again in the same simulator, the same figures
     compared = tmp_path / "compared"
-    assert eval_main(["--station-plans", str(out / "time"), str(out / "wear"), "--station", str(station),
-                      "--out", str(compared)]) == 0
+    assert main(["eval", "--station-plans", str(out / "time"), str(out / "wear"), "--station", str(station),
+                 "--out", str(compared)]) == 0
     rows = json.loads((compared / "station_comparison.json").read_text())
     assert [r["plan"] for r in rows] == ["time", "wear"]
     for r in rows:
@@ -548,9 +547,9 @@ def test_station_plan_command_writes_plans_pictures_and_a_comparison(tmp_path, c
     for f in ("station_comparison.md", "station_comparison.csv", "station_wear.png"):
         assert (compared / f).is_file(), f
     capsys.readouterr()
-    assert eval_main(["--station-plans", str(tmp_path), "--station", str(station), "--out", str(compared)]) == 2
+    assert main(["eval", "--station-plans", str(tmp_path), "--station", str(station), "--out", str(compared)]) == 2
     assert "station_plans" in capsys.readouterr().err
-    assert eval_main(["--station-plans", str(out / "time"), "--station", "default", "--out", str(compared)]) == 2
+    assert main(["eval", "--station-plans", str(out / "time"), "--station", "default", "--out", str(compared)]) == 2
     assert "station" in capsys.readouterr().err
 
 
@@ -559,7 +558,7 @@ def test_station_plan_command_names_a_weld_no_robot_can_reach(tmp_path, capsys):
 
     far = {"name": "far_away", "robot": "r1", "pos": [20.0, 0.0, 1.0], "approach": [0, 0, -1]}
     station = near_side_yaml(tmp_path, extra=[far])
-    assert main(["station-plan", str(station), "--out", str(tmp_path / "x"), "--json"]) == 2
+    assert main(["station-plan", "--station", str(station), "--out", str(tmp_path / "x"), "--json"]) == 2
     import json
 
     err = json.loads(capsys.readouterr().out)
@@ -963,7 +962,7 @@ def test_station_plan_command_refuses_a_bound_work_of_zero(capsys):
     from dresspack_gym.cli.main import main
 
     with pytest.raises(SystemExit) as exit_:
-        main(["station-plan", "side_framing_4r", "--bound-work", "0"])
+        main(["station-plan", "--station", "side_framing_4r", "--bound-work", "0"])
     assert exit_.value.code == 2
     assert "--bound-work" in capsys.readouterr().err
 
@@ -973,6 +972,6 @@ def test_station_plan_command_refuses_zero_workers_or_options(flag, capsys):
     from dresspack_gym.cli.main import main
 
     with pytest.raises(SystemExit) as exit_:
-        main(["station-plan", "side_framing_4r", flag, "0"])
+        main(["station-plan", "--station", "side_framing_4r", flag, "0"])
     assert exit_.value.code == 2
     assert flag in capsys.readouterr().err

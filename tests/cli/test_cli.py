@@ -11,7 +11,7 @@ from dresspack_gym.cli.main import main
 
 
 def test_inspect_json_has_the_documented_keys(capsys):
-    assert main(["inspect", "default", "--json"]) == 0
+    assert main(["inspect", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     for key in ("max_curvature", "max_tension", "min_clearance", "max_twist_rate", "cost", "cost_terms"):
         assert key in out
@@ -21,7 +21,7 @@ def test_inspect_json_has_the_documented_keys(capsys):
 
 
 def test_inspect_text_summarises_robot_cable_and_measures(capsys):
-    assert main(["inspect", "default"]) == 0
+    assert main(["inspect", "--station", "default"]) == 0
     out = capsys.readouterr().out
     for text in ("abb_irb6700_200_260", "young=", "max curvature", "wear cost (4.10)", "IK solutions"):
         assert text in out
@@ -30,13 +30,13 @@ def test_inspect_text_summarises_robot_cable_and_measures(capsys):
 def test_inspect_reports_bad_station_cleanly(tmp_path, capsys):
     bad = tmp_path / "bad.yaml"
     bad.write_text("name: x\nrobots: []\n")
-    assert main(["inspect", str(bad)]) == 2
+    assert main(["inspect", "--station", str(bad)]) == 2
     assert "robots" in capsys.readouterr().err
 
 
 def test_render_writes_a_picture(tmp_path):
     out = tmp_path / "station.png"
-    assert main(["render", "default", "--out", str(out), "--width", "320", "--height", "240"]) == 0
+    assert main(["render", "--out", str(out), "--width", "320", "--height", "240"]) == 0
     import matplotlib.image as mpimg
 
     img = mpimg.imread(out)
@@ -57,7 +57,7 @@ def test_console_script_module_entry():
 
 def test_restrictions_command_lists_rules_and_plots(tmp_path, capsys):
     out = tmp_path / "zones.png"
-    assert main(["restrictions", "default", "--plot", str(out)]) == 0
+    assert main(["restrictions", "--station", "default", "--plot", str(out)]) == 0
     text = capsys.readouterr().out
     assert "support cylinder" in text and "forbidden" in text
     assert out.stat().st_size > 10_000

@@ -159,13 +159,12 @@ def _numeric_flags():
                 yield name, a.option_strings[0], a.type.bounds, a.nargs
 
 
-REQUIRED = {"render": ["default", "--out", "x.png"], "robustness-map": ["--grid", "small", "--station", "default",
-                                                                        "--out", "m"],
+REQUIRED = {"render": ["--out", "x.png"], "robustness-map": ["--grid", "small", "--station", "default", "--out", "m"],
             "robustness-paths": ["--grid", "small", "--station", "default", "--out", "m"],
-            "restrictions": ["default"], "twist-sweep": ["default"], "bench": ["physics"], "inspect": ["default"],
-            "export": ["p.npz", "--format", "csv"], "animate": ["p.npz", "--out", "x.mp4"], "wear-map": ["default"],
-            "robots": [], "plan": ["default"], "station-plan": ["default"], "demo": [], "select-model": ["run"],
-            "self-imitate": ["policy", "--out", "o"]}
+            "restrictions": [], "twist-sweep": [], "bench": ["physics"], "inspect": [],
+            "export": ["p.npz", "--format", "csv"], "animate": ["p.npz", "--out", "x.mp4"], "wear-map": [],
+            "robots": [], "plan": [], "station-plan": [], "demo": [], "eval": [], "train": ["stud_welding"],
+            "select-model": ["run"], "self-imitate": ["policy", "--out", "o"]}
 
 
 def _out_of_range(bounds):
@@ -189,7 +188,7 @@ def test_the_flag_fuzz_table_covers_every_ranged_flag():
     assert len(flags) >= 20 and len(FLAG_CASES) >= 120
     assert {("render", "--distance"), ("bench", "--repeats"), ("robustness-map", "--limit"),
             ("robustness-map", "--threshold"), ("render", "--width"), ("station-plan", "--weld-time"),
-            ("plan", "--iterations"), ("demo", "--seeds")} <= flags
+            ("plan", "--iterations"), ("demo", "--seeds"), ("eval", "--jobs"), ("train", "--n-envs")} <= flags
 
 
 @pytest.mark.parametrize("cmd,flag,value,nargs", FLAG_CASES, ids=[f"{c} {f} {v}" for c, f, v, _ in FLAG_CASES])
@@ -204,11 +203,11 @@ def test_every_numeric_flag_refuses_out_of_range_values_naming_itself(cmd, flag,
 
 
 @pytest.mark.parametrize("argv,match", [
-    (["render", "default", "--out", "{tmp}"], "is an existing folder"),
-    (["render", "default", "--out", "{tmp}/file.txt/x.png"], "is a file, not a folder"),
+    (["render", "--out", "{tmp}"], "is an existing folder"),
+    (["render", "--out", "{tmp}/file.txt/x.png"], "is a file, not a folder"),
     (["robustness-map", "--grid", "small", "--station", "default", "--out", "{tmp}/file.txt"], "is an existing file"),
-    (["twist-sweep", "default", "--plot", "{tmp}"], "is an existing folder"),
-    (["restrictions", "default", "--plot", "{tmp}/file.txt/p.png"], "is a file, not a folder"),
+    (["twist-sweep", "--plot", "{tmp}"], "is an existing folder"),
+    (["restrictions", "--station", "default", "--plot", "{tmp}/file.txt/p.png"], "is a file, not a folder"),
 ])
 def test_output_paths_are_checked_before_any_work(tmp_path, capsys, argv, match):
     (tmp_path / "file.txt").write_text("x")
@@ -221,7 +220,7 @@ def test_missing_output_folders_are_made(tmp_path):
     from dresspack_gym.cli.main import main
 
     out = tmp_path / "a" / "b" / "p.png"
-    assert main(["restrictions", "default", "--plot", str(out)], extensions=[]) == 0
+    assert main(["restrictions", "--plot", str(out)], extensions=[]) == 0
     assert out.is_file()
 
 
@@ -317,8 +316,8 @@ def test_limit_caps_the_configurations_computed_not_only_reported():
 
 
 @pytest.mark.parametrize("argv,field", [
-    (["inspect", "nope", "--json"], "station"),
-    (["render", "default", "--out", "x.png", "--width", "0", "--json"], "--width"),
+    (["inspect", "--station", "nope", "--json"], "station"),
+    (["render", "--out", "x.png", "--width", "0", "--json"], "--width"),
     (["robustness-map", "--grid", "small", "--station", "default", "--out", "m", "--limit", "-1", "--json"],
      "--limit"),
     (["bench", "physics", "--repeats", "nan", "--json"], "--repeats"),

@@ -36,11 +36,11 @@ def test_a_cable_that_does_not_settle_at_home_makes_the_station_unusable(tmp_pat
     d = default_station_dict()
     d["robots"][0]["dresspack_overrides"] = {"bending_stiffness": 1e4}  # the largest a dresspack may state
     (tmp_path / "stiff.yaml").write_text(yaml.safe_dump(d))
-    assert main(["inspect", str(tmp_path / "stiff.yaml")], extensions=[]) == 1
+    assert main(["inspect", "--station", str(tmp_path / "stiff.yaml")], extensions=[]) == 1
     out = capsys.readouterr().out
     assert "THE STATION CANNOT BE USED: the cable does not settle at Home" in out and "EI=10000 N m^2" in out
-    assert main(["inspect", str(tmp_path / "stiff.yaml"), "--json"], extensions=[]) == 1
+    assert main(["inspect", "--station", str(tmp_path / "stiff.yaml"), "--json"], extensions=[]) == 1
     report = json.loads(capsys.readouterr().out)
     assert report["usable"] is False and report["equilibrium"]["force_residual"] > 1.0
-    assert main(["inspect", "default", "--json"], extensions=[]) == 0
+    assert main(["inspect", "--station", "default", "--json"], extensions=[]) == 0
     assert json.loads(capsys.readouterr().out)["usable"] is True

@@ -10,10 +10,10 @@ import pytest
 pytest.importorskip("ompl")
 pytest.importorskip("sb3_contrib")
 
-from dresspack.eval.compare import main  # noqa: E402
+from dresspack_gym.cli.main import main  # noqa: E402
 
 WALL_CLOCK = ("planning_time", "inference_time")
-ARGS = ["--methods", "ppo", "ompl", "--tasks", "roof_rail_top", "--seeds", "0", "1", "--json", "--no-render"]
+ARGS = ["eval", "--planners", "ppo", "ompl", "--welds", "roof_rail_top", "--seeds", "0", "1", "--json", "--no-render"]
 
 
 def _results(out) -> list[dict]:
@@ -41,6 +41,5 @@ def test_two_processes_give_the_rows_of_one(tmp_path, capsys):
 
 def test_jobs_is_checked_naming_the_flag(capsys):
     for bad in ("0", "-1", "65", "two"):
-        with pytest.raises(SystemExit):
-            main([*ARGS, "--jobs", bad])
-        assert "--jobs" in capsys.readouterr().err
+        assert main([*ARGS, "--jobs", bad]) == 2  # under --json: one JSON error object
+        assert json.loads(capsys.readouterr().out)["field"] == "--jobs"

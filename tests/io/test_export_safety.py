@@ -168,8 +168,8 @@ def test_random_plans_export_and_parse_back_and_random_violations_are_refused(de
 def test_a_plan_saved_by_dresspack_plan_carries_its_fingerprint(tmp_path, capsys):
     pytest.importorskip("ompl")
     out = tmp_path / "p.npz"
-    assert main(["plan", "default", "--planner", "ompl", "--iterations", "300", "--welds", "b_pillar_outer",
-                 "--out", str(out)]) == 0
+    assert main(["plan", "--station", "default", "--planner", "ompl", "--iterations", "300", "--welds",
+                 "b_pillar_outer", "--out", str(out)]) == 0
     _, meta = load_trajectory_file(out)
     assert meta["fingerprint"] == plan_fingerprint(load_station("default"), 0)
     capsys.readouterr()

@@ -253,14 +253,14 @@ def test_wear_map_command_builds_a_loadable_map_and_names_bad_input(tmp_path, ca
     from dresspack_gym.cli.main import main
 
     out = tmp_path / "m.npz"
-    assert main(["wear-map", "default", "--samples", "8", "--out", str(out), "--json"]) == 0
+    assert main(["wear-map", "--station", "default", "--samples", "8", "--out", str(out), "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert info["settled"] == 8 and info["path"] == str(out)
     assert len(WearMap.load(out, load_station("default"))) == 8
-    assert main(["wear-map", "default", "--robot", "3", "--samples", "8", "--out", str(out)]) == 2
+    assert main(["wear-map", "--station", "default", "--robot", "3", "--samples", "8", "--out", str(out)]) == 2
     assert "--robot" in capsys.readouterr().err
     with pytest.raises(SystemExit) as exit_info:  # argparse rejects it before anything runs
-        main(["wear-map", "default", "--samples", "0"])
+        main(["wear-map", "--station", "default", "--samples", "0"])
     assert exit_info.value.code == 2 and "--samples" in capsys.readouterr().err
 
 

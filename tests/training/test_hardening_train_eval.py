@@ -1,4 +1,4 @@
-"""dresspack-train, dresspack-eval and dresspack plan: bad input refused before any work, naming the flag or
+"""dresspack train, dresspack eval and dresspack plan: bad input refused before any work, naming the flag or
 field; a finished run never overwritten without --force; Ctrl-C always exits; resumed evaluations equal
 uninterrupted ones."""
 
@@ -18,11 +18,19 @@ import yaml
 pytest.importorskip("sb3_contrib")
 pytest.importorskip("ompl")
 
-from dresspack.eval.compare import main as eval_main  # noqa: E402
-from dresspack.training.train import main as train_main  # noqa: E402
 from test_training import SMOKE  # noqa: E402
 
 from dresspack_gym.cli.main import main as dresspack_main  # noqa: E402
+
+
+def train_main(argv: list[str]) -> int:
+    """``dresspack train ARGV``."""
+    return dresspack_main(["train", *argv])
+
+
+def eval_main(argv: list[str]) -> int:
+    """``dresspack eval ARGV``."""
+    return dresspack_main(["eval", *argv])
 
 
 def _smoke_yaml(tmp_path, **changes) -> str:
@@ -101,8 +109,8 @@ def _ctrl_c_once(tmp_path: Path, k: int) -> tuple[int, float, bool]:
     cfg = {**SMOKE, "vec_env": "subproc", "total_timesteps": 100_000, "eval_every": 0, "checkpoint_every": 10**6}
     path = tmp_path / f"ctrl_c_{k}.yaml"
     path.write_text(yaml.safe_dump(cfg))
-    proc = subprocess.Popen([sys.executable, "-m", "dresspack.training.train", str(path), "--run-dir", str(run),
-                             "--no-progress"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    proc = subprocess.Popen([sys.executable, "-m", "dresspack_gym.cli.main", "train", str(path), "--run-dir",
+                             str(run), "--no-progress"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             start_new_session=True, text=True)
     deadline = time.time() + 120
     while time.time() < deadline and not list((run / "tb").rglob("events.out.tfevents*")):
@@ -132,26 +140,25 @@ EVAL_FLAG_CASES = [
     (["--seeds", "-1"], "--seeds"), (["--seeds", str(2**32)], "--seeds"), (["--time-budget", "nan"], "--time-budget"),
     (["--time-budget", "0"], "--time-budget"), (["--iterations", "0"], "--iterations"),
     (["--routes", "-3"], "--routes"), (["--evaluations", "x"], "--evaluations"),
-    (["--start-noise-deg", "inf"], "--start-noise-deg"),
+    (["--start-noise-deg", "inf"], "--start-noise-deg"), (["--planners", "fast"], "--planners"),
 ]
 
 
 @pytest.mark.parametrize("flags,flag", EVAL_FLAG_CASES, ids=[" ".join(f) for f, _ in EVAL_FLAG_CASES])
 def test_eval_flags_are_ranged(tmp_path, capsys, flags, flag):
     with pytest.raises(SystemExit) as exc:
-        eval_main(["--methods", "ompl", "--out", str(tmp_path / "e"), *flags])
+        eval_main(["--planners", "ompl", "--out", str(tmp_path / "e"), *flags])
     assert exc.value.code == 2 and f"argument {flag}" in capsys.readouterr().err
     assert not (tmp_path / "e").exists()
 
 
 @pytest.mark.parametrize("args,field", [
-    (["--tasks", "nope"], "tasks"), (["--methods", "fast"], "methods"),
-    (["--robustness-map", "no_such_map"], "robustness_map"), (["--station", "no_station"], "station"),
-    (["--methods", "ppo", "--policy", "no_policy"], "policy"),
+    (["--welds", "nope"], "tasks"), (["--robustness-map", "no_such_map"], "robustness_map"),
+    (["--station", "no_station"], "station"), (["--planners", "ppo", "--policy", "no_policy"], "policy"),
 ])
 def test_eval_inputs_are_checked_before_anything_is_written(tmp_path, capsys, args, field):
     out = tmp_path / "e"
-    assert eval_main(["--methods", "ompl", "--tasks", "roof_rail_top", "--seeds", "0", *args, "--out", str(out)]) == 2
+    assert eval_main(["--planners", "ompl", "--welds", "roof_rail_top", "--seeds", "0", *args, "--out", str(out)]) == 2
     assert field in capsys.readouterr().err
     assert not out.exists()  # no spec.json left behind to refuse the corrected rerun
 
@@ -166,7 +173,7 @@ def test_eval_out_that_is_a_file_is_refused(tmp_path, capsys):
 def test_resumed_evaluation_equals_an_uninterrupted_one(tmp_path):
     """Rows computed after a resume equal those of one uninterrupted run (per-plan seeding): the first run is
     cut after its first row by removing the later rows from the log, as an interruption leaves it."""
-    args = ["--methods", "ompl", "thesis-local", "--tasks", "roof_rail_top", "sill_front", "--seeds", "0",
+    args = ["--planners", "ompl", "thesis-local", "--welds", "roof_rail_top", "sill_front", "--seeds", "0",
             "--iterations", "300", "--evaluations", "4", "--no-render", "--json"]
     full, part = tmp_path / "full", tmp_path / "part"
     assert eval_main([*args, "--out", str(full)]) == 0
@@ -187,9 +194,11 @@ def test_resumed_evaluation_equals_an_uninterrupted_one(tmp_path):
 
 
 PLAN_CASES = [
-    (["plan", "default", "--seed", "-1"], "--seed"), (["plan", "default", "--time-budget", "inf"], "--time-budget"),
-    (["plan", "default", "--iterations", "0"], "--iterations"),
-    (["plan", "default", "--plot", "{tmp}"], "--plot"), (["plan", "default", "--plot", "{tmp}/f/x.png"], "--plot"),
+    (["plan", "--station", "default", "--seed", "-1"], "--seed"),
+    (["plan", "--station", "default", "--time-budget", "inf"], "--time-budget"),
+    (["plan", "--station", "default", "--iterations", "0"], "--iterations"),
+    (["plan", "--station", "default", "--plot", "{tmp}"], "--plot"),
+    (["plan", "--station", "default", "--plot", "{tmp}/f/x.png"], "--plot"),
 ]
 
 
@@ -205,16 +214,17 @@ def test_plan_flags_and_paths_are_checked_before_planning(tmp_path, capsys, argv
 
 
 def test_plan_json_errors_are_json(capsys):
-    assert dresspack_main(["plan", "default", "--welds", "nope", "--json"]) == 2
+    assert dresspack_main(["plan", "--station", "default", "--welds", "nope", "--json"]) == 2
     out = json.loads(capsys.readouterr().out)
     assert out["field"] == "welds" and "nope" in out["error"]
-    assert dresspack_main(["plan", "default", "--robot", "3", "--json"]) == 2  # the station has one robot
+    assert dresspack_main(["plan", "--station", "default", "--robot", "3", "--json"]) == 2  # the station has one robot
     out = json.loads(capsys.readouterr().out)
     assert out["field"] == "robot" and "r1" in out["error"]
 
 
 def test_plan_for_one_robot_of_the_four_robot_station(capsys):
-    assert dresspack_main(["plan", "side_framing_4r", "--robot", "2", "--welds", "r3_sill_1", "--iterations", "300",
+    assert dresspack_main(["plan", "--station", "side_framing_4r", "--robot", "2", "--welds", "r3_sill_1",
+                           "--iterations", "300",
                            "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["success"] and out["welds"] == ["r3_sill_1"] and out["life_cycles"] > 0
@@ -222,7 +232,7 @@ def test_plan_for_one_robot_of_the_four_robot_station(capsys):
 
 def test_eval_cost_variant_damage_reports_the_integrated_damage_rate(tmp_path, capsys):
     out = tmp_path / "e"
-    assert eval_main(["--methods", "ompl", "--tasks", "roof_rail_top", "--seeds", "0", "--iterations", "300",
+    assert eval_main(["--planners", "ompl", "--welds", "roof_rail_top", "--seeds", "0", "--iterations", "300",
                       "--cost-variant", "damage", "--no-render", "--json", "--out", str(out)]) == 0
     row = json.loads((out / "results.jsonl").read_text().splitlines()[0])
     assert row["cost_terms"]["damage"] == pytest.approx(row["cost"]) and row["cost_terms"]["curvature"] == 0.0
@@ -282,13 +292,13 @@ def _interrupt_after_first_row(argv: list[str], log: Path) -> tuple[int, list[st
 def test_ctrl_c_in_eval_prints_one_line_and_exits_130(tmp_path):
     out = tmp_path / "e"
     # far more runs than can finish between the first row and the signal, however loaded the machine
-    args = ["--methods", "ompl", "--tasks", "roof_rail_top", "sill_front", "roof_rail_top,sill_front", "--seeds",
+    args = ["--planners", "ompl", "--welds", "roof_rail_top", "sill_front", "roof_rail_top,sill_front", "--seeds",
             *[str(s) for s in range(12)], "--iterations", "300", "--no-render", "--jobs", "1", "--out", str(out)]
-    code, lines = _interrupt_after_first_row([sys.executable, "-m", "dresspack.eval.compare", *args],
+    code, lines = _interrupt_after_first_row([sys.executable, "-m", "dresspack_gym.cli.main", "eval", *args],
                                              out / "results.jsonl")
     assert code == 130 and len(lines) == 1, lines
     assert lines[0].startswith("interrupted: ") and "finished runs saved in" in lines[0]
-    assert lines[0].endswith("resume with: dresspack-eval " + " ".join(args))
+    assert lines[0].endswith("resume with: dresspack eval " + " ".join(args))
 
 
 def test_the_run_records_its_version_without_touching_the_repository(tmp_path):

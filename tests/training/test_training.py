@@ -11,8 +11,9 @@ import yaml
 pytest.importorskip("sb3_contrib")
 
 from dresspack.training.config import load_train_config, train_config_from_dict  # noqa: E402
-from dresspack.training.train import latest_checkpoint, main, train  # noqa: E402
+from dresspack.training.train import latest_checkpoint, train  # noqa: E402
 
+from dresspack_gym.cli.main import main  # noqa: E402
 from dresspack_gym.errors import ConfigError  # noqa: E402
 
 SMOKE = {
@@ -86,9 +87,9 @@ def test_bad_training_config_names_the_field(data, field):
 def test_cli_reports_bad_env_kwargs_and_unknown_config(tmp_path, capsys):
     path = tmp_path / "bad.yaml"
     path.write_text(yaml.safe_dump({**SMOKE, "env_kwargs": {"cost_variant": "fancy"}}))
-    assert main([str(path), "--run-dir", str(tmp_path / "r")]) == 2
+    assert main(["train", str(path), "--run-dir", str(tmp_path / "r")]) == 2
     assert "env_kwargs.cost_variant" in capsys.readouterr().err
-    assert main(["no_such_config"]) == 2
+    assert main(["train", "no_such_config"]) == 2
     assert "stud_welding" in capsys.readouterr().err  # lists the shipped configs
 
 
