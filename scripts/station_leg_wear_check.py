@@ -41,11 +41,11 @@ def main() -> None:
 
     station = Station(load_station(args.station))
     plan = json.loads((args.plan / "plan.json").read_text())
-    # legs fly by their via points as the plan did (plans before stop 36 stopped at each)
+    # legs fly by their via points as the plan did (a plan.json without fly_by stopped at each)
     config = StationPlanConfig(cost_variant=plan["config"]["cost_variant"], cable_repairs=0,
                                fly_by=plan["config"].get("fly_by", False))
     planner = StationPlanner(station, config)
-    schedule, _ = load_schedule(args.plan, station)  # plans before stop 36 have no fly_by: every leg stops
+    schedule, _ = load_schedule(args.plan, station)  # a plan.json without fly_by: every leg stops
     robots = schedule.robots
 
     class _Plan:  # what StationPlanner.replay reads
