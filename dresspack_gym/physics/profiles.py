@@ -22,12 +22,11 @@ class PhysicsProfile:
 
 PROFILES = {
     "accurate": PhysicsProfile("accurate"),
-    # two thirds of the segments at four times the step: ranks fixed weld cycles by ∫C dt as the accurate profile
-    # does (Spearman 0.97 where every settle converged; 12 segments: 0.87), replaying them 2.1x faster
-    # (tests/physics/test_physics_profiles.py)
+    # two thirds of the segments at an 8 ms step: ranks fixed weld cycles by ∫C dt as the accurate profile does
+    # (tests/physics/test_physics_profiles.py; 12 segments rank far worse)
     "training": PhysicsProfile("training", segments=16, timestep=0.008),
-    # the station's own cable at the training step: the same ranking (Spearman 1.0 on the same weld cycles), 1.5x
-    # the accurate profile's speed, and clamps as long as the accurate ones. The 16-segment cable's clamps hold
+    # the station's own cable at an 8 ms step (the stations' default step: for them, the accurate profile), with
+    # clamps as long as the accurate ones. The 16-segment cable's clamps hold
     # 1/16 of it rigidly, long enough for the forearm to cut into the tool-side clamp's edge at a bent wrist; both
     # sides of that contact are driven, so its force is unbounded (MN "tensions" in ~8 % of a policy's training
     # episodes, 10-25 N here and in the accurate profile on the same actions; tests/physics/test_physics_profiles.py).

@@ -159,6 +159,9 @@ class Station:
         spec.option.timestep = sim.timestep
         spec.option.gravity = [0, 0, -sim.gravity]
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
+        spec.option.cone = (mujoco.mjtCone.mjCONE_ELLIPTIC if sim.friction_cone == "elliptic"
+                            else mujoco.mjtCone.mjCONE_PYRAMIDAL)
+        spec.option.impratio = sim.impratio
         # No model-wide fluid: cable damping is explicit viscous drag on the free vertices (physics/simulation.py),
         # so no option acts on the rod's twist bodies or the node bodies.
         spec.option.viscosity = 0.0
