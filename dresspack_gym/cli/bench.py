@@ -109,7 +109,8 @@ def restrictions_benchmark(station_ref: str = "default", repeats: int = 3, batch
 def collision_benchmark(station_ref: str = "default", repeats: int = 3, n_configs: int = 2000) -> dict:
     """Cost of one robot's clearance queries (what every planner's motion check calls), as ratios to posing the
     robot (MuJoCo kinematics of the whole model) measured in the same run; configurations near Home, where
-    planners spend their queries."""
+    planners spend their queries: one after another at random (each query on its own), and the steps of
+    conservative advancement along segments (each query near the last)."""
     import mujoco
 
     from ..io.loading import load_station
@@ -135,22 +136,51 @@ def collision_benchmark(station_ref: str = "default", repeats: int = 3, n_config
         "kinematics_us": round(best["kinematics"] * 1e6, 2),
         **{f"{k}_vs_kinematics": round(v / base, 2) for k, v in best.items() if k != "kinematics"},
         "collides_fraction": round(float(np.mean([checker.collides(q) for q in qs])), 4),
+        **_stepping_benchmark(station, repeats, base),
         **_segments_benchmark(station, repeats),
     }
 
 
-def _segments_benchmark(station, repeats: int, n_starts: int = 8, n_segments: int = 48) -> dict:
-    """What the env's masks do: dozens of segments from one configuration checked one by one
-    (``segment_clear``) or in lockstep (``segments_clear``), the same answers; best of repeats."""
+def _stepping_benchmark(station, repeats: int, kinematics_s: float, n_segments: int = 300) -> dict:
+    """What the planners' motion checks do: conservative advancement along segments that mostly go on from the
+    last one's end (a path, a tree's branch); one query's cost there as a ratio to posing the robot, and the
+    queries a segment takes. Each repeat on a new MotionValidity (one answers a segment it checked from memory)."""
     from ..stations.validity import PLANNER_MARGIN, MotionValidity
 
-    validity = MotionValidity(station, 0, margin=PLANNER_MARGIN)
+    rng = np.random.default_rng(2)
+    lim = station.config.robots[0].robot.joint_limits
+    home = station.home[0]
+    segments, q = [], home
+    for i in range(n_segments):
+        if i % 10 == 0:  # a jump to elsewhere near Home
+            q = np.clip(home + rng.uniform(-1.0, 1.0, 6), lim[:, 0], lim[:, 1])
+        q1 = np.clip(q + rng.normal(0.0, 0.3, 6), lim[:, 0], lim[:, 1])
+        segments.append((q, q1))
+        q = q1
+    best, validity = np.inf, None
+    for _ in range(repeats):
+        validity = MotionValidity(station, 0, margin=PLANNER_MARGIN)
+        t0 = time.perf_counter()
+        for a, b in segments:
+            validity.segment_clear(a, b)
+        best = min(best, (time.perf_counter() - t0) / validity.n_checks)
+    return {"stepping_query_vs_kinematics": round(best / kinematics_s, 2),
+            "stepping_queries_per_segment": round(validity.n_checks / n_segments, 1)}
+
+
+def _segments_benchmark(station, repeats: int, n_starts: int = 8, n_segments: int = 48) -> dict:
+    """What the env's masks do: dozens of segments from one configuration checked one by one
+    (``segment_clear``) or in lockstep (``segments_clear``), the same answers; best of repeats, each on a new
+    MotionValidity (one answers a segment it checked from memory)."""
+    from ..stations.validity import PLANNER_MARGIN, MotionValidity
+
     rng = np.random.default_rng(1)
     home = station.config.robots[0].home
     starts = [home + rng.uniform(-0.2, 0.2, 6) for _ in range(n_starts)]
     ends = [q + rng.uniform(-1.0, 1.0, size=(n_segments, 6)) for q in starts]
     one, lockstep = np.inf, np.inf
     for _ in range(repeats):
+        validity = MotionValidity(station, 0, margin=PLANNER_MARGIN)
         t0 = time.perf_counter()
         alone = [[validity.segment_clear(q, e) for e in es] for q, es in zip(starts, ends)]
         t1 = time.perf_counter()

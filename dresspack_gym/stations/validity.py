@@ -18,6 +18,9 @@ PLANNER_MARGIN = 0.005
 # segments_clear batches a round only while more segments than this are still advancing: a round's array work
 # costs about what a few one-at-a-time queries do (dresspack bench collision)
 LOCKSTEP_MIN = 4
+# segments whose collision answers a MotionValidity keeps (a planner checks many again: 1,400 of the ompl-wear
+# plan's 6,300 on the default station); past this, the oldest are forgotten (about 250 bytes each)
+SEGMENT_MEMORY = 20_000
 
 
 class MotionValidity:
@@ -38,7 +41,8 @@ class MotionValidity:
         self._kinematics = station.robots[robot].kinematics
         self._may_tear = _may_tear(placement, self._kinematics, self.checker)
         self.resolution = math.radians(resolution_deg)
-        self.n_checks = 0  # collision queries made (planning cost accounting)
+        self.n_checks = 0  # collision queries the checks ask for (planning cost accounting; see segment_clear)
+        self._segments: dict[bytes, tuple[bool, int]] = {}  # (q0, q1) -> (clear, queries), see segment_clear
 
     def within_limits(self, q: np.ndarray) -> np.ndarray:
         return within_limits(q, self.limits)
@@ -82,16 +86,30 @@ class MotionValidity:
         return self.segment_clear(q0, q1)
 
     def segment_clear(self, q0: np.ndarray, q1: np.ndarray) -> bool:
-        """The collision part of :meth:`segment_valid` alone (for callers that checked limits/restrictions)."""
-        dq = q1 - q0
-        return self._advance(q0, dq, float(self.checker.chain_reach() @ np.abs(dq)), 0.0)
+        """The collision part of :meth:`segment_valid` alone (for callers that checked limits/restrictions).
+
+        A segment checked before is answered from memory (the answer is a function of its two ends); it counts
+        the queries its check made in ``n_checks`` again, so the count does not depend on what was kept."""
+        q0, q1 = np.asarray(q0, dtype=float), np.asarray(q1, dtype=float)
+        key = q0.tobytes() + q1.tobytes()
+        known = self._segments.get(key)
+        if known is None:
+            before = self.n_checks
+            dq = q1 - q0
+            clear = self._advance(q0, dq, float(self.checker.chain_reach() @ np.abs(dq)), 0.0)
+            if len(self._segments) >= SEGMENT_MEMORY:
+                del self._segments[next(iter(self._segments))]  # the oldest (dicts keep insertion order)
+            known = self._segments[key] = (clear, self.n_checks - before)
+        else:
+            self.n_checks += known[1]
+        return known[0]
 
     def _advance(self, q0: np.ndarray, dq: np.ndarray, reach_per_t: float, t: float) -> bool:
         """Conservative advancement along q0 + t dq from ``t`` to 1: True when it stays clear."""
-        margin = self.checker.margin
+        margin, distance = self.checker.margin, self.checker.min_distance
         while True:
             self.n_checks += 1
-            d = self.checker.min_distance(q0 + t * dq)
+            d = distance(q0 + t * dq)
             if d < margin:
                 return False
             if t >= 1.0 or reach_per_t == 0.0:

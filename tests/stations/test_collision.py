@@ -208,7 +208,8 @@ def exact_at(checker, q, g1, g2):
 
 def test_batched_distances_and_lockstep_segments_answer_as_one_at_a_time():
     """min_distances equals min_distance per configuration, and segments_clear (segments advanced in lockstep,
-    queries batched) equals conservative advancement run on each segment alone, query for query (their common first query once)."""
+    queries batched) equals conservative advancement run on each segment alone, query for query (their common first
+    query once)."""
     from dresspack_gym.stations.validity import MotionValidity
 
     station = Station(load_station("default"))
@@ -254,3 +255,5 @@ def test_bench_collision_compares_lockstep_and_one_by_one_segment_checks_in_one_
 
     out = collision_benchmark(repeats=1, n_configs=20)
     assert out["segments_lockstep_vs_one_by_one"] > 0 and 0 < out["segments_clear_fraction"] < 1
+    # a step of conservative advancement poses the robot and queries at least one pair: more than kinematics
+    assert out["stepping_query_vs_kinematics"] > 1.0 and out["stepping_queries_per_segment"] > 2.0
