@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import shlex
 import sys
 from pathlib import Path
@@ -702,6 +703,11 @@ def main(argv: list[str] | None = None, extensions=None) -> int:
         else:
             print(f"error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # the reader closed the pipe (`dresspack inspect default | head`): nothing is wrong and nothing more can be
+        # written; point stdout at devnull so the interpreter's final flush does not raise again (Python's docs)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
     finally:
         _Parser.json_errors = False
 
