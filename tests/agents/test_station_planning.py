@@ -787,6 +787,7 @@ def test_wear_objective_is_optimal_against_brute_force_with_the_cables_waiting_a
     assert w.estimate["idle_wear"] == pytest.approx(sum(rates[r] * (max(ends) - e) for r, e in enumerate(ends)))
 
 
+@pytest.mark.slow  # three station plans (about 3 min); the single-robot order check (test_reproducibility) stays
 def test_an_objective_plans_the_same_whatever_was_planned_before_it(two_robot_station, monkeypatch):
     """``dresspack station-plan`` plans its objectives with one planner (the legs are reused): the wear plan after
     a time plan equals the wear plan of a fresh planner, and the time plan inside it equals the time plan (which

@@ -185,6 +185,7 @@ def test_cli_resolves_shipped_grid_names_and_rejects_unknown_ones(tmp_path, caps
     assert "grid" in err and "thesis_67500" in err
 
 
+@pytest.mark.slow  # Ray's start-up dominates (about 2 min); the process backend's equality test stays in the suite
 def test_ray_backend_gives_the_same_map_as_serial(tmp_path, station):
     ray = pytest.importorskip("ray")
     grid = RobustnessGrid.from_dict(TINY)
