@@ -8,6 +8,9 @@ from __future__ import annotations
 
 import json
 import math
+import signal
+import threading
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -209,9 +212,13 @@ def _finished_runs(spec: EvalSpec, out: Path, tasks: dict, todo: list[tuple], jo
     """(row, replay or None) of every run in ``todo`` as it finishes: here, or on a pool of ``jobs`` processes."""
     if jobs == 1 or len(todo) < 2:
         runner = RunEvaluator(spec, out, tasks)
-        for run in todo:
-            bar.set_postfix_str(_describe(run))
-            yield runner.run(*run)
+        with _ctrl_c_remembered() as pressed:
+            for run in todo:
+                bar.set_postfix_str(_describe(run))
+                result = runner.run(*run)
+                if pressed():  # a Ctrl-C that the planner swallowed ends the evaluation here, after the run
+                    raise KeyboardInterrupt
+                yield result
         return
     import multiprocessing
 
@@ -222,6 +229,27 @@ def _finished_runs(spec: EvalSpec, out: Path, tasks: dict, todo: list[tuple], jo
                 raise DresspackError(error)
             bar.set_postfix_str(f"done {_describe((row['method'], row['welds'], row['seed']))}")
             yield row, rep
+
+
+@contextmanager
+def _ctrl_c_remembered():
+    """Ctrl-C raises KeyboardInterrupt as usual and is also remembered (``pressed()``): pressed while OMPL's C++
+    planner is calling back into Python, the interrupt surfaces inside that callback, where the planner may swallow
+    it as a failed check and go on, so the evaluation also stops after the run in progress."""
+    if threading.current_thread() is not threading.main_thread():  # signals reach the main thread only
+        yield lambda: False
+        return
+    pressed = []
+
+    def on_ctrl_c(signum, frame):
+        pressed.append(signum)
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGINT, on_ctrl_c)
+    try:
+        yield lambda: bool(pressed)
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 class RunEvaluator:
