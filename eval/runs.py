@@ -311,8 +311,6 @@ _WORKER: dict = {}  # a pool worker's evaluation: its arguments, then its RunEva
 def _init_worker(spec: EvalSpec, out: Path, tasks: dict) -> None:
     """A pool worker leaves Ctrl-C to the parent (which prints its line and ends the pool). Nothing that can fail
     runs here: a failing initializer makes the pool start workers forever."""
-    import signal
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _WORKER.update(args=(spec, out, tasks))
 

@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import ConfigError, SimulationError
 from ..robots.joint_limits import check_within_limits
 from ..robots.time_law import JointLimits, SegmentMotion
-from ..stations.station import Station
+from ..stations.station import Station, as_slice
 from .damage import damage_rate
 from .measures import ClearanceProbe, WearMeasures, cable_points, measure_cable, node_loads
 from .segment_state import SegmentState, SegmentStateReader
@@ -88,14 +88,6 @@ def _residual_gravity(gravity: float) -> float:
     return max(float(gravity), 1.0)
 
 
-def _as_slice(index: np.ndarray):
-    """``index`` as a slice when it is a contiguous ascending range, else unchanged."""
-    index = np.asarray(index)
-    if len(index) and np.array_equal(index, np.arange(index[0], index[0] + len(index))):
-        return slice(int(index[0]), int(index[0]) + len(index))
-    return index
-
-
 class CableSimulator:
     """One station's physics: move robots, let cables settle, measure wear, save/restore state."""
 
@@ -121,12 +113,12 @@ class CableSimulator:
             for i, c in enumerate(cables) for p in c.pieces])
         self._twist_inertia = self.model.dof_M0[self._twist_dof].copy() if len(self._twist_dof) else np.zeros(0)
         self._drag = -self.config.cable_damping * self._free_dof_mass  # f = -c m v on every free vertex dof
-        self._robot_qpos = _as_slice(station.robot_qpos)  # a slice writes faster than an index array
-        self._robot_dof = _as_slice(station.robot_dof)
-        self._load_qpos = _as_slice(station.load_qpos)
-        self._load_dof = _as_slice(station.load_dof)
+        self._robot_qpos = as_slice(station.robot_qpos)  # a slice writes faster than an index array
+        self._robot_dof = as_slice(station.robot_dof)
+        self._load_qpos = as_slice(station.load_qpos)
+        self._load_dof = as_slice(station.load_dof)
         self._load_values = station.load_values
-        self._free_dof_idx = _as_slice(self._free_dof)
+        self._free_dof_idx = as_slice(self._free_dof)
         self._cable_mass = float(self._free_dof_mass.sum() / 3.0)
         self._body_pos0 = [self.model.body_pos[c.free_bodies].copy() for c in cables]
         self.reset()

@@ -12,7 +12,7 @@ from operator import add, mul, sub
 import mujoco
 import numpy as np
 
-from .station import Station
+from .station import Station, as_slice
 
 # Links that stand on the floor: their contact with it is not a collision.
 FLOOR_EXEMPT_LINKS = ("base", "link1", "link2")
@@ -120,8 +120,8 @@ class RobotCollisionChecker:
         own = np.asarray(self.robot.geom_ids, dtype=int)
         row = {int(g): i for i, g in enumerate(own)}
         self._own_geoms = own
-        self._own_index = _as_slice(own)  # a slice when the geoms are consecutive (a view, not a gather)
-        self._qpos_index = _as_slice(np.asarray(self.robot.qpos, dtype=int))
+        self._own_index = as_slice(own)  # a slice when the geoms are consecutive (a view, not a gather)
+        self._qpos_index = as_slice(np.asarray(self.robot.qpos, dtype=int))
         n = len(self.pairs)
         to_pair = np.zeros((3 * len(own), 3 * n))  # centres (flattened) -> each pair's three coordinates
         low, high = np.zeros(3 * n), np.zeros(3 * n)  # the coordinates' clip range: what is inside, or no gap
@@ -413,10 +413,3 @@ class RobotCollisionChecker:
     def collides_batch(self, qs: np.ndarray) -> np.ndarray:
         return np.array([self.collides(q) for q in np.atleast_2d(qs)], dtype=bool)
 
-
-def _as_slice(index: np.ndarray):
-    """``index`` as a slice when it counts up by one (numpy reads and writes a slice as a view, without gathering),
-    else unchanged."""
-    if len(index) and np.array_equal(index, np.arange(index[0], index[0] + len(index))):
-        return slice(int(index[0]), int(index[0]) + len(index))
-    return index

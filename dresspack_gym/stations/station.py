@@ -276,3 +276,12 @@ def _same_node(layout: CableLayout, piece: RodPiece) -> np.ndarray:
     owner = {v: k for k, att in enumerate(layout.attachments) for v in att.vertices}
     o = [owner.get(v, -1 - i) for i, v in enumerate(piece.vertices)]
     return np.array([a == b for a, b in zip(o[:-1], o[1:])])
+
+
+def as_slice(index) -> slice | np.ndarray:
+    """``index`` as a slice when it counts up by one (numpy reads and writes a slice as a view, without gathering:
+    the simulator's and the collision checker's per-step writes), else unchanged."""
+    index = np.asarray(index)
+    if len(index) and np.array_equal(index, np.arange(index[0], index[0] + len(index))):
+        return slice(int(index[0]), int(index[0]) + len(index))
+    return index
