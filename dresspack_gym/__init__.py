@@ -3,8 +3,9 @@
 import importlib
 import os
 
-# Offscreen rendering on headless machines needs EGL, chosen when mujoco is first imported.
-if "DISPLAY" not in os.environ:
+# Offscreen rendering on headless machines needs EGL, chosen when mujoco is first imported (an empty DISPLAY, as
+# some containers set it, is no display either).
+if not os.environ.get("DISPLAY"):
     os.environ.setdefault("MUJOCO_GL", "egl")
 
 from .errors import ConfigError, DresspackError, KinematicsError, SimulationError

@@ -93,7 +93,7 @@ def evaluate_and_report(args) -> int:
             RobustnessMap(args.robustness_map)
         rows, replays = run_evaluation(spec, args.out, progress=not args.json, jobs=args.jobs)
         paths = write_report(spec, rows, args.out, replays, robustness_map=args.robustness_map,
-                             render=not args.no_render)
+                             render=not args.no_render, jobs=args.jobs, progress=not args.json)
     except DresspackError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -8,6 +8,7 @@ import json
 import shutil
 from pathlib import Path
 
+import mujoco
 import numpy as np
 from dresspack.agents.planners.registry import COLORS
 
@@ -19,6 +20,7 @@ from dresspack_gym.plots.replay import plot_replays
 from dresspack_gym.plots.restrictions import plot_restrictions
 from dresspack_gym.stations.station import Station
 
+from .animations import Clip, render_clips
 from .conclusion import conclude
 from .runs import METRICS, EvalSpec, load_trajectory
 from .summary import OPTIONAL, by_method, by_task, fmt, json_summary, rows_to_csv
@@ -34,8 +36,10 @@ OVERVIEW = {"cycle_time": "lower", "cost": "lower", "max_curvature": "lower", "m
 
 
 def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dict[str, Replay] | None = None, *,
-                 robustness_map: str | Path | None = None, render: bool = True) -> dict:
-    """All report files into ``out``; returns {"report_md", "report_html", "results_json", "figures"}."""
+                 robustness_map: str | Path | None = None, render: bool = True, jobs: int = 1,
+                 progress: bool = False) -> dict:
+    """All report files into ``out``; returns {"report_md", "report_html", "results_json", "figures"}. The videos
+    are rendered on ``jobs`` processes (the same files whatever ``jobs``)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -77,6 +81,11 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
         blocks.append(("p", "One method on one task: the table above is the whole overview."))
     blocks.append(("p", _settle_note(rows)))
     sim = CableSimulator(station)
+    if render:
+        for anim in fig_dir.glob("anim_*.mp4"):  # a resumed report must not show the videos of an earlier run
+            anim.unlink()
+        render_clips(spec.station, spec.robot, _clips(rows, methods, out, fig_dir, replays), jobs=jobs,
+                     progress=progress)
     explained: set[str] = set()  # figure kinds whose legend a caption has explained (each explanation once)
     for task, per_method in by_task(rows, methods).items():
         blocks += [("h2", f"Task: home → {task} → home"), ("table", _table(per_method))]
@@ -102,8 +111,7 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
                            f"Measures over time on {task}"))
             blocks += _damage_figures(task, task_replays, fig_dir, figures, explained)
             if render:
-                blocks += _animations(task, rows, methods, station, out, fig_dir, figures, spec.robot, replays,
-                                      explained)
+                blocks += _animations(task, rows, methods, fig_dir, figures, explained)
     blocks += [("h2", "Damage and fatigue life"), *_life_blocks(rows, methods, replays)]
     blocks.append(("h2", "Joint restrictions"))
     restr = fig_dir / "restrictions.png"
@@ -264,7 +272,7 @@ def _ranks(values) -> np.ndarray:
 
 def _replay_saved(sim: CableSimulator, out: Path, row: dict, robot: int, cost_variant: str = "thesis") -> Replay | None:
     traj = load_trajectory(out, row)
-    return None if traj is None else replay(sim, traj, robot=robot, cost_variant=cost_variant)
+    return None if traj is None else replay(sim, traj, robot=robot, cost_variant=cost_variant, record_qpos=True)
 
 
 def _robustness_blocks(folder, fig_dir: Path, figures: dict) -> list[tuple]:
@@ -285,22 +293,27 @@ def _robustness_blocks(folder, fig_dir: Path, figures: dict) -> list[tuple]:
     return blocks
 
 
-ANIMATION = {"fps": 10.0, "width": 320, "height": 180, "strip_height": 70}  # small: every clip is embedded
+def _clips(rows, methods, out: Path, fig_dir: Path, replays: dict[str, Replay]) -> list[Clip]:
+    """A video per task and method of its first successful run: the cable moving, measures underneath."""
+    clips = []
+    for task, per_method in by_task(rows, methods).items():
+        for m in methods:
+            row = next((r for r in rows if r["task"] == task and r["method"] == m and r["success"]), None)
+            traj = load_trajectory(out, row) if row is not None else None
+            if traj is not None:
+                clips.append(Clip(str(fig_dir / f"anim_{_slug(task)}_{_slug(m)}.mp4"), traj.waypoints, traj.stops,
+                                  replays.get(row["key"])))
+    return clips
 
 
-def _animations(task: str, rows, methods, station, out: Path, fig_dir: Path, figures: dict, robot,
-                replays: dict[str, Replay], explained: set[str]) -> list[tuple]:
-    """A short video per method of its first successful run on ``task``: the cable moving, measures underneath."""
-    from dresspack_gym.io.animation import animate
-
+def _animations(task: str, rows, methods, fig_dir: Path, figures: dict, explained: set[str]) -> list[tuple]:
+    """The blocks of ``task``'s videos (rendered beforehand by :func:`render_clips`)."""
     blocks = []
     for m in methods:
         row = next((r for r in rows if r["task"] == task and r["method"] == m and r["success"]), None)
-        traj = load_trajectory(out, row) if row is not None else None
-        if traj is None:
-            continue
         path = fig_dir / f"anim_{_slug(task)}_{_slug(m)}.mp4"
-        animate(CableSimulator(station), traj, path, robot=robot, measured=replays.get(row["key"]), **ANIMATION)
+        if row is None or not path.is_file():
+            continue
         figures[f"animation {task} {m}"] = str(path)
         blocks.append(("video", str(path), _once(explained, "animation", f"{m} (seed {row['seed']}) on {task}",
                                                  ": κ, F/10 and 10·d under the picture")))
@@ -326,7 +339,11 @@ def _worst_frames(rows, methods, replays, station, sim, out, fig_dir, figures, r
             if rep is None or traj is None:
                 continue
             t = float(rep.time[int(np.argmax(rep.cost))])
-            replay(sim, traj, robot=robot, until=t)
+            if rep.qpos is not None:  # the replay kept its positions: that moment without simulating again
+                sim.data.qpos[:] = rep.qpos[int(np.argmax(rep.cost))]
+                mujoco.mj_forward(sim.model, sim.data)
+            else:
+                replay(sim, traj, robot=robot, until=t)
             if renderer is None:
                 renderer = StationRenderer(station.model, width=640, height=480)
             path = fig_dir / f"worst_{_slug(m)}.png"

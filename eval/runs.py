@@ -291,7 +291,8 @@ class RunEvaluator:
         except PlanningError as exc:
             row.update(success=False, error=str(exc), **dict.fromkeys(METRICS))
             return row, None
-        rep = replay(self.sim, result.trajectory, robot=spec.robot, cost_variant=spec.cost_variant)
+        # positions kept: the report draws its videos and worst moments from them without simulating again
+        rep = replay(self.sim, result.trajectory, robot=spec.robot, cost_variant=spec.cost_variant, record_qpos=True)
         s = {**rep.summary(), **smoothness(result.trajectory, self.limits)}
         row.update(success=True, error=None, planning_time=round(result.planning_time, 4),
                    waypoints=len(result.trajectory.waypoints),

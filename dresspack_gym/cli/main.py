@@ -412,7 +412,7 @@ def cmd_animate(args) -> int:
     check_program(traj, placement.robot, _speed_fraction(None, meta, cfg),
                   f" of robot {placement.name!r} ({placement.robot.name})", identity)
     result = animate(CableSimulator(Station(cfg)), traj, ensure_parent(args.out), robot=robot, fps=args.fps,
-                     width=args.width, height=args.height,
+                     width=args.width, height=args.height, shadows=args.shadows,
                      progress=lambda label, total: tqdm(total=total, desc=label, unit="frame", dynamic_ncols=True))
     print(f"wrote {result['path']} ({result['frames']} frames, {result['duration_s']:.1f} s)")
     return 0
@@ -652,6 +652,8 @@ def _add_animate(sub) -> None:
                     help="video width [px] (default %(default)s)")
     an.add_argument("--height", type=number(16, OFFSCREEN_HEIGHT, integer=True, unit="px"), default=360,
                     help="height of the station's picture [px], the measures' strip below it (default %(default)s)")
+    an.add_argument("--shadows", action="store_true",
+                    help="draw shadows (about 10x slower per frame without a GPU; default: off)")
     an.set_defaults(func=cmd_animate)
 
 

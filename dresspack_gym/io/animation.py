@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import mujoco
 import numpy as np
 
 from ..errors import ConfigError
@@ -49,13 +50,15 @@ def _strip(rep: Replay, width: int, height: int) -> tuple[np.ndarray, callable]:
 
 def animate(sim: CableSimulator, traj: Trajectory, out: str | Path, *, robot: int = 0, fps: float = 20.0,
             width: int = 640, height: int = 360, strip_height: int = 120, camera=None,
-            measured: Replay | None = None, progress=None) -> dict:
+            measured: Replay | None = None, progress=None, shadows: bool = False) -> dict:
     """Write the video of ``traj`` replayed from its start; returns {"path", "frames", "duration_s"}.
 
     Frames are the replay's samples every 1/fps s of motion time (the settles at the welds take no motion time,
     so they show as one frame), rendered during a second, identical replay (the simulation is deterministic);
-    ``measured``, a replay of the same trajectory already made, saves the first. ``progress(label, total)``, a
-    tqdm-like bar factory, shows the replay's samples, then the frames written."""
+    ``measured``, a replay of the same trajectory already made, saves the first, and both if it kept its positions
+    (``record_qpos``) on a sample grid at least as fine as 1/fps. ``progress(label, total)``, a
+    tqdm-like bar factory, shows the replay's samples, then the frames written. ``shadows`` costs ~10x per frame
+    in software rendering, so videos are drawn without them unless asked."""
     out = Path(out)
     if out.suffix not in VIDEO_FORMATS:
         raise ConfigError("out", f"{out.name}: the video format is chosen by the suffix, one of {list(VIDEO_FORMATS)}")
@@ -66,6 +69,9 @@ def animate(sim: CableSimulator, traj: Trajectory, out: str | Path, *, robot: in
     bar = progress or _NoBar
     samples = 0  # the frames the rendering replay will write (it samples as this one does)
     rep = measured
+    drawn = frame_samples(rep, fps) if rep is not None else None
+    if drawn is not None:
+        samples = len(drawn)
     if rep is None:
         with bar("replaying", None) as replayed:
             def sampled(t: float) -> None:
@@ -75,24 +81,49 @@ def animate(sim: CableSimulator, traj: Trajectory, out: str | Path, *, robot: in
 
             rep = replay(sim, traj, robot=robot, record_every=1.0 / fps, record_states=False, on_sample=sampled)
     strip, column = _strip(rep, width, strip_height)
-    renderer = StationRenderer(sim.station.model, width=width, height=height)
+    renderer = StationRenderer(sim.station.model, width=width, height=height, shadows=shadows)
     cam = camera if camera is not None else default_camera(sim.station.model)
     kwargs = {"fps": fps, "macro_block_size": 2, "codec": "libx264", "quality": 6} if out.suffix == ".mp4" else \
         {"duration": 1.0 / fps, "loop": 0}
     frames = 0
     with imageio.get_writer(out, **kwargs) as writer, bar("rendering", samples or None) as written:
-        def frame(t: float) -> None:
+        def frame(t: float, data: mujoco.MjData) -> None:
             nonlocal frames
             below = strip.copy()
             x = min(max(column(t), 0), width - 1)
             below[:, max(0, x - 1):x + 1] = (230, 60, 60)  # the time cursor
-            writer.append_data(np.vstack([renderer.render(sim.data, cam), below]))
+            writer.append_data(np.vstack([renderer.render(data, cam), below]))
             frames += 1
             written.update(1)
 
-        replay(sim, traj, robot=robot, record_every=1.0 / fps, record_states=False, on_sample=frame)
+        if drawn is not None:  # the replay kept its positions: draw them, no second simulation
+            data = mujoco.MjData(sim.model)
+            for i in drawn:
+                data.qpos[:] = rep.qpos[i]
+                mujoco.mj_forward(sim.model, data)
+                frame(float(rep.time[i]), data)
+        else:
+            replay(sim, traj, robot=robot, record_every=1.0 / fps, record_states=False,
+                   on_sample=lambda t: frame(t, sim.data))
     renderer.close()
     return {"path": str(out), "frames": frames, "duration_s": frames / fps}
+
+
+def frame_samples(rep: Replay, fps: float) -> list[int] | None:
+    """The samples of a replay to show at ``fps``: one every 1/fps s of motion time, on the replay's own sample
+    grid (a sample counts as on time within half the grid's spacing), the first always; None if the replay kept
+    no positions or its grid is coarser than 1/fps."""
+    time = rep.time
+    steps = np.diff(time)
+    grid = float(np.median(steps[steps > 0])) if np.any(steps > 0) else 0.0
+    if rep.qpos is None or grid > 1.0 / fps + 1e-9:
+        return None
+    chosen, last = [0], float(time[0])
+    for i in range(1, len(time)):
+        if time[i] >= last + 1.0 / fps - 0.5 * grid:
+            chosen.append(i)
+            last = float(time[i])
+    return chosen
 
 
 class _NoBar:

@@ -146,6 +146,7 @@ class Replay:
     unconverged_stops: int = 0  # stops whose settle did not reach the equilibrium residual (flagged, not hidden)
     damage: SegmentDamage | None = None  # per-segment damage of the cycle (recorded with states)
     fatigue: FatigueLife | None = None  # per-segment fatigue life, the cycle repeated
+    qpos: np.ndarray | None = None  # (N, nq) the simulator's positions at each sample: renders without re-simulating
 
     def integrated_cost(self) -> float:
         """Integral of C over the cycle [cost x s] (trapezoid over the samples)."""
@@ -174,12 +175,14 @@ class Replay:
 
 def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_every: float = 0.05,
            speed_fraction: float | None = None, cost_variant: str = "thesis", start_state=None,
-           until: float | None = None, record_states: bool = True, on_sample=None) -> Replay:
+           until: float | None = None, record_states: bool = True, record_qpos: bool = False,
+           on_sample=None) -> Replay:
     """Run ``traj`` in the simulator from a settled start (``start_state`` or a fresh reset at its first
     waypoint) and record the measures every ``record_every`` s and after settling at every stop.
     With ``until`` the replay stops at that motion time and leaves ``sim`` in that state (to render it).
     With ``record_states`` every sample also records each segment's state, from which the replay's per-segment
-    damage and fatigue life are computed (the trajectory taken as one period of a repeated station cycle)."""
+    damage and fatigue life are computed (the trajectory taken as one period of a repeated station cycle).
+    With ``record_qpos`` every sample also keeps the simulator's positions (``Replay.qpos``), enough to draw it."""
     cost_fn = cost_function(cost_variant)
     station = sim.station
     q_all = station.home.copy()
@@ -198,6 +201,14 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     measures0, states0 = sim.measures_and_states()
     samples_t, samples_q, samples_m = [0.0], [traj.waypoints[0].copy()], [measures0]
     samples_s = [states0[robot]] if record_states else []
+    samples_x = [sim.data.qpos.copy()]  # kept only with record_qpos
+
+    def sampled(t: float) -> None:  # called right after each motion sample is recorded, in its state
+        if record_qpos:
+            samples_x.append(sim.data.qpos.copy())
+        if on_sample is not None:
+            on_sample(t)
+
     if on_sample is not None:
         on_sample(0.0)
     stops = set(traj.stops)
@@ -205,8 +216,10 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     unconverged = 0
     for i, q in enumerate(traj.waypoints[1:], start=1):
         trace = sim.move_to(full(q), speed_fraction=speed_fraction, settle=i in stops, record_every=record_every,
-                            until=until, record_states=record_states, on_sample=on_sample)
+                            until=until, record_states=record_states, on_sample=sampled)
         samples_t += trace.time
+        if record_qpos:  # a move of no length records one sample without calling back
+            samples_x += [sim.data.qpos.copy()] * (len(samples_t) - len(samples_x))
         samples_q += [x[robot] for x in trace.q]
         samples_m += trace.measures
         samples_s += [x[robot] for x in trace.states]
@@ -219,6 +232,8 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
             samples_q.append(q.copy())
             stop_measures, stop_states = sim.measures_and_states()
             samples_m.append(stop_measures)
+            if record_qpos:
+                samples_x.append(sim.data.qpos.copy())
             if record_states:
                 samples_s.append(stop_states[robot])
     cfg = station.config.wear_cost
@@ -240,7 +255,8 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
         life = fatigue_life(samples_s, dresspack.fatigue, damage.arc, dresspack.tensile_stiffness)
     return Replay(np.array(samples_t), np.array(samples_q), measures, np.array([c.total for c in costs]), terms,
                   stop_times, sim.motion_time,
-                  {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance}, unconverged, damage, life)
+                  {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance}, unconverged, damage, life,
+                  np.array(samples_x) if record_qpos else None)
 
 
 # [rad] joint changes below this do not count as a direction (numerical noise of a planner's waypoints)

@@ -24,7 +24,7 @@ def default_camera(model: mujoco.MjModel, azimuth: float = -60.0, elevation: flo
 class StationRenderer:
     """Renders RGB frames of a model/data pair; reuse one instance for many frames."""
 
-    def __init__(self, model: mujoco.MjModel, width: int = 960, height: int = 720):
+    def __init__(self, model: mujoco.MjModel, width: int = 960, height: int = 720, *, shadows: bool = True):
         check_frame_size(width, height, model)
         try:
             self.renderer = mujoco.Renderer(model, height=height, width=width)
@@ -34,10 +34,14 @@ class StationRenderer:
         self.model = model
         self.option = mujoco.MjvOption()
         self.option.geomgroup[5] = 0  # hide the clearance probe
+        # Shadows are ~90 % of a frame's time in software rendering (0.33 s vs 0.035 s at 320 x 180 on the CPU):
+        # videos turn them off, still pictures keep them.
+        self.shadows = bool(shadows)
 
     def render(self, data: mujoco.MjData, camera: mujoco.MjvCamera | None = None) -> np.ndarray:
         cam = camera if camera is not None else default_camera(self.model)
         self.renderer.update_scene(data, camera=cam, scene_option=self.option)
+        self.renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = self.shadows
         return self.renderer.render().copy()
 
     def close(self) -> None:
