@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import shlex
 import sys
 from pathlib import Path
@@ -17,16 +16,22 @@ from dresspack.agents.cli import add_budget_arguments
 from dresspack.agents.planners.leg_cost import MAX_TIME_WEIGHT
 from dresspack.agents.planners.registry import PLANNERS
 
-from dresspack_gym.cli.args import Renamed, add_station_argument, number, output_dir, seed, warn_deprecated
+from dresspack_gym.cli.args import (
+    ALL_CORES,
+    MAX_JOBS,
+    Renamed,
+    add_station_argument,
+    number,
+    output_dir,
+    seed,
+    warn_deprecated,
+)
 from dresspack_gym.errors import DresspackError
 from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
 from .report import write_report
 from .runs import EvalSpec, run_evaluation
 from .summary import by_method, fmt, json_summary
-
-MAX_JOBS = 64
-ALL_CORES = min(os.cpu_count() or 1, MAX_JOBS)  # --jobs' default: one process per core
 
 
 def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec()) -> None:

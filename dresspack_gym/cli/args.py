@@ -8,10 +8,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from pathlib import Path
 
 MAX_SEED = 2**32 - 1  # numpy's and OMPL's seed range
+
+MAX_JOBS = 64
+ALL_CORES = min(os.cpu_count() or 1, MAX_JOBS)  # every --jobs flag's default: one process per core
 
 
 def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, integer: bool = False,

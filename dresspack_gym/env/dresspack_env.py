@@ -98,6 +98,7 @@ class EnvSnapshot:
     episode_path: tuple[np.ndarray, ...]
     wear: tuple  # EpisodeWear.state(): cost terms now, per-segment damage and its rate, the segment states
     rng: dict | None  # the env's random generator state
+    masks: tuple | None = None  # ActionMasks.kept(): the mask where the robot stands, if computed
 
 
 def _build_station(station: str | Station, config: EnvConfig) -> tuple[Station, Station | None]:
@@ -352,7 +353,8 @@ class DresspackEnv(gym.Env):
             episode_goals={k: v.copy() for k, v in self.task.episode_goals.items()}, goal_index=self.goal_index,
             steps=self.steps, cycle_time=self.cycle_time, needs_reset=self._needs_reset,
             episode_path=tuple(q.copy() for q in self._episode_path), wear=self.wear.state(),
-            rng=self._np_random.bit_generator.state if self._np_random is not None else None)
+            rng=self._np_random.bit_generator.state if self._np_random is not None else None,
+            masks=self.masks.kept())
 
     def restore(self, snap: EnvSnapshot) -> None:
         """Return to a state from :meth:`snapshot` (of this env or one built with the same arguments)."""
@@ -363,6 +365,7 @@ class DresspackEnv(gym.Env):
         self.sim.last_settle = snap.last_settle
         self.task.episode_goals = {k: v.copy() for k, v in snap.episode_goals.items()}
         self._setup_episode(list(snap.goal_names), snap.goal_index)
+        self.masks.keep(snap.masks)
         self.steps, self.cycle_time, self._needs_reset = snap.steps, snap.cycle_time, snap.needs_reset
         self._closed = False
         self._episode_path = [q.copy() for q in snap.episode_path]

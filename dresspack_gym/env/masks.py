@@ -41,6 +41,15 @@ class ActionMasks:
         """Drop the kept mask (the robot moved, or what an action offers changed)."""
         self._cache = None
 
+    def kept(self) -> tuple[bytes, np.ndarray] | None:
+        """The kept mask with the place it belongs to (for a snapshot), or None."""
+        return self._cache
+
+    def keep(self, kept: tuple[bytes, np.ndarray] | None) -> None:
+        """Reinstate a mask from :meth:`kept`: a restored snapshot needs no new collision checks where it stands
+        (a search steps many actions from one state), and the key still guards against a different place."""
+        self._cache = kept
+
     def masks_at(self, q: np.ndarray, goal: np.ndarray) -> np.ndarray:
         """The action mask at configuration ``q`` heading for ``goal``."""
         masks = np.ones(self.actions.n_actions, dtype=bool)

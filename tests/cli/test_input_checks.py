@@ -164,7 +164,8 @@ REQUIRED = {"render": ["--out", "x.png"], "robustness-map": ["--grid", "small", 
             "restrictions": [], "twist-sweep": [], "bench": ["physics"], "inspect": [],
             "export": ["p.npz", "--format", "csv"], "animate": ["p.npz", "--out", "x.mp4"], "wear-map": [],
             "robots": [], "plan": [], "station-plan": [], "demo": [], "eval": [], "train": ["stud_welding"],
-            "select-model": ["run"], "self-imitate": ["policy", "--out", "o"]}
+            "select-model": ["run"], "self-imitate": ["policy", "--out", "o"], "counterfactuals": ["--out", "o"],
+            "train-cost-model": ["--data", "d", "--out", "o"]}
 
 
 def _out_of_range(bounds):

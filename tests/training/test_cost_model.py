@@ -1,0 +1,161 @@
+"""The segment-cost model's data and fit: counterfactual labels, their independence of --jobs, restore, the MLP."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("sb3_contrib")
+
+from dresspack.training.cost_config import cost_config_from_dict, load_cost_config  # noqa: E402
+
+from dresspack_gym.errors import ConfigError  # noqa: E402
+
+# A cheap env (10-degree joint steps at a 4 ms physics step, one decision per episode) and an untrained policy:
+# the labels' bookkeeping is under test here, not the shipped policy's quality.
+TINY_ENV = {"goal_action": True, "wear_integral": True, "settle_time": 0.0, "sim_timestep": 0.004,
+            "collision_margin": 0.005, "start_noise_deg": 5.0, "max_steps": 1, "tasks": [["sill_front"]]}
+
+
+@pytest.fixture(scope="module")
+def tiny_policy(tmp_path_factory):
+    import gymnasium as gym
+    from sb3_contrib import MaskablePPO
+
+    import dresspack_gym  # noqa: F401
+
+    folder = tmp_path_factory.mktemp("tiny_policy")
+    env = gym.make("dresspack_gym/StudWelding-v0", **TINY_ENV)
+    MaskablePPO("MlpPolicy", env, policy_kwargs={"net_arch": [8]}, seed=0, device="cpu").save(folder / "model.zip")
+    (folder / "config.yaml").write_text(yaml.safe_dump({"env_id": "dresspack_gym/StudWelding-v0",
+                                                        "env_kwargs": TINY_ENV}))
+    return env.unwrapped, folder
+
+
+def test_labels_are_the_same_for_one_and_two_jobs_and_a_resumed_run_remakes_only_missing_episodes(tiny_policy,
+                                                                                                  tmp_path):
+    from dresspack.training.counterfactuals import generate, load_counterfactuals, shard_path
+
+    _, folder = tiny_policy
+    cfg = cost_config_from_dict({"counterfactuals": {"policy": str(folder), "episodes": 2, "seed": 7,
+                                                     "rollout": "sample"}}).counterfactuals
+    one = generate(cfg, tmp_path / "one", jobs=1, progress=False)
+    two = generate(cfg, tmp_path / "two", jobs=2, progress=False)
+    a, b = load_counterfactuals(tmp_path / "one"), load_counterfactuals(tmp_path / "two")
+    assert one["rows"] == two["rows"] == len(a["action"]) > 10 and one["episodes"] == 2
+    assert set(a) == set(b) and all(np.array_equal(a[k], b[k]) for k in a)
+    assert a["chosen"].sum() == 2 and (a["time"] > 0).any() and (a["wear"] > 0).any()
+    assert not np.array_equal(a["obs"][a["episode"] == 0][0], a["obs"][a["episode"] == 1][0])  # own seeds
+    shard_path(tmp_path / "one", 1).unlink()
+    again = generate(cfg, tmp_path / "one", jobs=1, progress=False)
+    assert again["sessions"][-1]["episodes"] == 1 and again["rows"] == one["rows"]
+    assert all(np.array_equal(a[k], v) for k, v in load_counterfactuals(tmp_path / "one").items())
+    # the model's stage on these labels: a run folder whose model predicts every row
+    from dresspack.agents.learned.cost_model import CostModel
+    from dresspack.training.train_cost_model import train_cost_model
+
+    study = cost_config_from_dict({"model": {"hidden": [8], "epochs": 2, "held_out": 0.5}})
+    metrics = train_cost_model(study, tmp_path / "one", tmp_path / "model", tensorboard=False)
+    assert metrics["rows"] == one["rows"] and metrics["held_out"]["states"] == 1
+    cost = CostModel.load(tmp_path / "model" / "model.pt").predict(a["obs"], a["action"], a["target"], a["q"])
+    assert cost.shape == a["time"].shape and np.isfinite(cost).all()
+    with pytest.raises(ConfigError, match="^counterfactuals.seed"):
+        generate(cost_config_from_dict({"counterfactuals": {"policy": str(folder), "episodes": 2,
+                                                            "seed": 8}}).counterfactuals, tmp_path / "one")
+
+
+def test_counterfactuals_leave_the_env_as_it_was():
+    import gymnasium as gym
+    from dresspack.training.counterfactuals import counterfactual_rows
+
+    twin = gym.make("dresspack_gym/StudWelding-v0", **{**TINY_ENV, "max_steps": 3}).unwrapped
+    env = gym.make("dresspack_gym/StudWelding-v0", **{**TINY_ENV, "max_steps": 3}).unwrapped
+    obs, _ = env.reset(seed=3)
+    twin.reset(seed=3)
+    for _ in range(2):
+        masks = env.action_masks()
+        a = int(np.flatnonzero(masks)[0])
+        rows, kept = counterfactual_rows(env, obs, masks)
+        assert kept is None
+        assert [r["action"] for r in rows] == np.flatnonzero(masks).tolist()
+        assert len({round(r["time"] + r["wear"], 9) for r in rows}) > 1  # the actions really were simulated
+        assert np.array_equal(env.action_masks(), twin.action_masks())
+        obs, reward, terminated, truncated, info = env.step(a)
+        t_obs, t_reward, t_terminated, t_truncated, t_info = twin.step(a)
+        assert np.array_equal(obs, t_obs) and reward == t_reward and (terminated, truncated) == (t_terminated,
+                                                                                                t_truncated)
+        assert info["integral_cost"] == t_info["integral_cost"] and info["cycle_time"] == t_info["cycle_time"]
+        assert np.array_equal(env.sim.get_state(), twin.sim.get_state())
+
+
+def _synthetic(episodes=12, steps=3, n_actions=6, seed=0):
+    """Rows whose cost is a smooth function of the action's joint change: a model must learn it from features."""
+    rng = np.random.default_rng(seed)
+    rows = {k: [] for k in ("obs", "action", "target", "q", "time", "wear", "episode", "step", "chosen")}
+    for e in range(episodes):
+        for s in range(steps):
+            q = rng.uniform(-1, 1, 6)
+            obs = np.concatenate([q, rng.normal(size=4)]).astype(np.float32)
+            for a in range(n_actions):
+                target = q + rng.uniform(-1, 1, 6)
+                move = np.abs(target - q).sum()
+                for k, v in zip(rows, (obs, a, target, q, 0.5 + move, 2.0 * move ** 2 + 0.3 * a, e, s, a == 0)):
+                    rows[k].append(v)
+    return {k: np.array(v) for k, v in rows.items()}, n_actions
+
+
+def test_the_cost_model_fits_a_tiny_dataset_and_ranks_held_out_actions(tmp_path):
+    from dresspack.agents.learned.cost_model import CostModel, features, fit, labels, rank_metrics, state_ids
+
+    data, n_actions = _synthetic(episodes=24)
+    model, record = fit(data, n_actions, hidden=(64, 64), target="log", loss="huber", parts=True, epochs=60,
+                        batch_size=32, learning_rate=3e-3, weight_decay=0.0, held_out=0.25, seed=0)
+    assert record["train_loss"][-1] < 0.1 * record["train_loss"][0]
+    held = np.isin(data["episode"], record["held_out_episodes"])
+    assert 0 < held.sum() < len(held) and len(record["held_out_episodes"]) == 6
+    x = features(data["obs"], data["action"], data["target"], data["q"], n_actions)
+    predicted = model.predict_all(x)
+    assert predicted.shape == (len(x), 3)
+    m = rank_metrics(predicted[held, 0], labels(data, False)[held, 0], state_ids(data)[held], data["chosen"][held])
+    assert m["spearman_global"] > 0.8 and m["spearman_per_state_mean"] > 0.6 and m["states"] == 18
+    model.save(tmp_path / "m.pt")
+    again = CostModel.load(tmp_path / "m.pt")
+    assert np.allclose(again.predict(data["obs"], data["action"], data["target"], data["q"]), predicted[:, 0])
+    perfect = rank_metrics(labels(data, False)[:, 0], labels(data, False)[:, 0], state_ids(data))
+    assert perfect["spearman_global"] == perfect["spearman_per_state_mean"] == perfect["top1_agreement"] == 1.0
+    assert perfect["mean_regret"] == 0.0
+
+
+@pytest.mark.parametrize("data, field", [
+    ({"model": {"loss": "l1"}}, "model.loss"),
+    ({"model": {"hidden": [0]}}, "model.hidden"),
+    ({"model": {"held_out": 0.0}}, "model.held_out"),
+    ({"model": {"epoch": 3}}, "model.epoch"),
+    ({"counterfactuals": {"rollout": "greedy"}}, "counterfactuals.rollout"),
+    ({"counterfactuals": {"episodes": 0}}, "counterfactuals.episodes"),
+    ({"counterfactuals": {"env_kwargs": {"action_set": "joint_steps"}}}, "counterfactuals.env_kwargs.action_set"),
+])
+def test_bad_cost_config_fields_are_named(data, field):
+    with pytest.raises(ConfigError) as err:
+        cost_config_from_dict(data)
+    assert err.value.field == field
+
+
+def test_the_shipped_cost_config_loads_and_the_cli_names_a_bad_field(tmp_path, capsys):
+    from dresspack.training.counterfactuals import add_counterfactuals_command
+    from dresspack.training.train_cost_model import add_train_cost_model_command
+
+    from dresspack_gym.cli.main import main
+
+    cfg = load_cost_config("cost_model")
+    assert cfg.counterfactuals.policy == "goal_conditioned" and cfg.model.held_out > 0
+    assert cost_config_from_dict(cfg.to_dict()) == cfg
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump({"model": {"target": "sqrt"}}))
+    commands = [add_counterfactuals_command, add_train_cost_model_command]
+    assert main(["counterfactuals", "--config", str(bad), "--out", str(tmp_path / "x")], extensions=commands) == 2
+    assert "model.target" in capsys.readouterr().err
+    assert main(["train-cost-model", "--data", str(tmp_path), "--out", str(tmp_path / "m")], extensions=commands) == 2
+    assert "--data" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()

@@ -1,0 +1,109 @@
+"""Segment-cost study configuration (counterfactual data, cost model): frozen dataclasses read strictly from YAML."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from dresspack_gym.cli.args import MAX_SEED
+from dresspack_gym.errors import ConfigError
+from dresspack_gym.fields import Section
+from dresspack_gym.io.loading import read_yaml
+from dresspack_gym.shipped import find_shipped
+
+ROLLOUTS = ("argmax", "sample")
+TARGETS = ("log", "linear")  # regress log(1 + cost) or the cost itself
+LOSSES = ("huber", "mse")
+MAX_EPISODES = 100_000
+# The policy's env may differ only in how episodes are drawn: the action set and the observation must stay the
+# policy's (and the cost model's inputs with them).
+ENV_OVERRIDES = ("start_noise_deg", "part_welds", "weld_tilt_deg", "max_steps")
+
+
+@dataclass(frozen=True)
+class CounterfactualConfig:
+    """Which states are visited (the policy's rollouts) and how many."""
+
+    policy: str = "goal_conditioned"  # shipped policy name, run folder or model .zip (its config.yaml gives the env)
+    episodes: int = 150
+    seed: int = 0  # episode k resets the env (and torch, for sampled actions) from (seed, k) alone
+    rollout: str = "sample"  # the visited states: the most probable action each step, or actions sampled
+    env_kwargs: dict = field(default_factory=dict)  # overrides of the policy's env, from ENV_OVERRIDES
+
+
+@dataclass(frozen=True)
+class CostModelConfig:
+    """The MLP and its fit."""
+
+    hidden: tuple[int, ...] = (256, 256)
+    target: str = "log"
+    loss: str = "huber"
+    parts: bool = True  # also regress the time and the wear integral (extra heads; the ranking uses the total)
+    epochs: int = 150
+    batch_size: int = 256
+    learning_rate: float = 1e-3
+    weight_decay: float = 1e-4
+    held_out: float = 0.2  # fraction of the episodes (never of rows: a state's actions stay together)
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class CostStudyConfig:
+    name: str = "cost_model"
+    counterfactuals: CounterfactualConfig = CounterfactualConfig()
+    model: CostModelConfig = CostModelConfig()
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["model"]["hidden"] = list(self.model.hidden)
+        return d
+
+
+def load_cost_config(ref: str | Path) -> CostStudyConfig:
+    """Read a cost-model config by path or by name in configs/training/ (e.g. ``cost_model``)."""
+    path = find_shipped(ref, "training", "config")
+    return cost_config_from_dict(read_yaml(path, "config"), default_name=path.stem)
+
+
+def cost_config_from_dict(data: dict, default_name: str = "cost_model") -> CostStudyConfig:
+    s = Section(data, "")
+    dc, dm = CounterfactualConfig(), CostModelConfig()
+    c = s.section("counterfactuals", {})
+    env_kwargs = c.raw("env_kwargs", {})
+    if not isinstance(env_kwargs, dict):
+        raise ConfigError("counterfactuals.env_kwargs", f"expected a mapping, got {env_kwargs!r}")
+    for key in env_kwargs:
+        if key not in ENV_OVERRIDES:
+            raise ConfigError(f"counterfactuals.env_kwargs.{key}", f"not an episode-drawing setting; allowed: "
+                                                                    f"{list(ENV_OVERRIDES)} (the action set and "
+                                                                    "observation stay the policy's)")
+    counterfactuals = CounterfactualConfig(
+        policy=c.string("policy", dc.policy),
+        episodes=c.integer("episodes", dc.episodes, lo=1, hi=MAX_EPISODES),
+        seed=c.integer("seed", dc.seed, lo=0, hi=MAX_SEED),
+        rollout=c.string("rollout", dc.rollout, choices=ROLLOUTS),
+        env_kwargs=dict(env_kwargs),
+    )
+    c.done()
+    m = s.section("model", {})
+    hidden = m.raw("hidden", list(dm.hidden))
+    if not (isinstance(hidden, list) and hidden and all(isinstance(n, int) and not isinstance(n, bool) and n > 0
+                                                        for n in hidden)):
+        raise ConfigError("model.hidden", f"expected a list of positive layer widths, got {hidden!r}")
+    model = CostModelConfig(
+        hidden=tuple(hidden),
+        target=m.string("target", dm.target, choices=TARGETS),
+        loss=m.string("loss", dm.loss, choices=LOSSES),
+        parts=m.boolean("parts", dm.parts),
+        epochs=m.integer("epochs", dm.epochs, lo=1, hi=100_000),
+        batch_size=m.integer("batch_size", dm.batch_size, lo=1),
+        learning_rate=m.number("learning_rate", dm.learning_rate, lo=0.0, lo_open=True, hi=1.0),
+        weight_decay=m.number("weight_decay", dm.weight_decay, lo=0.0, hi=1.0),
+        held_out=m.number("held_out", dm.held_out, lo=0.0, lo_open=True, hi=0.9),
+        seed=m.integer("seed", dm.seed, lo=0, hi=MAX_SEED),
+    )
+    m.done()
+    cfg = CostStudyConfig(name=s.string("name", default_name), counterfactuals=counterfactuals, model=model)
+    s.done()
+    return cfg

@@ -1,0 +1,264 @@
+"""``dresspack counterfactuals``: every unmasked action simulated from each state a policy visits, as cost labels.
+
+    dresspack counterfactuals --config configs/training/cost_model.yaml --out runs/cost/data --jobs 2
+
+The policy rolls out on drawn episodes; at each state it visits, every allowed action is stepped from a snapshot
+(restored after each) and one row per action records the observation, the action, its target configuration, the
+step's time [s] and wear integral ∫C dt (unscaled, uncapped), and whether it reached the goal. Episode k is seeded
+from (seed, k) alone, so the labels do not depend on the number of processes. Output folder: ``spec.json`` (the
+settings the shards were made with), ``episodes/ep_<k>.npz`` (one shard per finished episode: a resumed run skips
+them) and ``summary.json`` (rows, and each session's labels per minute).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import multiprocessing
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from dresspack_gym.cli.args import ALL_CORES, MAX_JOBS, number, output_dir
+from dresspack_gym.errors import ConfigError
+
+from .cost_config import CostStudyConfig, CounterfactualConfig, load_cost_config
+
+# the settings that decide the labels: a resumed run must match them (episodes may grow, jobs may change)
+SPEC_FIELDS = ("policy", "seed", "rollout", "env_kwargs")
+WEAR_PARTS = ("curvature", "tension", "distance", "twist", "damage")
+
+_worker: dict = {}  # the process's env and policy, built once by _init_worker
+
+
+def episode_seed(seed: int, index: int) -> int:
+    """The reset (and torch) seed of episode ``index``: a function of (seed, index) only."""
+    return int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
+
+
+def policy_env(cfg: CounterfactualConfig) -> tuple[Path, str, dict]:
+    """(model file, env id, env kwargs): the policy's training env with the config's episode overrides."""
+    from dresspack.agents.learned.policy import resolve_policy
+
+    model_path, train_cfg = resolve_policy(cfg.policy)
+    env_kwargs = {**(train_cfg.get("env_kwargs") or {}), **cfg.env_kwargs}
+    return model_path, train_cfg.get("env_id", "dresspack_gym/StudWelding-v0"), env_kwargs
+
+
+def _init_worker(model_path: str, env_id: str, env_kwargs: dict) -> None:
+    import gymnasium as gym
+    import torch
+    from sb3_contrib import MaskablePPO
+
+    import dresspack_gym  # noqa: F401  (registers the env ids in a spawned process)
+
+    torch.set_num_threads(1)  # one process per core
+    _worker["env"] = gym.make(env_id, **env_kwargs).unwrapped
+    _worker["model"] = MaskablePPO.load(model_path, device="cpu")
+
+
+def counterfactual_rows(env, state_obs: np.ndarray, masks: np.ndarray, keep: int | None = None
+                        ) -> tuple[list[dict], tuple | None]:
+    """Step every allowed action from where ``env`` stands, restoring it after each; returns one row per action
+    and, for action ``keep``, the snapshot and step result after it (the episode continues from there without
+    stepping that action again)."""
+    snap, q = env.snapshot(), env.q
+    reached_before = env.goal_index
+    rows, kept = [], None
+    for a in np.flatnonzero(masks):
+        a = int(a)
+        target = env.target(q, a)
+        result = env.step(a)
+        obs, reward, terminated, truncated, info = result
+        rows.append({"obs": state_obs, "action": a, "target": target, "q": q, "time": info["step_time"],
+                     "wear": info["integral_cost"],
+                     "wear_parts": [info[f"integral_cost_{k}"] for k in WEAR_PARTS],
+                     "reached": info["goals_reached"] > reached_before, "terminated": terminated})
+        if a == keep:
+            kept = (env.snapshot(), result)
+        env.restore(snap)
+    return rows, kept
+
+
+def run_episode(env, model, index: int, seed: int, rollout: str) -> dict:
+    """One episode: the policy's rollout from episode ``index``'s seed, with every state's counterfactuals."""
+    import torch
+
+    s = episode_seed(seed, index)
+    torch.manual_seed(s)
+    obs, _ = env.reset(seed=s)
+    rows, done, step, total, info = [], False, 0, 0.0, {}
+    while not done:
+        masks = env.action_masks()
+        action, _ = model.predict(obs, action_masks=masks, deterministic=rollout == "argmax")
+        action = int(action)
+        state_rows, (snap, (obs, reward, terminated, truncated, info)) = counterfactual_rows(env, obs, masks, action)
+        for r in state_rows:
+            r.update(step=step, chosen=r["action"] == action)
+        rows += state_rows
+        env.restore(snap)
+        total, done, step = total + reward, terminated or truncated, step + 1
+    return {"index": index, "seed": s, "rows": rows, "success": bool(info.get("is_success", False)),
+            "return": total, "states": step}
+
+
+def _episode_job(job: tuple[int, int, str]) -> dict:
+    index, seed, rollout = job
+    return run_episode(_worker["env"], _worker["model"], index, seed, rollout)
+
+
+def shard_arrays(result: dict) -> dict[str, np.ndarray]:
+    """An episode's rows as arrays (one entry per row), as written to its shard."""
+    rows = result["rows"]
+    col = lambda k, dtype: np.array([r[k] for r in rows], dtype=dtype)  # noqa: E731
+    n = len(rows)
+    return {"obs": col("obs", np.float32), "action": col("action", np.int64), "target": col("target", np.float64),
+            "q": col("q", np.float64), "time": col("time", np.float64), "wear": col("wear", np.float64),
+            "wear_parts": col("wear_parts", np.float64).reshape(n, len(WEAR_PARTS)),
+            "reached": col("reached", bool), "terminated": col("terminated", bool), "chosen": col("chosen", bool),
+            "step": col("step", np.int64), "episode": np.full(n, result["index"], dtype=np.int64),
+            "episode_seed": np.array(result["seed"], dtype=np.int64),
+            "episode_success": np.array(result["success"]), "episode_return": np.array(result["return"])}
+
+
+def shard_path(out: Path, index: int) -> Path:
+    return out / "episodes" / f"ep_{index:06d}.npz"
+
+
+def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progress: bool = True,
+             max_minutes: float | None = None) -> dict:
+    """Write the shards of episodes 0 .. cfg.episodes - 1 not yet in ``out`` (resumable); returns the summary.
+    With ``max_minutes`` no episode is written after that much wall time (those under way are dropped: a later
+    run with the same settings makes them)."""
+    from tqdm.auto import tqdm
+
+    out = Path(out)
+    spec = {k: getattr(cfg, k) for k in SPEC_FIELDS}
+    model_path, env_id, env_kwargs = policy_env(cfg)
+    spec["policy_file"] = str(model_path.resolve())
+    (out / "episodes").mkdir(parents=True, exist_ok=True)
+    spec_file = out / "spec.json"
+    if spec_file.is_file():
+        old = json.loads(spec_file.read_text())
+        changed = [k for k in (*SPEC_FIELDS, "policy_file") if old.get(k) != spec[k]]
+        if changed:
+            raise ConfigError(f"counterfactuals.{changed[0]}",
+                              f"{out} holds labels made with {changed[0]}={old.get(changed[0])!r}, not "
+                              f"{spec[changed[0]]!r}: use another --out folder")
+    spec_file.write_text(json.dumps(spec, indent=2) + "\n")
+    todo = [(k, cfg.seed, cfg.rollout) for k in range(cfg.episodes) if not shard_path(out, k).is_file()]
+    jobs = max(1, min(jobs, len(todo)))
+    init = (str(model_path), env_id, env_kwargs)
+    # a wrong env argument fails here, naming the field, not inside a worker (one process: its env is the check)
+    if todo:
+        _checked(_init_worker if jobs == 1 else _check_env, *init)
+    t0, cpu0, labels, written = time.perf_counter(), _cpu_time(), 0, 0
+    bar = tqdm(total=cfg.episodes, initial=cfg.episodes - len(todo), unit="episode", desc="counterfactuals",
+               disable=not progress or not todo, file=sys.stderr)
+    if jobs > 1:
+        # spawn: each worker builds its own MuJoCo model, torch and env from nothing the parent holds
+        pool = multiprocessing.get_context("spawn").Pool(jobs, initializer=_init_worker, initargs=init)
+        results = pool.imap_unordered(_episode_job, todo)
+    else:
+        pool, results = None, map(_episode_job, todo)
+    with pool or contextlib.nullcontext(), bar:
+        for result in results:
+            arrays = shard_arrays(result)
+            path = shard_path(out, result["index"])
+            tmp = path.with_suffix(".tmp.npz")
+            np.savez(tmp, **arrays)
+            os.replace(tmp, path)  # a shard on disk is always a whole episode
+            labels, written = labels + len(result["rows"]), written + 1
+            bar.update(1)
+            bar.set_postfix(labels=labels)
+            if max_minutes is not None and time.perf_counter() - t0 > 60.0 * max_minutes:
+                break
+        if pool is not None:
+            pool.terminate()  # nothing is left to do but what a time budget cut short
+            pool.join()  # the workers' CPU time counts once they are waited for
+    wall, cpu = time.perf_counter() - t0, _cpu_time() - cpu0
+    return _write_summary(out, written, labels, wall, cpu, jobs)
+
+
+def _check_env(model_path: str, env_id: str, env_kwargs: dict) -> None:
+    import gymnasium as gym
+
+    gym.make(env_id, **env_kwargs).close()
+
+
+def _checked(build, *args) -> None:
+    try:
+        build(*args)
+    except TypeError as exc:
+        raise ConfigError("counterfactuals.env_kwargs", f"{exc}; see DresspackEnv's arguments") from None
+    except ConfigError as exc:
+        raise ConfigError(f"counterfactuals.env_kwargs.{exc.field}", str(exc).split(": ", 1)[-1]) from None
+
+
+def _cpu_time() -> float:
+    """CPU seconds of this process and its finished children: labels per CPU minute do not depend on what else
+    runs on the machine, labels per wall minute do."""
+    import resource
+
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+def _write_summary(out: Path, episodes: int, labels: int, wall: float, cpu: float, jobs: int) -> dict:
+    path = out / "summary.json"
+    sessions = json.loads(path.read_text())["sessions"] if path.is_file() else []
+    if episodes:
+        sessions.append({"episodes": episodes, "labels": labels, "jobs": jobs, "wall_time_s": round(wall, 1),
+                         "cpu_time_s": round(cpu, 1), "labels_per_min": round(60.0 * labels / wall, 1),
+                         "labels_per_cpu_min": round(60.0 * labels / cpu, 1) if cpu > 0 else None})
+    data = load_counterfactuals(out)
+    summary = {"episodes": int(len(np.unique(data["episode"]))) if data else 0,
+               "rows": int(len(data["action"])) if data else 0,
+               "states": int(len(np.unique(np.stack([data["episode"], data["step"]]), axis=1)[0])) if data else 0,
+               "sessions": sessions}
+    path.write_text(json.dumps(summary, indent=2) + "\n")
+    return summary
+
+
+def load_counterfactuals(folder: str | Path, episodes: int | None = None) -> dict[str, np.ndarray]:
+    """Every shard's rows in episode order (the first ``episodes`` shards if given); empty dict if none."""
+    paths = sorted((Path(folder) / "episodes").glob("ep_*[0-9].npz"))[:episodes]
+    per_row = ("obs", "action", "target", "q", "time", "wear", "wear_parts", "reached", "terminated", "chosen",
+               "step", "episode")
+    shards = [np.load(p) for p in paths]
+    return {k: np.concatenate([s[k] for s in shards]) for k in per_row} if shards else {}
+
+
+def add_counterfactuals_command(sub) -> None:
+    p = sub.add_parser("counterfactuals", help="simulate every allowed action from the states a policy visits "
+                                               "(cost labels for the segment-cost model)",
+                       description=__doc__.split("\n")[0] + " Resumable: finished episodes are skipped.")
+    p.add_argument("--config", default="cost_model",
+                   help="cost-model YAML (path, or a name in configs/training/; default cost_model)")
+    p.add_argument("--out", type=output_dir, required=True,
+                   help="data folder (episodes/ shards, spec.json, summary.json)")
+    p.add_argument("--episodes", type=number(1, 100_000, integer=True),
+                   help="episodes in all (default: the config's counterfactuals.episodes)")
+    p.add_argument("--jobs", type=number(1, MAX_JOBS, integer=True), default=ALL_CORES,
+                   help=f"worker processes; the labels are the same for any number (default {ALL_CORES}: all cores)")
+    p.add_argument("--max-minutes", type=number(0.0, None, lo_open=True),
+                   help="write no episode after this much wall time (the same command continues later)")
+    p.add_argument("--no-progress", action="store_true", help="draw no progress bar")
+    p.set_defaults(func=cmd_counterfactuals)
+
+
+def cmd_counterfactuals(args) -> int:
+    from dataclasses import replace
+
+    cfg: CostStudyConfig = load_cost_config(args.config)
+    cf = cfg.counterfactuals if args.episodes is None else replace(cfg.counterfactuals, episodes=args.episodes)
+    try:
+        summary = generate(cf, args.out, jobs=args.jobs, progress=not args.no_progress, max_minutes=args.max_minutes)
+    except KeyboardInterrupt:
+        print("\ninterrupted: the finished episodes are kept; the same command continues", file=sys.stderr)
+        return 130
+    print(json.dumps(summary, indent=2))
+    return 0

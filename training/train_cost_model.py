@@ -1,0 +1,105 @@
+"""``dresspack train-cost-model``: fit the segment-cost MLP on counterfactual labels, rank-test it on held-out data.
+
+    dresspack train-cost-model --config configs/training/cost_model.yaml --data runs/cost/data --out runs/cost/model
+
+Run folder: ``config.yaml`` (resolved), ``model.pt`` (network and normalisers, agents/learned/cost_model.py),
+``metrics.json`` (Spearman ρ globally and per state, top-1 agreement, the cost spread per state, on the held-out
+episodes and on the training ones), ``tb/`` (TensorBoard: both losses per epoch).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from dresspack_gym.cli.args import number, output_dir
+from dresspack_gym.errors import ConfigError
+
+from .cost_config import CostStudyConfig, load_cost_config
+
+
+def train_cost_model(cfg: CostStudyConfig, data_dir: str | Path, out: str | Path, *, episodes: int | None = None,
+                     tensorboard: bool = True) -> dict:
+    """Fit on ``data_dir``'s shards (the first ``episodes`` if given), write the run folder; returns the metrics."""
+    import torch
+    from dresspack.agents.learned.cost_model import features, fit, labels, rank_metrics, state_ids
+
+    from .counterfactuals import load_counterfactuals
+
+    torch.set_num_threads(1)  # a small MLP; the cores are the data generation's
+    data = load_counterfactuals(data_dir, episodes)
+    if not data:
+        raise ConfigError("--data", f"{data_dir} holds no counterfactual shards (episodes/ep_*.npz)")
+    spec = json.loads((Path(data_dir) / "spec.json").read_text())
+    n_actions = _n_actions(spec["policy_file"])
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "config.yaml").write_text(yaml.safe_dump({**cfg.to_dict(), "data": str(data_dir)}, sort_keys=False))
+    writer = None
+    if tensorboard:
+        from torch.utils.tensorboard import SummaryWriter
+
+        writer = SummaryWriter(str(out / "tb"))
+
+    def log(epoch, train_loss, held_loss):
+        if writer is not None:
+            writer.add_scalar("cost_model/train_loss", train_loss, epoch)
+            writer.add_scalar("cost_model/held_out_loss", held_loss, epoch)
+
+    model, record = fit(data, n_actions, log=log, **asdict(cfg.model))
+    if writer is not None:
+        writer.close()
+    x = features(data["obs"], data["action"], data["target"], data["q"], n_actions)
+    predicted = model.predict_all(x)[:, 0]
+    true = labels(data, False)[:, 0]
+    states = state_ids(data)
+    held = np.isin(data["episode"], record["held_out_episodes"])
+    # an action whose target is where the robot stands (a via it already is at) costs nothing and tops every
+    # state's ranking: the moves alone say how well the model orders real alternatives
+    moving = held & (np.abs(data["target"] - data["q"]).max(axis=1) > 0)
+    metrics = {"held_out": rank_metrics(predicted[held], true[held], states[held], data["chosen"][held]),
+               "held_out_moves_only": rank_metrics(predicted[moving], true[moving], states[moving]),
+               "train": rank_metrics(predicted[~held], true[~held], states[~held], data["chosen"][~held]),
+               "episodes": int(len(set(data["episode"].tolist()))), "rows": int(len(true)),
+               "held_out_episodes": record["held_out_episodes"],
+               "final_train_loss": record["train_loss"][-1], "final_held_out_loss": record["held_out_loss"][-1],
+               "loss_by_epoch": {"train": record["train_loss"], "held_out": record["held_out_loss"]}}
+    model.save(out / "model.pt", extra={"policy_file": spec["policy_file"]})
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    return metrics
+
+
+def _n_actions(policy_file: str) -> int:
+    from sb3_contrib import MaskablePPO
+
+    return int(MaskablePPO.load(policy_file, device="cpu").action_space.n)
+
+
+def add_train_cost_model_command(sub) -> None:
+    p = sub.add_parser("train-cost-model", help="fit the segment-cost model on counterfactual labels and rank-test it",
+                       description=__doc__.split("\n")[0])
+    p.add_argument("--config", default="cost_model",
+                   help="cost-model YAML (path, or a name in configs/training/; default cost_model)")
+    p.add_argument("--data", required=True, help="folder written by dresspack counterfactuals")
+    p.add_argument("--out", type=output_dir, required=True, help="run folder (model.pt, metrics.json, tb/)")
+    p.add_argument("--episodes", type=number(2, 100_000, integer=True),
+                   help="use only the first N episodes' shards (learning curves)")
+    p.add_argument("--force", action="store_true", help="replace a model already in --out")
+    p.set_defaults(func=cmd_train_cost_model)
+
+
+def cmd_train_cost_model(args) -> int:
+    if (Path(args.out) / "model.pt").exists() and not args.force:
+        raise ConfigError("--out", f"{args.out} already holds a model.pt: choose another --out or replace it with "
+                                   "--force")
+    metrics = train_cost_model(load_cost_config(args.config), args.data, args.out, episodes=args.episodes)
+    h = metrics["held_out"]
+    per_state = "-" if h["spearman_per_state_mean"] is None else f"{h['spearman_per_state_mean']:.3f}"
+    print(json.dumps({k: metrics[k] for k in ("episodes", "rows", "final_train_loss", "final_held_out_loss")}))
+    print(f"held out ({h['rows']} rows, {h['states']} states): Spearman global {h['spearman_global']:.3f}, per state "
+          f"{per_state}, top-1 {100 * h['top1_agreement']:.1f} %; run folder {args.out}")
+    return 0
