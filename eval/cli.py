@@ -8,14 +8,14 @@ from .runs import EvalSpec
 # ompl-wear-fmt is left out: the default station ships no wear map, where it plans exactly as ompl-wear does
 DEMO = EvalSpec(methods=("ppo", "ompl", "thesis-local", "ompl-wear", "random"),
                 tasks=(("sill_rear", "roof_rail_top"), ("b_pillar_outer", "sill_front"), ("floor_pan_inner",)),
-                seeds=(0, 1), evaluations=20, routes=8)  # about 13 min of CPU, spread over --jobs processes
+                seeds=(0, 1), evaluations=20, routes=8)  # about 9 min of CPU, spread over --jobs processes
 
 
 def add_demo_command(sub) -> None:
     p = sub.add_parser("demo", help="the shipped policy vs the OMPL baselines on the default station: a report",
                        description="Runs ppo (the shipped policy), ompl, thesis-local, ompl-wear and a random "
                                    "masked floor on three tasks x two seeds, replays everything in the same "
-                                   "simulator and writes report.html / report.md (about 13 min of CPU, its runs "
+                                   "simulator and writes report.html / report.md (about 9 min of CPU, its runs "
                                    "spread over all cores: --jobs).")
     add_eval_arguments(p, DEMO)
     p.set_defaults(func=evaluate_and_report, out="out/demo")
