@@ -98,8 +98,9 @@ def cmd_train_cost_model(args) -> int:
                                    "--force")
     metrics = train_cost_model(load_cost_config(args.config), args.data, args.out, episodes=args.episodes)
     h = metrics["held_out"]
-    per_state = "-" if h["spearman_per_state_mean"] is None else f"{h['spearman_per_state_mean']:.3f}"
+    per_state, overall = ("-" if h[k] is None else f"{h[k]:.3f}"
+                          for k in ("spearman_per_state_mean", "spearman_global"))
     print(json.dumps({k: metrics[k] for k in ("episodes", "rows", "final_train_loss", "final_held_out_loss")}))
-    print(f"held out ({h['rows']} rows, {h['states']} states): Spearman global {h['spearman_global']:.3f}, per state "
+    print(f"held out ({h['rows']} rows, {h['states']} states): Spearman global {overall}, per state "
           f"{per_state}, top-1 {100 * h['top1_agreement']:.1f} %; run folder {args.out}")
     return 0

@@ -186,7 +186,9 @@ def rank_metrics(predicted: np.ndarray, true: np.ndarray, states: np.ndarray, ch
             per_state.append(float(spearmanr(p, t).statistic))
     spread = np.array(spread)
     out = {"rows": int(len(true)), "states": int(len(spread)),
-           "spearman_global": float(spearmanr(predicted, true).statistic),
+           # undefined (None, not NaN) when either side is constant, as a barely trained model's can be
+           "spearman_global": (float(spearmanr(predicted, true).statistic)
+                               if np.ptp(predicted) > 0 and np.ptp(true) > 0 else None),
            "spearman_per_state_mean": float(np.mean(per_state)) if per_state else None,
            "spearman_per_state_median": float(np.median(per_state)) if per_state else None,
            "states_ranked": len(per_state),

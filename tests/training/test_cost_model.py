@@ -125,6 +125,8 @@ def test_the_cost_model_fits_a_tiny_dataset_and_ranks_held_out_actions(tmp_path)
     perfect = rank_metrics(labels(data, False)[:, 0], labels(data, False)[:, 0], state_ids(data))
     assert perfect["spearman_global"] == perfect["spearman_per_state_mean"] == perfect["top1_agreement"] == 1.0
     assert perfect["mean_regret"] == 0.0
+    flat = rank_metrics(np.ones(len(data["action"])), labels(data, False)[:, 0], state_ids(data))
+    assert flat["spearman_global"] is None and flat["spearman_per_state_mean"] is None  # undefined, not NaN
 
 
 @pytest.mark.parametrize("data, field", [
