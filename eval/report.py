@@ -301,9 +301,13 @@ def _clips(rows, methods, out: Path, fig_dir: Path, replays: dict[str, Replay]) 
             row = next((r for r in rows if r["task"] == task and r["method"] == m and r["success"]), None)
             traj = load_trajectory(out, row) if row is not None else None
             if traj is not None:
-                clips.append(Clip(str(fig_dir / f"anim_{_slug(task)}_{_slug(m)}.mp4"), traj.waypoints, traj.stops,
+                clips.append(Clip(str(_clip_path(fig_dir, task, m)), traj.waypoints, traj.stops,
                                   replays.get(row["key"])))
     return clips
+
+
+def _clip_path(fig_dir: Path, task: str, method: str) -> Path:
+    return fig_dir / f"anim_{_slug(task)}_{_slug(method)}.mp4"
 
 
 def _animations(task: str, rows, methods, fig_dir: Path, figures: dict, explained: set[str]) -> list[tuple]:
@@ -311,7 +315,7 @@ def _animations(task: str, rows, methods, fig_dir: Path, figures: dict, explaine
     blocks = []
     for m in methods:
         row = next((r for r in rows if r["task"] == task and r["method"] == m and r["success"]), None)
-        path = fig_dir / f"anim_{_slug(task)}_{_slug(m)}.mp4"
+        path = _clip_path(fig_dir, task, m)
         if row is None or not path.is_file():
             continue
         figures[f"animation {task} {m}"] = str(path)

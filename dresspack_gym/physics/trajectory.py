@@ -216,7 +216,8 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     unconverged = 0
     for i, q in enumerate(traj.waypoints[1:], start=1):
         trace = sim.move_to(full(q), speed_fraction=speed_fraction, settle=i in stops, record_every=record_every,
-                            until=until, record_states=record_states, on_sample=sampled)
+                            until=until, record_states=record_states,
+                            on_sample=sampled if record_qpos or on_sample is not None else None)
         samples_t += trace.time
         if record_qpos:  # a move of no length records one sample without calling back
             samples_x += [sim.data.qpos.copy()] * (len(samples_t) - len(samples_x))
