@@ -30,6 +30,7 @@ def add_budget_arguments(p, iterations: int = DEFAULT_ITERATIONS, evaluations: i
 
 
 def add_plan_command(sub) -> None:
+    from .learned.policy import DEFAULT_POLICY
     from .planners.registry import PLANNERS
 
     p = sub.add_parser("plan", help="plan the station's weld cycle and measure it in the cable simulator")
@@ -53,8 +54,8 @@ def add_plan_command(sub) -> None:
     p.add_argument("--time-weight", type=number(0, MAX_TIME_WEIGHT, unit="per s"), default=None,
                    help="wear-aware planners only: cost of one second of cycle time against one unit of ∫C dt in "
                         "their leg cost (default 1; larger trades wear for speed)")
-    p.add_argument("--policy", default=None, help="ppo only: run folder, model .zip or shipped policy name "
-                                                  "(default: stud_welding)")
+    p.add_argument("--policy", default=None, help="ppo and ppo-search only: run folder, model .zip or shipped policy "
+                                                  f"name (default: {DEFAULT_POLICY})")
     p.add_argument("--plot", type=output_file, default=None,
                    help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3; missing folders are made)")
     p.add_argument("--out", type=output_file, default=None,

@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from dresspack.agents.cli import add_budget_arguments
+from dresspack.agents.learned.policy import DEFAULT_POLICY
 from dresspack.agents.planners.leg_cost import MAX_TIME_WEIGHT
 from dresspack.agents.planners.registry import PLANNERS
 
@@ -38,7 +39,7 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
     methods = "all" if set(defaults.methods) == set(PLANNERS) else " ".join(defaults.methods)
     tasks = " ".join(",".join(t) for t in defaults.tasks)
     if defaults.tasks == EvalSpec.tasks:
-        tasks += ": the two weld pairs held out from the shipped policy's training"
+        tasks += ": the two weld pairs held out from the stud_welding policy's training"
     add_station_argument(p, default=defaults.station)
     p.add_argument("--planners", "--methods", action=Renamed, nargs="+", choices=list(PLANNERS),
                    default=list(defaults.methods), metavar="NAME",
@@ -61,7 +62,8 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
                    help="> 0: each seed starts at a valid configuration within this many degrees of Home "
                         f"(default {defaults.start_noise_deg:g}: at Home)")
     p.add_argument("--policy", default=None,
-                   help="ppo/random: run folder, model .zip or shipped policy name (default: stud_welding)")
+                   help="ppo, ppo-search and random: run folder, model .zip or shipped policy name (default: "
+                        f"{DEFAULT_POLICY})")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default=defaults.cost_variant,
                    help="wear cost the wear-aware planners minimise and the tables report (default: %(default)s)")
     p.add_argument("--time-weight", type=number(0, MAX_TIME_WEIGHT, unit="per s"), default=defaults.time_weight,

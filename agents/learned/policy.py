@@ -20,7 +20,7 @@ from ..planners.base import Planner, PlanningError, out_of_time_error
 
 SHIPPED_IN = "dresspack.agents"  # the package whose data holds the shipped policies: agents/policies/<name>/
 POLICY_DIR = shipped_root(SHIPPED_IN) / "policies"
-DEFAULT_POLICY = "stud_welding"
+DEFAULT_POLICY = "goal_conditioned"  # any weld, any start; stud_welding: the default station's named welds
 ATTEMPTS = 3  # rollouts per task: the most probable action each step, then actions sampled (see PolicyPlanner)
 # Only the episode-sampling arguments differ between training and acting on a given task.
 _TRAINING_ONLY = ("tasks", "n_welds", "shuffle_welds", "welds", "start_noise_deg", "station", "render_mode")
@@ -67,6 +67,29 @@ class PolicyAgent:
     def predict(self, observation, action_masks, deterministic: bool = True) -> int:
         action, _ = self.model.predict(observation, action_masks=action_masks, deterministic=deterministic)
         return int(action)
+
+    def probabilities(self, observation, action_masks) -> np.ndarray:
+        """The masked policy's probability of every action (0 where masked)."""
+        import torch
+
+        policy = self.model.policy
+        obs, _ = policy.obs_to_tensor(observation)
+        with torch.no_grad():
+            dist = policy.get_distribution(obs, action_masks=np.asarray(action_masks)[None])
+            return dist.distribution.probs[0].cpu().numpy().astype(float)
+
+    def values(self, observations: np.ndarray) -> np.ndarray:
+        """The critic's estimate of the discounted return from each observation (one row each)."""
+        import torch
+
+        policy = self.model.policy
+        obs, _ = policy.obs_to_tensor(np.asarray(observations))
+        with torch.no_grad():
+            return policy.predict_values(obs)[:, 0].cpu().numpy().astype(float)
+
+    @property
+    def gamma(self) -> float:
+        return float(self.model.gamma)
 
 
 class RandomMaskedAgent:
@@ -129,10 +152,8 @@ class PolicyPlanner(Planner):
     def _plan(self, task: Task) -> tuple[Trajectory, dict]:
         if not np.allclose(task.end, self.env.placement.home):
             raise PlanningError("the policy's episodes end at Home; this task ends elsewhere")
-        modes = ["argmax"] if self.deterministic else ["sample"] * self.attempts if self.sample else \
-            ["argmax"] + ["sample"] * (self.attempts - 1)
         failures = []
-        for attempt, mode in enumerate(modes):
+        for attempt, mode in enumerate(self._modes()):
             try:
                 traj, info = self._rollout(task, mode)
             except _EpisodeFailed as exc:
@@ -141,33 +162,49 @@ class PolicyPlanner(Planner):
             return traj, {**info, "mode": mode, "attempts": attempt + 1}
         raise PlanningError("the policy did not finish the task (" + "; ".join(failures) + ")")
 
+    def _modes(self) -> list[str]:
+        """How each rollout chooses its actions, in the order they are tried."""
+        if self.deterministic:
+            return ["argmax"]
+        if self.sample:
+            return ["sample"] * self.attempts
+        return ["argmax"] + ["sample"] * (self.attempts - 1)
+
     def _rollout(self, task: Task, mode: str) -> tuple[Trajectory, dict]:
         env = self.env
         # the task's own goal configurations: named welds and welds drawn for an evaluation alike
         obs, info = env.reset(seed=self.seed, options={"goals": dict(zip(task.weld_names, task.goals)),
                                                        "start": task.start})
-        waypoints, stops, masked_taken = [env.q], [], 0
+        waypoints, stops, actions, masked_taken = [env.q], [], [], 0
         inference = 0.0  # the network alone; the rest of the planning time is the env (physics, masks)
         done = False
         while not done:
             if self.allowance.out_of_time():  # the work bound is the env's max_steps
                 raise out_of_time_error(self, f"after {env.steps} policy steps")
             masks = env.action_masks()
-            t0 = time.perf_counter()
-            action = self.agent.predict(obs, masks, deterministic=mode == "argmax")
-            inference += time.perf_counter() - t0
-            masked_taken += int(not masks[action])
             reached_before = info["goals_reached"]
-            obs, _, terminated, truncated, info = env.step(action)
+            action, (obs, _, terminated, truncated, info), seconds = self._step(obs, masks, mode)
+            inference += seconds
+            actions.append(int(action))
+            masked_taken += int(not masks[action])
             done = terminated or truncated
-            waypoints += [q for q in info["moved_through"] if not np.allclose(q, waypoints[-1], atol=1e-12)]
+            for q in info["moved_through"]:  # a move that ends on the goal passes it twice: once is a waypoint
+                if not np.allclose(q, waypoints[-1], atol=1e-12):
+                    waypoints.append(q)
             if info["goals_reached"] > reached_before:
                 stops.append(len(waypoints) - 1)
         if not info["is_success"]:
             raise _EpisodeFailed(f"{info['goals_reached']}/{info['n_goals']} goals in {env.max_steps} steps")
         traj = Trajectory(np.array(waypoints), tuple(stops))
-        return traj, {"policy": str(self.policy_path), "policy_steps": env.steps, "masked_actions": masked_taken,
-                      "inference_s": round(inference, 5)}
+        return traj, {"policy": str(self.policy_path), "policy_steps": env.steps, "actions": actions,
+                      "masked_actions": masked_taken, "inference_s": round(inference, 5)}
+
+    def _step(self, obs, masks, mode: str):
+        """Choose an action and take it: the action, ``env.step``'s return and the network's seconds."""
+        t0 = time.perf_counter()
+        action = self.agent.predict(obs, masks, deterministic=mode == "argmax")
+        seconds = time.perf_counter() - t0
+        return action, self.env.step(action), seconds
 
 
 class _EpisodeFailed(Exception):

@@ -14,6 +14,7 @@ from dresspack_gym.stations.station import Station
 from dresspack_gym.stations.tasks import Task, make_task
 
 from ..learned.policy import PolicyPlanner, RandomMaskedPlanner
+from ..learned.search import PolicySearchPlanner
 from .base import Planner, PlanResult
 from .budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES
 from .composed import OmplPlanner, ThesisLocalPlanner
@@ -21,6 +22,7 @@ from .wear_global import OmplFmtWearPlanner, OmplWearPlanner
 
 PLANNERS: dict[str, type[Planner]] = {p.name: p for p in (
     PolicyPlanner,
+    PolicySearchPlanner,
     OmplPlanner,
     ThesisLocalPlanner,
     OmplWearPlanner,

@@ -27,11 +27,16 @@ def station():
 
 @pytest.fixture(scope="module")
 def planner(station):
-    return PolicyPlanner(station, 0, time_budget=60)
+    return PolicyPlanner(station, 0, policy="stud_welding", time_budget=60)
+
+
+def test_default_policy_is_the_goal_conditioned_one():
+    model, _ = resolve_policy(None)
+    assert model == POLICY_DIR / "goal_conditioned" / "model.zip" and model.stat().st_size < 4_000_000
 
 
 def test_shipped_policy_matches_its_training_config():
-    model, config = resolve_policy(None)
+    model, config = resolve_policy("stud_welding")
     assert model == POLICY_DIR / "stud_welding" / "model.zip" and model.stat().st_size < 2_000_000
     cfg = load_train_config("stud_welding")
     assert config["env_kwargs"] == cfg.env_kwargs and config["total_timesteps"] == cfg.total_timesteps
@@ -79,7 +84,7 @@ def test_same_seed_same_trajectory(station, planner):
 def test_policy_errors(station, tmp_path):
     with pytest.raises(ConfigError, match="policy"):
         PolicyPlanner(station, 0, policy=tmp_path / "nowhere")
-    planner = PolicyPlanner(station, 0, time_budget=60)
+    planner = PolicyPlanner(station, 0, policy="stud_welding", time_budget=60)
     base = make_task(station, 0, planner.validity.checker.collides, ["sill_front"])
     away = Task(0, base.start, base.weld_names, base.goals, base.goals[0])
     with pytest.raises(PlanningError, match="Home"):

@@ -1,0 +1,152 @@
+"""``ppo-search``: the policy's most probable actions, each continued by the policy to the episode's end in the
+simulation; the cheapest finished continuation (cycle time + ∫C dt) chooses the step."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from dresspack_gym.env.dresspack_env import EnvSnapshot
+from dresspack_gym.errors import ConfigError
+from dresspack_gym.stations.station import Station
+from dresspack_gym.stations.tasks import Task
+
+from .policy import PolicyPlanner
+
+PROPOSALS = 3  # actions tried at every step: the policy's most probable allowed moves
+
+
+@dataclass
+class _Step:
+    """One simulated env step: its action, ``env.step``'s return and the state after it."""
+
+    action: int
+    result: tuple
+    after: EnvSnapshot
+    cost: float  # the planners' objective for this step: its seconds + its ∫C dt
+
+
+@dataclass
+class _Continuation:
+    """Steps from a state to the episode's end (or as far as they got); its cost is inf unless it finished."""
+
+    steps: list[_Step] = field(default_factory=list)
+    finished: bool = False
+
+    @property
+    def cost(self) -> float:
+        return sum(s.cost for s in self.steps) if self.finished else math.inf
+
+    @property
+    def first_action(self) -> int | None:
+        return self.steps[0].action if self.steps else None
+
+
+class PolicySearchPlanner(PolicyPlanner):
+    """``ppo-search``: a rollout search (policy iteration by simulation) on top of the policy.
+
+    At every step the policy's ``proposals`` most probable allowed moves are each simulated from an env snapshot
+    and continued by the policy's most probable actions to the episode's end; each is scored by its finished
+    continuation's cycle time + ∫C dt (the planners' objective at time weight 1), and the step of the cheapest
+    is taken. The best continuation found so far (the incumbent) is kept and reused, so only new proposals are
+    simulated, and a continuation is abandoned as soon as its cost so far passes the incumbent's (every step's cost
+    is positive). The incumbent at the start is the policy's own most probable rollout, and each step keeps a
+    continuation at most as dear as the one before, so the result never costs more than that rollout (in the env's
+    own simulation: the same physics profile the policy trained on).
+
+    ``proposals=1`` is the ``ppo`` planner's most probable rollout. If the search does not finish the task, the
+    ``ppo`` planner's sampled rollouts follow. Steps that leave the robot where it is (the wait, a via to where it
+    stands) are not proposed.
+    """
+
+    name = "ppo-search"
+    color = "#0b6e4f"
+
+    def __init__(self, station: Station, robot: int = 0, *, proposals: int = PROPOSALS, **kwargs):
+        if isinstance(proposals, bool) or not isinstance(proposals, (int, np.integer)) or not 1 <= proposals <= 64:
+            raise ConfigError("proposals", f"must be an integer in [1, 64], got {proposals!r}")
+        super().__init__(station, robot, **kwargs)
+        self.proposals = int(proposals)
+        self._simulated = 0
+        self._incumbent = _Continuation()  # the cheapest known continuation from the current state
+        self._network = 0.0
+
+    def _modes(self) -> list[str]:
+        return ["search"] if self.deterministic else ["search", *["sample"] * (self.attempts - 1)]
+
+    def _rollout(self, task: Task, mode: str):
+        self._simulated, self._incumbent, self._network = 0, _Continuation(), 0.0
+        self._policy_cost: float | None = None  # the policy's own rollout from the start (inf: unfinished)
+        self._cost = 0.0
+        traj, info = super()._rollout(task, mode)
+        if mode != "search":
+            return traj, info
+        # the objective in the env's own simulation: the search's path and the policy's most probable rollout
+        return traj, {**info, "simulated_steps": self._simulated, "objective": round(self._cost, 6),
+                      "policy_objective": _rounded(self._policy_cost),
+                      "inference_s": round(info["inference_s"] + self._network, 5)}
+
+    def _step(self, obs, masks, mode: str):
+        if mode != "search":
+            return super()._step(obs, masks, mode)
+        env = self.env
+        t0 = time.perf_counter()
+        probs = self.agent.probabilities(obs, masks)
+        seconds = time.perf_counter() - t0
+        before = env.snapshot()
+        if not self._incumbent.steps:  # the policy's own rollout from here
+            self._incumbent = self._continue(before, self.agent.predict(obs, masks, deterministic=True), math.inf)
+            if self._policy_cost is None:
+                self._policy_cost = self._incumbent.cost if self._incumbent.finished else math.inf
+        allowed = self._moves(np.flatnonzero(masks))
+        # most probable first; equal probabilities by action index, so the choice is reproducible
+        ranked = [int(a) for a in allowed[np.lexsort((allowed, -probs[allowed]))][:self.proposals]]
+        tried = {self._incumbent.first_action: self._incumbent}
+        best = self._incumbent
+        for a in ranked:
+            if a not in tried:
+                tried[a] = self._continue(before, a, best.cost)
+                if tried[a].cost < best.cost:
+                    best = tried[a]
+        if not best.finished:  # nothing finishes from here: the most probable move, and search again after it
+            best = tried[ranked[0]]
+        first = best.steps[0]
+        env.restore(first.after)
+        self._cost += first.cost
+        self._incumbent = _Continuation(best.steps[1:], True) if best.finished else _Continuation()
+        return first.action, first.result, seconds
+
+    def _continue(self, start: EnvSnapshot, action: int, bound: float) -> _Continuation:
+        """From ``start``: ``action``, then the policy's most probable actions to the episode's end, abandoned once
+        its cost reaches ``bound`` (unfinished)."""
+        env, steps, total = self.env, [], 0.0
+        env.restore(start)
+        while True:
+            result = env.step(action)
+            self._simulated += 1
+            obs, _, terminated, truncated, info = result
+            cost = info["step_time"] + info["integral_cost"]
+            total += cost
+            steps.append(_Step(action, result, env.snapshot(), cost))
+            if terminated or truncated or total >= bound:
+                return _Continuation(steps, bool(terminated and info["is_success"] and total < bound))
+            t0 = time.perf_counter()
+            action = self.agent.predict(obs, env.action_masks(), deterministic=True)
+            self._network += time.perf_counter() - t0
+
+    def _moves(self, allowed: np.ndarray) -> np.ndarray:
+        """The allowed actions that move the robot (all allowed ones if none does): a step that stays where it is
+        changes nothing a search could prefer it for."""
+        env = self.env
+        q = env.q
+        moving = np.array([a for a in allowed if a != env.stay_action
+                           and not np.allclose(env.target(q, int(a)), q, atol=1e-9)], dtype=int)
+        return moving if len(moving) else allowed
+
+
+def _rounded(cost: float | None) -> float | None:
+    """For the plan's info (JSON): None where the policy's rollout did not finish."""
+    return round(cost, 6) if cost is not None and math.isfinite(cost) else None
