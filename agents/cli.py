@@ -31,6 +31,7 @@ def add_budget_arguments(p, iterations: int = DEFAULT_ITERATIONS, evaluations: i
 
 def add_plan_command(sub) -> None:
     from .learned.policy import DEFAULT_POLICY
+    from .learned.search import MAX_PROPOSALS, PROPOSALS
     from .planners.registry import PLANNERS
 
     p = sub.add_parser("plan", help="plan the station's weld cycle and measure it in the cable simulator")
@@ -56,6 +57,9 @@ def add_plan_command(sub) -> None:
                         "their leg cost (default 1; larger trades wear for speed)")
     p.add_argument("--policy", default=None, help="ppo and ppo-search only: run folder, model .zip or shipped policy "
                                                   f"name (default: {DEFAULT_POLICY})")
+    p.add_argument("--proposals", type=number(1, MAX_PROPOSALS, integer=True), default=None,
+                   help="ppo-search only: the policy's most probable moves each step tries, each continued by the "
+                        f"policy to the end (default {PROPOSALS}; 1: the policy's own rollout)")
     p.add_argument("--plot", type=output_file, default=None,
                    help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3; missing folders are made)")
     p.add_argument("--out", type=output_file, default=None,
@@ -76,6 +80,10 @@ def cmd_plan(args) -> int:
             raise ConfigError("tension_peak_time", f"--tension-peak-time applies to {' and '.join(PEAK_AWARE)} "
                                                    f"only, not {args.planner}")
         extra["tension_peak_time"] = args.tension_peak_time
+    if args.proposals is not None:
+        if args.planner != "ppo-search":
+            raise ConfigError("proposals", f"--proposals applies to ppo-search only, not {args.planner}")
+        extra["proposals"] = args.proposals
     if args.time_weight is not None:
         if args.planner not in WEAR_AWARE:
             raise ConfigError("time_weight", f"--time-weight applies to {', '.join(WEAR_AWARE)} only, not "

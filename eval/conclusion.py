@@ -18,18 +18,22 @@ def objective_name(time_weight: float) -> str:
 def conclude(rows: list[dict], methods, time_weight: float = 1.0) -> dict:
     """``{"bullets": [sentence, ...], "table": {"header", "rows"}}``.
 
-    A method's score is its mean over the tasks that every ranked method solved (a method ranks if it solved
-    any task; on a task it is the mean over its successful seeds), so every method is scored on the same tasks.
+    A method's score is its mean over the tasks that every ranked method solved (a method ranks if it solved at
+    least half of the tasks, so that a floor that finishes one easy task does not shrink everyone's comparison to
+    it; on a task the score is the mean over its successful seeds), so every method is scored on the same tasks.
     Life is the geometric mean of each run's shortest segment life over the same tasks (lives span decades)."""
     methods = list(methods)
     tasks = list(dict.fromkeys(r["task"] for r in rows))
     objective = _per_task(rows, methods, tasks, lambda r: _objective(r, time_weight), np.mean)
-    ranked = [m for m in methods if objective[m]]
+    ranked = [m for m in methods if objective[m] and 2 * len(objective[m]) >= len(tasks)]
     common = [t for t in tasks if all(t in objective[m] for m in ranked)]
     name = objective_name(time_weight)
     bullets = []
-    if not ranked:
+    if not any(objective.values()):
         bullets.append("No method completed any run: nothing to rank.")
+    elif not ranked:
+        bullets.append(f"No method solved half of the {len(tasks)} tasks: no like-for-like ranking on {name}; see "
+                       "the per-task tables.")
     elif not common:
         bullets.append(f"No task was solved by every method that solved one ({', '.join(ranked)}): no "
                        f"like-for-like ranking on {name}; see the per-task tables.")
@@ -50,9 +54,12 @@ def conclude(rows: list[dict], methods, time_weight: float = 1.0) -> dict:
             if by_objective != by_life:
                 bullets.append(f"The two answers differ: {by_objective} has the lowest {name}, {by_life}'s cable "
                                "lives longest; choose by what the cell pays for.")
-        unranked = [m for m in methods if m not in ranked]
-        if unranked:
-            bullets.append(f"Not ranked, having solved no task: {', '.join(unranked)}.")
+        unsolved = [m for m in methods if not objective[m]]
+        few = [f"{m} ({len(objective[m])} of {len(tasks)})" for m in methods if m not in ranked and objective[m]]
+        if few:
+            bullets.append(f"Not ranked, having solved fewer than half the tasks: {', '.join(few)}.")
+        if unsolved:
+            bullets.append(f"Not ranked, having solved no task: {', '.join(unsolved)}.")
     bullets += [_failures(rows, m) for m in methods]
     return {"bullets": bullets, "table": _table(rows, ranked, common, time_weight)}
 

@@ -15,6 +15,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+from dresspack.agents.learned.policy import DEFAULT_POLICY
+from dresspack.agents.learned.search import PROPOSALS, PolicySearchPlanner, check_proposals
 from dresspack.agents.planners.base import PlanningError
 from dresspack.agents.planners.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Budget
 from dresspack.agents.planners.leg_cost import check_time_weight
@@ -55,6 +57,7 @@ class EvalSpec:
     cost_variant: str = "thesis"  # the wear cost the wear-aware planners minimise and every replay reports
     # the wear-aware planners' leg cost: time_weight x seconds + ∫C dt (+ peak term); > 1 trades wear for speed
     time_weight: float = 1.0
+    proposals: int = PROPOSALS  # ppo-search: the policy's moves tried at every step
     policy: str | None = None  # run folder / model / shipped name for ppo (and the random floor's env)
     robot: int = 0
     # > 0: the tasks are this many single welds drawn on the station's parts (weld_sampling), weld k from
@@ -70,6 +73,9 @@ class EvalSpec:
         unknown = [m for m in self.methods if m not in PLANNERS]
         if unknown or not self.methods:
             raise ConfigError("methods", f"{unknown or 'none given'}: choose from {list(PLANNERS)}")
+        if self.policy is None and any(m in POLICY_METHODS for m in self.methods):
+            # named, not left to a default that may change: a resumed folder's rows all come from one policy
+            object.__setattr__(self, "policy", DEFAULT_POLICY)
         if not self.tasks or not all(self.tasks):
             raise ConfigError("tasks", "give at least one non-empty weld list")
         if not self.seeds:
@@ -77,6 +83,7 @@ class EvalSpec:
         Budget(self.iterations, self.evaluations, self.routes, self.time_budget)  # checks them, naming the field
         cost_function(self.cost_variant)  # names the field if unknown
         check_time_weight(self.time_weight)
+        check_proposals(self.proposals)
         if not 0 <= self.start_noise_deg <= 90:
             raise ConfigError("start_noise_deg", f"must be in [0, 90] deg, got {self.start_noise_deg}")
 
@@ -136,7 +143,7 @@ def load_trajectory(out: Path, row: dict) -> Trajectory | None:
 
 
 # settings added after evaluations were already stored, with the value those evaluations used
-_ADDED_SETTINGS = {"time_weight": 1.0}
+_ADDED_SETTINGS = {"time_weight": 1.0, "proposals": PROPOSALS}
 
 
 def _extends(stored: dict, new: dict) -> bool:
@@ -198,9 +205,10 @@ def _describe(run: tuple) -> str:
     return f"{method} on {'+'.join(welds)}, seed {seed}"
 
 
-# Typical time per run, longest first (the demo: ompl-wear 40-110 s, thesis-local 15-30 s, random 20 s, ppo and
-# ompl 2-15 s). A pool starts the long runs first, so that no long run is left alone on one worker at the end.
-SLOWEST_FIRST = ("ompl-wear-fmt", "ompl-wear", "thesis-local", "random", "ppo", "ompl")
+# Typical time per run, longest first (the demo: ompl-wear 10-30 s, ppo-search 18-40 s, thesis-local 5-15 s,
+# random and ppo 2-10 s, ompl 1-2 s). A pool starts the long runs first, so that no long run is left alone on one
+# worker at the end.
+SLOWEST_FIRST = ("ompl-wear-fmt", "ompl-wear", "ppo-search", "thesis-local", "random", "ppo", "ompl")
 
 
 def _slowest_first(runs: list[tuple]) -> list[tuple]:
@@ -273,6 +281,8 @@ class RunEvaluator:
             if method in WEAR_AWARE:
                 kwargs["cost_variant"] = spec.cost_variant
                 kwargs["time_weight"] = spec.time_weight
+            if method == PolicySearchPlanner.name:
+                kwargs["proposals"] = spec.proposals
             self.planners[(method, seed)] = make_planner(method, self.station, spec.robot, seed=seed,
                                                          iterations=spec.iterations, evaluations=spec.evaluations,
                                                          routes=spec.routes, time_budget=spec.time_budget, **kwargs)

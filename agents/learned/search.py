@@ -17,6 +17,15 @@ from dresspack_gym.stations.tasks import Task
 from .policy import PolicyPlanner
 
 PROPOSALS = 3  # actions tried at every step: the policy's most probable allowed moves
+MAX_PROPOSALS = 64
+
+
+def check_proposals(proposals) -> int:
+    """The number of proposals a step, or a ConfigError naming the field."""
+    if isinstance(proposals, bool) or not isinstance(proposals, (int, np.integer)) \
+            or not 1 <= proposals <= MAX_PROPOSALS:
+        raise ConfigError("proposals", f"must be an integer in [1, {MAX_PROPOSALS}], got {proposals!r}")
+    return int(proposals)
 
 
 @dataclass
@@ -66,10 +75,9 @@ class PolicySearchPlanner(PolicyPlanner):
     color = "#0b6e4f"
 
     def __init__(self, station: Station, robot: int = 0, *, proposals: int = PROPOSALS, **kwargs):
-        if isinstance(proposals, bool) or not isinstance(proposals, (int, np.integer)) or not 1 <= proposals <= 64:
-            raise ConfigError("proposals", f"must be an integer in [1, 64], got {proposals!r}")
+        proposals = check_proposals(proposals)
         super().__init__(station, robot, **kwargs)
-        self.proposals = int(proposals)
+        self.proposals = proposals
         self._simulated = 0
         self._incumbent = _Continuation()  # the cheapest known continuation from the current state
         self._network = 0.0

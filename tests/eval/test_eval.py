@@ -202,3 +202,41 @@ def test_time_weight_reaches_the_wear_aware_leg_cost(monkeypatch, tmp_path):
     planner = real("ompl-wear", Station(load_station("default")), 0, seed=0, time_weight=7.5, routes=1,
                    evaluations=1, iterations=100)
     assert planner.leg_cost.time_weight == 7.5
+
+
+def test_a_policy_evaluation_names_its_policy_so_a_changed_default_cannot_mix_rows():
+    from dresspack.agents.learned.policy import DEFAULT_POLICY
+    from dresspack.eval.runs import _extends
+
+    assert EvalSpec(methods=("ompl",)).policy is None
+    named = EvalSpec(methods=("ompl", "ppo"), tasks=(("roof_rail_top",),), seeds=(0,)).to_dict()
+    assert named["policy"] == DEFAULT_POLICY
+    older = named | {"policy": None}  # ppo rows of a folder written when the default was another policy
+    assert not _extends(older, named)
+
+
+def test_proposals_are_checked_stored_and_reach_the_search(monkeypatch, tmp_path, capsys):
+    from dresspack.eval import runs
+    from dresspack.eval.runs import _extends
+
+    for bad in (0, 65, 2.5, True, "3"):
+        with pytest.raises(ConfigError, match="proposals"):
+            EvalSpec(methods=("ppo-search",), proposals=bad)
+    with pytest.raises(SystemExit):
+        main(["eval", "--planners", "ppo-search", "--proposals", "0"])
+    assert "--proposals" in capsys.readouterr().err
+    base = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,)).to_dict()
+    older = {k: v for k, v in base.items() if k != "proposals"}  # written before the setting existed (3)
+    assert _extends(older, base) and not _extends(base, base | {"proposals": 5})
+
+    made = {}
+
+    def spy(method, *args, **kwargs):
+        made[method] = kwargs.get("proposals")
+        raise ConfigError("methods", "stopped by the test after the planner's arguments were seen")
+
+    monkeypatch.setattr(runs, "make_planner", spy)
+    spec = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), proposals=5)
+    with pytest.raises(ConfigError, match="stopped by the test"):
+        runs.run_evaluation(spec, tmp_path / "k", progress=False)
+    assert made == {"ppo-search": 5}

@@ -75,6 +75,20 @@ def test_the_answer_compares_only_on_tasks_every_ranked_method_solved():
     assert "ompl-wear-fmt: 1/1 runs succeeded (100%); no failure." in bullets
 
 
+def test_a_method_that_solved_fewer_than_half_the_tasks_does_not_narrow_the_ranking():
+    """A floor that finishes one easy task of three is listed, not ranked: the others are compared on all three."""
+    rows = [*ROWS, *(run(m, "c", s, T=5, cost=50, life=100) for m in ("ompl", "ompl-wear", "thesis-local")
+                     for s in (0, 1)), run("random", "c", 0, T=1, cost=1, life=1)]
+    answer = conclude(rows, METHODS)
+    assert "mean over the 3 tasks every ranked method solved" in answer["bullets"][0]
+    assert "Not ranked, having solved fewer than half the tasks: random (1 of 3)." in answer["bullets"]
+    assert [r[0] for r in answer["table"]["rows"]] == ["ompl-wear", "thesis-local", "ompl"]
+    assert {r[-1] for r in answer["table"]["rows"]} == {"3"}
+    few = conclude([r for r in rows if r["method"] == "random"], ["random"])["bullets"][0]
+    assert few == ("No method solved half of the 3 tasks: no like-for-like ranking on T + ∫C dt; see the per-task "
+                   "tables.")
+
+
 def test_the_answer_with_one_method_or_none_solving():
     alone = conclude([r for r in ROWS if r["method"] == "ompl"], ["ompl"])["bullets"]
     assert alone[0] == ("T + ∫C dt (lower is better): ompl, 165 (mean over the 2 tasks it solved); the only method "
