@@ -1,6 +1,7 @@
 """``dresspack counterfactuals``: every unmasked action simulated from each state a policy visits, as cost labels.
 
     dresspack counterfactuals --config configs/training/cost_model.yaml --out runs/cost/data --jobs 2
+    dresspack counterfactuals --out runs/cost/data --backend ray --ray-address auto --jobs 64   # on a Ray cluster
 
 The policy rolls out on drawn episodes; at each state it visits, every allowed action is stepped from a snapshot
 (restored after each) and one row per action records the observation, the action, its target configuration, the
@@ -24,12 +25,14 @@ import numpy as np
 
 from dresspack_gym.cli.args import ALL_CORES, MAX_JOBS, number, output_dir
 from dresspack_gym.errors import ConfigError
+from dresspack_gym.fields import check_choice
 
 from .cost_config import CostStudyConfig, CounterfactualConfig, load_cost_config
 
 # the settings that decide the labels: a resumed run must match them (episodes may grow, jobs may change)
 SPEC_FIELDS = ("policy", "seed", "rollout", "env_kwargs")
 WEAR_PARTS = ("curvature", "tension", "distance", "twist", "damage")
+BACKENDS = ("process", "ray")  # where the episodes run: processes on this machine, or Ray actors
 
 _worker: dict = {}  # the process's env and policy, built once by _init_worker
 
@@ -129,11 +132,14 @@ def shard_path(out: Path, index: int) -> Path:
 
 
 def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progress: bool = True,
-             max_minutes: float | None = None) -> dict:
+             max_minutes: float | None = None, backend: str = "process", ray_address: str | None = None) -> dict:
     """Write the shards of episodes 0 .. cfg.episodes - 1 not yet in ``out`` (resumable); returns the summary.
     With ``max_minutes`` no episode is written after that much wall time (those under way are dropped: a later
-    run with the same settings makes them)."""
+    run with the same settings makes them). ``backend``: ``process`` (``jobs`` processes here) or ``ray`` (``jobs``
+    Ray actors, at ``ray_address`` or on this machine); the labels are the same either way."""
     from tqdm.auto import tqdm
+
+    check_choice("backend", backend, BACKENDS)
 
     out = Path(out)
     spec = {k: getattr(cfg, k) for k in SPEC_FIELDS}
@@ -154,16 +160,21 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
     init = (str(model_path), env_id, env_kwargs)
     # a wrong env argument fails here, naming the field, not inside a worker (one process: its env is the check)
     if todo:
-        _checked(_init_worker if jobs == 1 else _check_env, *init)
+        _checked(_init_worker if jobs == 1 and backend == "process" else _check_env, *init)
     t0, cpu0, labels, written = time.perf_counter(), _cpu_time(), 0, 0
     bar = tqdm(total=cfg.episodes, initial=cfg.episodes - len(todo), unit="episode", desc="counterfactuals",
                disable=not progress or not todo, file=sys.stderr)
-    if jobs > 1:
+    pool = None
+    if backend == "ray" and todo:
+        from dresspack_gym.ray_pool import ray_imap_unordered
+
+        results = ray_imap_unordered(_init_worker, init, _episode_job, todo, jobs, ray_address)
+    elif jobs > 1:
         # spawn: each worker builds its own MuJoCo model, torch and env from nothing the parent holds
         pool = multiprocessing.get_context("spawn").Pool(jobs, initializer=_init_worker, initargs=init)
         results = pool.imap_unordered(_episode_job, todo)
     else:
-        pool, results = None, map(_episode_job, todo)
+        results = map(_episode_job, todo)
     with pool or contextlib.nullcontext(), bar:
         for result in results:
             arrays = shard_arrays(result)
@@ -244,6 +255,10 @@ def add_counterfactuals_command(sub) -> None:
                    help="episodes in all (default: the config's counterfactuals.episodes)")
     p.add_argument("--jobs", type=number(1, MAX_JOBS, integer=True), default=ALL_CORES,
                    help=f"worker processes; the labels are the same for any number (default {ALL_CORES}: all cores)")
+    p.add_argument("--backend", choices=BACKENDS, default="process",
+                   help="process: --jobs processes on this machine; ray: --jobs Ray actors (a cluster at "
+                        "--ray-address, else this machine); the labels are the same (default: %(default)s)")
+    p.add_argument("--ray-address", default=None, help="with --backend ray: the cluster's address (default: local)")
     p.add_argument("--max-minutes", type=number(0.0, None, lo_open=True),
                    help="write no episode after this much wall time (the same command continues later)")
     p.add_argument("--no-progress", action="store_true", help="draw no progress bar")
@@ -256,7 +271,8 @@ def cmd_counterfactuals(args) -> int:
     cfg: CostStudyConfig = load_cost_config(args.config)
     cf = cfg.counterfactuals if args.episodes is None else replace(cfg.counterfactuals, episodes=args.episodes)
     try:
-        summary = generate(cf, args.out, jobs=args.jobs, progress=not args.no_progress, max_minutes=args.max_minutes)
+        summary = generate(cf, args.out, jobs=args.jobs, progress=not args.no_progress, max_minutes=args.max_minutes,
+                           backend=args.backend, ray_address=args.ray_address)
     except KeyboardInterrupt:
         print("\ninterrupted: the finished episodes are kept; the same command continues", file=sys.stderr)
         return 130

@@ -161,3 +161,24 @@ def test_the_shipped_cost_config_loads_and_the_cli_names_a_bad_field(tmp_path, c
     assert main(["train-cost-model", "--data", str(tmp_path), "--out", str(tmp_path / "m")], extensions=commands) == 2
     assert "--data" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.slow  # Ray's start-up (its own processes, each actor importing torch and MuJoCo): minutes on 2 cores
+def test_labels_on_ray_are_the_ones_made_here(tiny_policy, tmp_path):
+    """Data generation beyond one machine: Ray actors (here two on this machine) write the same shards as one
+    process."""
+    ray = pytest.importorskip("ray")
+    from dresspack.training.counterfactuals import generate, load_counterfactuals
+
+    _, folder = tiny_policy
+    cfg = cost_config_from_dict({"counterfactuals": {"policy": str(folder), "episodes": 2, "seed": 7,
+                                                     "rollout": "sample"}}).counterfactuals
+    generate(cfg, tmp_path / "here", jobs=1, progress=False)
+    try:
+        on_ray = generate(cfg, tmp_path / "ray", jobs=2, progress=False, backend="ray")
+    finally:
+        ray.shutdown()
+    a, b = load_counterfactuals(tmp_path / "here"), load_counterfactuals(tmp_path / "ray")
+    assert on_ray["episodes"] == 2 and set(a) == set(b) and all(np.array_equal(a[k], b[k]) for k in a)
+    with pytest.raises(ConfigError, match="backend"):
+        generate(cfg, tmp_path / "bad", backend="cluster")

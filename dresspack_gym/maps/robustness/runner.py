@@ -14,6 +14,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...fields import check_choice
+from ...ray_pool import ray_imap_unordered
 from ...robots.time_law import TIME_LAW
 from ...stations.config import StationConfig
 from .algorithm import RobustnessEvaluator, RobustnessSettings
@@ -114,36 +115,7 @@ def _iterate(backend: str, workers: int, config, settings, units, configs, ray_a
         with ctx.Pool(workers, initializer=_init_pool_worker, initargs=(config, settings)) as pool:
             yield from pool.imap_unordered(_run_unit, payload)
     else:
-        yield from _iterate_ray(workers, config, settings, payload, ray_address)
-
-
-def _iterate_ray(workers, config, settings, payload, address):
-    try:
-        import ray
-    except ImportError:
-        raise ConfigError("backend", "the 'ray' backend needs Ray: pip install 'ray>=2'") from None
-    ray.init(address=address, ignore_reinit_error=True, include_dashboard=False, log_to_driver=False)
-
-    @ray.remote
-    class Worker:
-        def __init__(self, cfg, st):
-            _init_worker(cfg, st)
-
-        def run(self, item):
-            return _run_unit(item)
-
-    actors = [Worker.remote(config, settings) for _ in range(max(1, workers))]
-    pending = {}
-    queue = list(payload)
-    for a in actors:
-        if queue:
-            pending[a.run.remote(queue.pop(0))] = a
-    while pending:
-        ready, _ = ray.wait(list(pending), num_returns=1)
-        actor = pending.pop(ready[0])
-        if queue:
-            pending[actor.run.remote(queue.pop(0))] = actor
-        yield ray.get(ready[0])
+        yield from ray_imap_unordered(_init_worker, (config, settings), _run_unit, payload, workers, ray_address)
 
 
 def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settings: RobustnessSettings, *,
