@@ -78,17 +78,18 @@ class PolicySearchPlanner(PolicyPlanner):
         proposals = check_proposals(proposals)
         super().__init__(station, robot, **kwargs)
         self.proposals = proposals
-        self._simulated = 0
+        self._simulated = 0  # env steps this plan simulated
         self._incumbent = _Continuation()  # the cheapest known continuation from the current state
-        self._network = 0.0
+        self._network = 0.0  # seconds in the network (proposals and the continuations' actions)
+        self._policy_cost: float | None = None  # the policy's own rollout from the start (inf: unfinished)
+        self._cost = 0.0  # the steps taken so far
 
     def _modes(self) -> list[str]:
         return ["search"] if self.deterministic else ["search", *["sample"] * (self.attempts - 1)]
 
     def _rollout(self, task: Task, mode: str):
         self._simulated, self._incumbent, self._network = 0, _Continuation(), 0.0
-        self._policy_cost: float | None = None  # the policy's own rollout from the start (inf: unfinished)
-        self._cost = 0.0
+        self._policy_cost, self._cost = None, 0.0
         traj, info = super()._rollout(task, mode)
         if mode != "search":
             return traj, info

@@ -26,12 +26,6 @@ from .segment_state import SegmentState, SegmentStateReader
 STATE_SPEC = mujoco.mjtState.mjSTATE_INTEGRATION | mujoco.mjtState.mjSTATE_PLASTIC
 # Settling checks the equilibrium residual every this many steps (one extra forward pass each).
 SETTLE_CHECK_EVERY = 10
-# Solver tolerance while the cable relaxes and when static forces are evaluated. MuJoCo's default (1e-8,
-# kept for motions, where it is 1.5x cheaper) lets the warm-started solver stop with ~1 % of a vertex
-# weight of imbalance that the dynamics never removes; 1e-10 lets settles reach the equilibrium residual.
-RELAXATION_SOLVER_TOLERANCE = 1e-10
-
-
 @dataclass(frozen=True)
 class Equilibrium:
     """How far a cable state is from static equilibrium.
@@ -372,16 +366,16 @@ class CableSimulator:
     # ------------------------------------------------------------------------------ internals
     @contextmanager
     def _relaxation(self, timestep: float):
-        """The relaxation phase's solver settings (timestep, tolerance), restored afterwards. Nothing in the
-        model is derived from the timestep (constraint stiffness is set in force units), so only the
-        integration step and the solver accuracy change."""
+        """The relaxation phase's timestep, restored afterwards. Nothing in the model is derived from the timestep
+        (constraint stiffness is set in force units), so only the integration step changes; the solver's tolerance
+        is the model's (``stations.station.SOLVER_TOLERANCE``), the same for motions and settles."""
         opt = self.model.opt
-        before = (opt.timestep, opt.tolerance)
-        opt.timestep, opt.tolerance = timestep, RELAXATION_SOLVER_TOLERANCE
+        before = opt.timestep
+        opt.timestep = timestep
         try:
             yield
         finally:
-            opt.timestep, opt.tolerance = before
+            opt.timestep = before
 
     def _drive(self, q: np.ndarray, qdot: np.ndarray) -> None:
         """Write the robots' joints (and hold the load cells): the kinematic part of the state."""

@@ -27,6 +27,13 @@ from .rendering import OFFSCREEN_HEIGHT, OFFSCREEN_WIDTH
 
 DOWN = np.array([0.0, 0.0, -1.0])  # gravity's direction (simulation.gravity is its magnitude along -z)
 LINK_INDEX = {"base": 0, "link1": 1, "link2": 2, "link3": 3, "link4": 4, "link5": 5, "link6": 6}
+# The Newton solver's tolerance, for motions and settles alike. MuJoCo's tolerance is relative to the model's mean
+# inertia, which the robots' links make about a million times a cable vertex's mass: at MuJoCo's default (1e-8) the
+# warm-started solve stops with no iteration on a third or more of the steps, those steps reuse the previous
+# acceleration (the rod's forces a step late) and an undamped cable gains energy (tests/physics/test_energy.py).
+# 1e-10 solves every step (one or two iterations) and lets settles reach the equilibrium residual, for ~8 % more
+# time on a replay.
+SOLVER_TOLERANCE = 1e-10
 
 
 @dataclass
@@ -162,6 +169,7 @@ class Station:
         spec.option.cone = (mujoco.mjtCone.mjCONE_ELLIPTIC if sim.friction_cone == "elliptic"
                             else mujoco.mjtCone.mjCONE_PYRAMIDAL)
         spec.option.impratio = sim.impratio
+        spec.option.tolerance = SOLVER_TOLERANCE
         # No model-wide fluid: cable damping is explicit viscous drag on the free vertices (physics/simulation.py),
         # so no option acts on the rod's twist bodies or the node bodies.
         spec.option.viscosity = 0.0
