@@ -78,19 +78,6 @@ class PolicyAgent:
             dist = policy.get_distribution(obs, action_masks=np.asarray(action_masks)[None])
             return dist.distribution.probs[0].cpu().numpy().astype(float)
 
-    def values(self, observations: np.ndarray) -> np.ndarray:
-        """The critic's estimate of the discounted return from each observation (one row each)."""
-        import torch
-
-        policy = self.model.policy
-        obs, _ = policy.obs_to_tensor(np.asarray(observations))
-        with torch.no_grad():
-            return policy.predict_values(obs)[:, 0].cpu().numpy().astype(float)
-
-    @property
-    def gamma(self) -> float:
-        return float(self.model.gamma)
-
 
 class RandomMaskedAgent:
     """The floor: a uniformly random allowed action each step (same ``predict`` signature)."""

@@ -26,6 +26,8 @@ from .segment_state import SegmentState, SegmentStateReader
 STATE_SPEC = mujoco.mjtState.mjSTATE_INTEGRATION | mujoco.mjtState.mjSTATE_PLASTIC
 # Settling checks the equilibrium residual every this many steps (one extra forward pass each).
 SETTLE_CHECK_EVERY = 10
+
+
 @dataclass(frozen=True)
 class Equilibrium:
     """How far a cable state is from static equilibrium.

@@ -187,18 +187,9 @@ def test_time_weight_reaches_the_wear_aware_leg_cost(monkeypatch, tmp_path):
     from dresspack_gym.io.loading import load_station
     from dresspack_gym.stations.station import Station
 
-    made = {}
     real = runs.make_planner
-
-    def spy(method, *args, **kwargs):
-        made[method] = kwargs.get("time_weight")
-        raise ConfigError("methods", "stopped by the test after the planner's arguments were seen")
-
-    monkeypatch.setattr(runs, "make_planner", spy)
     spec = EvalSpec(methods=("ompl-wear",), tasks=(("roof_rail_top",),), seeds=(0,), time_weight=7.5)
-    with pytest.raises(ConfigError, match="stopped by the test"):
-        runs.run_evaluation(spec, tmp_path / "tw", progress=False)
-    assert made == {"ompl-wear": 7.5}
+    assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, "time_weight") == {"ompl-wear": 7.5}
     planner = real("ompl-wear", Station(load_station("default")), 0, seed=0, time_weight=7.5, routes=1,
                    evaluations=1, iterations=100)
     assert planner.leg_cost.time_weight == 7.5
@@ -216,7 +207,6 @@ def test_a_policy_evaluation_names_its_policy_so_a_changed_default_cannot_mix_ro
 
 
 def test_proposals_are_checked_stored_and_reach_the_search(monkeypatch, tmp_path, capsys):
-    from dresspack.eval import runs
     from dresspack.eval.runs import _extends
 
     for bad in (0, 65, 2.5, True, "3"):
@@ -228,15 +218,22 @@ def test_proposals_are_checked_stored_and_reach_the_search(monkeypatch, tmp_path
     base = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,)).to_dict()
     older = {k: v for k, v in base.items() if k != "proposals"}  # written before the setting existed (3)
     assert _extends(older, base) and not _extends(base, base | {"proposals": 5})
+    spec = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), proposals=5)
+    assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, "proposals") == {"ppo-search": 5}
+
+
+def _argument_reaching_the_planner(monkeypatch, tmp_path, spec: EvalSpec, name: str) -> dict:
+    """Per method, the keyword argument ``name`` the evaluation builds its planner with (the evaluation is stopped
+    as soon as the planner would be built)."""
+    from dresspack.eval import runs
 
     made = {}
 
     def spy(method, *args, **kwargs):
-        made[method] = kwargs.get("proposals")
+        made[method] = kwargs.get(name)
         raise ConfigError("methods", "stopped by the test after the planner's arguments were seen")
 
     monkeypatch.setattr(runs, "make_planner", spy)
-    spec = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), proposals=5)
     with pytest.raises(ConfigError, match="stopped by the test"):
-        runs.run_evaluation(spec, tmp_path / "k", progress=False)
-    assert made == {"ppo-search": 5}
+        runs.run_evaluation(spec, tmp_path / name, progress=False)
+    return made
