@@ -163,6 +163,7 @@ class PolicyPlanner(Planner):
         obs, info = env.reset(seed=self.seed, options={"goals": dict(zip(task.weld_names, task.goals)),
                                                        "start": task.start})
         waypoints, stops, actions, masked_taken = [env.q], [], [], 0
+        unconverged = []  # goals whose settle ended above the equilibrium residual: their wear reads a moving cable
         inference = 0.0  # the network alone; the rest of the planning time is the env (physics, masks)
         done = False
         while not done:
@@ -180,11 +181,14 @@ class PolicyPlanner(Planner):
                     waypoints.append(q)
             if info["goals_reached"] > reached_before:
                 stops.append(len(waypoints) - 1)
+                if not info["settle_converged"]:
+                    unconverged.append((*task.weld_names, "home")[reached_before])
         if not info["is_success"]:
             raise _EpisodeFailed(f"{info['goals_reached']}/{info['n_goals']} goals in {env.max_steps} steps")
         traj = Trajectory(np.array(waypoints), tuple(stops))
         return traj, {"policy": str(self.policy_path), "policy_steps": env.steps, "actions": actions,
-                      "masked_actions": masked_taken, "inference_s": round(inference, 5)}
+                      "masked_actions": masked_taken, "inference_s": round(inference, 5),
+                      "unconverged_settles": unconverged}
 
     def _step(self, obs, masks, mode: str):
         """Choose an action and take it: the action, ``env.step``'s return and the network's seconds."""

@@ -109,3 +109,18 @@ def test_goal_conditioned_policy_backs_out_of_a_weld_no_midpoint_via_leaves(stat
                            planner.env.approaches(home)])
     assert np.count_nonzero(np.abs(out - waypoints[weld]) > 1e-9) == 1 or np.abs(vias - out).max(axis=1).min() < 1e-9
     np.testing.assert_allclose(waypoints[-1], home, atol=1e-9)  # and back Home (a failed plan raises)
+
+
+@pytest.mark.parametrize("settle_time, flagged", [(None, []), (0.05, ["sill_front", "home"])])
+def test_plan_names_the_goals_whose_settle_missed_the_residual(settle_time, flagged):
+    """A plan's info lists the goals whose settle ended above the equilibrium residual (their wear reads a cable
+    still moving): none on the default station, every goal when the settle is cut to 50 ms."""
+    from dataclasses import replace
+
+    config = load_station("default")
+    if settle_time is not None:
+        config = replace(config, simulation=replace(config.simulation, settle_time=settle_time))
+    station = Station(config)
+    planner = PolicyPlanner(station, 0, policy="goal_conditioned", deterministic=True)
+    task = make_task(station, 0, planner.validity.checker.collides, ["sill_front"])
+    assert planner.plan(task).info["unconverged_settles"] == flagged
