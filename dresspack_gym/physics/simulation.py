@@ -116,6 +116,7 @@ class CableSimulator:
         self._load_values = station.load_values
         self._free_dof_idx = as_slice(self._free_dof)
         self._cable_mass = float(self._free_dof_mass.sum() / 3.0)
+        self._kinetic_tolerance = 0.5 * self._cable_mass * self.config.equilibrium_speed ** 2  # [J]
         self._body_pos0 = [self.model.body_pos[c.free_bodies].copy() for c in cables]
         self.reset()
 
@@ -280,6 +281,8 @@ class CableSimulator:
             for _ in range(n):
                 self._step(q, zero)
             done += n
+            if done < steps and self.kinetic_energy() >= self._kinetic_tolerance:
+                continue  # still moving: not converged whatever the static forces, so their pass is skipped
             eq = self.equilibrium(timestep=dt)
         return done, eq
 
@@ -318,9 +321,8 @@ class CableSimulator:
         torque = np.abs(net[self._twist_dof]) / self._twist_scale if len(self._twist_dof) else np.zeros(1)
         kinetic = self.kinetic_energy()
         tol = self.config.equilibrium_tolerance
-        kinetic_tol = 0.5 * self._cable_mass * self.config.equilibrium_speed ** 2
         f, t = float(force.max()), float(torque.max())
-        return Equilibrium(f, t, kinetic, bool(f < tol and t < tol and kinetic < kinetic_tol))
+        return Equilibrium(f, t, kinetic, bool(f < tol and t < tol and kinetic < self._kinetic_tolerance))
 
     def measures(self) -> WearMeasures:
         """Station-level wear measures of the current configuration (worst over all cables)."""
