@@ -10,6 +10,7 @@ whose weights come from the dresspack YAML (``damage:``); :mod:`fatigue` turns t
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import reduce
 
 import numpy as np
 
@@ -20,33 +21,43 @@ from .segment_state import SegmentState
 def term_values(states: list[SegmentState], dresspack: DresspackConfig) -> dict[str, np.ndarray]:
     """Every damage quantity, (T, n_vertices) each: value terms as they are, rate terms as the quantity whose
     change is counted."""
-    kappa = np.array([s.curvature for s in states])
-    twist = np.abs(np.array([s.twist_rate for s in states]))
-    strain = np.array([s.strain for s in states])
+    return _terms(np.array([s.curvature for s in states]), np.array([s.twist_rate for s in states]),
+                  np.array([s.strain for s in states]), np.array([s.normal_force for s in states]),
+                  np.array([s.friction_power for s in states]), dresspack)
+
+
+def _terms(kappa, twist_rate, strain, normal, friction_power, dresspack: DresspackConfig) -> dict[str, np.ndarray]:
+    """:func:`term_values` of the stacked quantities (any shape: one state's too)."""
+    twist = np.abs(twist_rate)
     return {
         "bend": kappa,
         "bend_moment": dresspack.bending_stiffness * kappa,
         "bend_rate": kappa,
         "twist": twist,
         "twist_torque": dresspack.torsional_stiffness * twist,
-        "twist_rate": np.array([s.twist_rate for s in states]),
+        "twist_rate": twist_rate,
         "stretch": np.abs(strain),
         "tension": dresspack.tensile_stiffness * np.abs(strain),
         "stretch_rate": strain,
-        "contact_normal": np.array([s.normal_force for s in states]),
-        "friction": np.array([s.friction_power for s in states]),
+        "contact_normal": normal,
+        "friction": friction_power,
     }
 
 
 RATE_TERMS = ("bend_rate", "twist_rate", "stretch_rate")
+VALUE_TERMS = tuple(k for k in DAMAGE_TERMS if k not in RATE_TERMS)
 
 
 def damage_rate(state: SegmentState, dresspack: DresspackConfig) -> np.ndarray:
     """(n,) damage per second each segment accrues in this state: the weighted value terms (the rate terms need
     a history and are left out). Its integral over a motion is the value-term part of :func:`accumulate`."""
-    values = term_values([state], dresspack)
+    values = _terms(state.curvature, state.twist_rate, state.strain, state.normal_force, state.friction_power,
+                    dresspack)
     w = dresspack.damage
-    return np.sum([getattr(w, k) * values[k][0] for k in DAMAGE_TERMS if k not in RATE_TERMS], axis=0)
+    # summed term after term, as np.sum(..., axis=0) of the stacked terms does; a term of weight 0 adds +0 to
+    # every segment (all terms are >= 0), so it is left out
+    weighted = [getattr(w, k) * values[k] for k in VALUE_TERMS if getattr(w, k) != 0.0]
+    return reduce(np.add, weighted) if weighted else np.zeros_like(state.curvature)
 
 
 @dataclass(frozen=True)

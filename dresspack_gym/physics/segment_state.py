@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 
 from ..stations.station import CableIndex
-from .measures import cable_points, cross, edge_tensions, vertex_curvatures, vertex_twists
+from .measures import CableArrays, CableSample, cross
 
 SLIP_SPEED = 1e-3  # [m/s] below this a contact sticks (relaxation creep, not sliding)
 
@@ -43,11 +43,15 @@ class SegmentStateReader:
     def __init__(self, model: mujoco.MjModel, cable: CableIndex, tensile_stiffness: float):
         self.model = model
         self.cable = cable
+        self.arrays = CableArrays(cable)
         self.ea = float(tensile_stiffness)
         n = cable.n_vertices
         self.flex_vertex = {}  # flex id -> global vertex index of each of its local vertices
         for p in cable.pieces:
             self.flex_vertex[p.flex_id] = np.asarray(p.piece.vertices, dtype=int)
+        # by flex id (+1 row for -1, a contact's side without a flex): whether it is one of this cable's rods
+        self.own_flex = np.zeros(model.nflex + 1, dtype=bool)
+        self.own_flex[list(self.flex_vertex)] = True
         self.vertex_body = np.full(n, -1, dtype=int)
         for p in cable.pieces:
             adr = int(model.flex_vertadr[p.flex_id])
@@ -59,28 +63,25 @@ class SegmentStateReader:
     def read(self, data: mujoco.MjData, live: mujoco.MjData | None = None) -> SegmentState:
         """The state of ``data`` (the simulator's static-force pass: shape, tensions, contact forces at rest)
         with sliding speeds from ``live`` (the running simulation's velocities; none: no sliding)."""
-        m, cable = self.model, self.cable
-        n = cable.n_vertices
-        h = cable.segment_length
-        points = cable_points(data, cable)
+        return self.state(data, live, self.arrays.sample(data))
+
+    def state(self, data: mujoco.MjData, live: mujoco.MjData | None, sample: CableSample) -> SegmentState:
+        """:meth:`read` from the cable's ``sample`` of ``data`` (shared with its wear measures)."""
+        n = self.cable.n_vertices
         kappa = np.zeros(n)
-        kappa[1:-1] = vertex_curvatures(points)
+        kappa[1:-1] = sample.curvature
         bend = np.zeros((n, 2))
         twist = np.zeros(n)
-        d1 = self._material_d1(data)
-        e0, e1 = points[1:-1] - points[:-2], points[2:] - points[1:-1]
-        kb = cross(e0, e1)  # the curvature binormal's direction
-        norm = np.linalg.norm(kb, axis=1)
+        d1 = self._material_d1(data, sample.theta)
+        kb, norm = sample.binormal, sample.area  # the curvature binormal's direction
         axis = np.divide(kb, norm[:, None], out=np.zeros_like(kb), where=norm[:, None] > 1e-15)
-        t = e0 / np.linalg.norm(e0, axis=1)[:, None]
+        t = sample.edges[:-1] / sample.lengths[:-1, None]
         d1v = d1[:-1]  # the material frame of the edge entering each interior vertex
         d2v = cross(t, d1v)
         bend[1:-1, 0] = kappa[1:-1] * np.einsum("ij,ij->i", axis, d1v)
         bend[1:-1, 1] = kappa[1:-1] * np.einsum("ij,ij->i", axis, d2v)
-        for p, tw in zip(cable.pieces, vertex_twists(m, data, cable)):
-            twist[np.asarray(p.piece.vertices[1:-1], dtype=int)] = tw / h
-        tension = np.nan_to_num(edge_tensions(m, data, cable), nan=0.0)
-        edge_strain = tension / self.ea
+        twist[self.arrays.twist_vertices] = sample.twists / self.cable.segment_length
+        edge_strain = self.arrays.filled_tensions(sample, 0.0) / self.ea
         strain = np.zeros(n)
         strain[:-1] += 0.5 * edge_strain
         strain[1:] += 0.5 * edge_strain
@@ -89,30 +90,31 @@ class SegmentStateReader:
         normal, friction, slip = self._contacts(data, live, n)
         return SegmentState(kappa, bend, twist, strain, normal, friction, slip)
 
-    def _material_d1(self, data: mujoco.MjData) -> np.ndarray:
+    def _material_d1(self, data: mujoco.MjData, theta: np.ndarray | None = None) -> np.ndarray:
         """(n, 3) material director d1 of every edge: MuJoCo's time-parallel reference frame (tangent, d1_ref per
-        edge in mjData.plastic) turned by the edge's twist angle; a clamped edge's frame is its node's."""
-        d1 = np.zeros((self.cable.n_vertices - 1, 3))
-        for p in self.cable.pieces:
-            ne = p.piece.n_edges
-            frames = data.plastic[p.plastic_adr:p.plastic_adr + 6 * ne].reshape(ne, 6)
-            tan, ref = frames[:, :3], frames[:, 3:]
-            theta = np.where(p.twist_qpos >= 0, data.qpos[np.maximum(p.twist_qpos, 0)], 0.0)
-            # d1 = cos(theta) d1_ref + sin(theta) (t x d1_ref): checked against the clamps of a twisted rod, whose
-            # material frame turns continuously from one clamp's frame to the other's.
-            d1[np.asarray(p.piece.vertices[:-1], dtype=int)] = (np.cos(theta)[:, None] * ref
-                                                                + np.sin(theta)[:, None] * cross(tan, ref))
-        return d1
+        edge in mjData.plastic) turned by the edge's twist angle ``theta`` (CableArrays.twists; read from ``data``
+        if not given); a clamped edge's frame is its node's."""
+        arrays = self.arrays
+        theta = arrays.twists(data)[0] if theta is None else theta
+        frames = data.plastic[arrays.frame_rows].reshape(-1, 6)
+        tan, ref = frames[:, :3], frames[:, 3:]
+        # d1 = cos(theta) d1_ref + sin(theta) (t x d1_ref): checked against the clamps of a twisted rod, whose
+        # material frame turns continuously from one clamp's frame to the other's.
+        d1 = np.cos(theta)[:, None] * ref + np.sin(theta)[:, None] * cross(tan, ref)
+        return d1[arrays.edge_row]
 
     def _contacts(self, data: mujoco.MjData, live: mujoco.MjData | None, n: int):
         """Per vertex: normal force, friction force and sliding speed of its contacts. A sliding contact carries
         Coulomb friction mu * N (the static pass only knows the friction that would hold it at rest)."""
         m = self.model
         normal, friction, slip = np.zeros(n), np.zeros(n), np.zeros(n)
-        for i in range(data.ncon):
+        if data.ncon == 0:
+            return normal, friction, slip
+        ours = self.own_flex[data.contact.flex]  # (ncon, 2): which sides of which contacts are this cable's
+        for i in np.flatnonzero(ours[:, 0] | ours[:, 1]).tolist():
             c = data.contact[i]
             for side in (0, 1):
-                touched = self._touched(data, c, side)
+                touched = self._touched(data, c, side) if ours[i, side] else []
                 if not touched:
                     continue
                 mujoco.mj_contactForce(m, data, i, self._force)

@@ -10,7 +10,7 @@ the path travelled. A settle ends when the equilibrium residual says so, never o
 from __future__ import annotations
 
 from contextlib import contextmanager
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
@@ -20,7 +20,7 @@ from ..robots.joint_limits import check_within_limits
 from ..robots.time_law import JointLimits, SegmentMotion
 from ..stations.station import Station, as_slice
 from .damage import damage_rate
-from .measures import ClearanceProbe, WearMeasures, cable_points, measure_cable, node_loads
+from .measures import CableSample, ClearanceProbe, WearMeasures, cable_points, node_loads
 from .segment_state import SegmentState, SegmentStateReader
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_INTEGRATION | mujoco.mjtState.mjSTATE_PLASTIC
@@ -331,21 +331,28 @@ class CableSimulator:
     def measures_and_states(self) -> tuple[WearMeasures, list[SegmentState]]:
         """The station-level measures and every cable's segment states, from one static-force pass."""
         static = self.static_forces()
-        states = self._segment_states(static)
-        return WearMeasures.worst(self._cable_measures(static, states)), states
+        samples = self._samples(static)
+        states = self._segment_states(static, samples)
+        return WearMeasures.worst(self._cable_measures(static, samples, states)), states
 
     def cable_measures(self) -> list[WearMeasures]:
         """Wear measures of every cable in its current shape; forces are the shape's static forces."""
-        return self._cable_measures(self.static_forces())
+        static = self.static_forces()
+        samples = self._samples(static)
+        return self._cable_measures(static, samples, self._segment_states(static, samples))
 
-    def _cable_measures(self, static: mujoco.MjData, states: list[SegmentState] | None = None) -> list[WearMeasures]:
-        states = self._segment_states(static) if states is None else states
+    def _samples(self, static: mujoco.MjData) -> list[CableSample]:
+        """Every cable's shape, edge forces and twists, read once for its segment state and its measures."""
+        return [reader.arrays.sample(static) for reader in self._readers()]
+
+    def _cable_measures(self, static: mujoco.MjData, samples: list[CableSample],
+                        states: list[SegmentState]) -> list[WearMeasures]:
         out = []
-        for c, r, s in zip(self.station.cables, self.station.config.robots, states):
+        for reader, r, sample, s in zip(self._readers(), self.station.config.robots, samples, states):
             rate = damage_rate(s, r.dresspack)
             k = int(np.argmax(rate))
-            out.append(replace(measure_cable(self.station, static, c, self.probe), max_damage_rate=float(rate[k]),
-                               damage_at=k * c.segment_length))
+            out.append(reader.arrays.measure(self.station, static, self.probe, sample, max_damage_rate=float(rate[k]),
+                                             damage_at=k * reader.cable.segment_length))
         return out
 
     def node_loads(self, robot: int = 0):
@@ -398,13 +405,17 @@ class CableSimulator:
 
     def segment_states(self) -> list[SegmentState]:
         """Per cable, the state of every segment now (bending, twist, strain, contact; see segment_state)."""
-        return self._segment_states(self.static_forces())
+        static = self.static_forces()
+        return self._segment_states(static, self._samples(static))
 
-    def _segment_states(self, static: mujoco.MjData) -> list[SegmentState]:
+    def _readers(self) -> list[SegmentStateReader]:
         if self._segment_readers is None:
             self._segment_readers = [SegmentStateReader(self.model, c, r.dresspack.tensile_stiffness)
                                      for c, r in zip(self.station.cables, self.station.config.robots)]
-        return [reader.read(static, self.data) for reader in self._segment_readers]
+        return self._segment_readers
+
+    def _segment_states(self, static: mujoco.MjData, samples: list[CableSample]) -> list[SegmentState]:
+        return [reader.state(static, self.data, sample) for reader, sample in zip(self._readers(), samples)]
 
     def _as_q(self, q, field: str) -> np.ndarray:
         q = np.asarray(q, dtype=float)
