@@ -1,4 +1,4 @@
-"""The cable wear cost of thesis eq. (4.10), term by term, its normalised variant (thesis §5.3) and the named variants."""
+"""The cable wear cost of thesis eq. (4.10) term by term, its normalised variant (thesis §5.3), the named variants."""
 
 from __future__ import annotations
 

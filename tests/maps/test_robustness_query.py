@@ -6,6 +6,7 @@ import json
 import numpy as np
 import pytest
 import yaml
+from helpers import default_station_dict
 
 from dresspack_gym import ConfigError
 from dresspack_gym.env.dresspack_env import DresspackEnv
@@ -13,7 +14,6 @@ from dresspack_gym.maps.robustness.grid import RobustnessGrid
 from dresspack_gym.maps.robustness.query import RobustnessMap, configuration_vector
 from dresspack_gym.maps.robustness.store import COLUMNS, grid_to_meta
 from dresspack_gym.stations.tasks import allowed_weld_configurations
-from tests.helpers import default_station_dict
 
 STEP30 = {"start": -180, "stop": 150, "step": 30}
 
