@@ -21,6 +21,7 @@ from ..planners.base import Planner, PlanningError, out_of_time_error
 SHIPPED_IN = "dresspack.agents"  # the package whose data holds the shipped policies: agents/policies/<name>/
 POLICY_DIR = shipped_root(SHIPPED_IN) / "policies"
 DEFAULT_POLICY = "goal_conditioned"  # any weld, any start; stud_welding: the default station's named welds
+STILL = 1e-9  # [rad] a move whose target is no farther than this in every joint leaves the robot where it stands
 ATTEMPTS = 3  # rollouts per task: the most probable action each step, then actions sampled (see PolicyPlanner)
 # Only the episode-sampling arguments differ between training and acting on a given task.
 _TRAINING_ONLY = ("tasks", "n_welds", "shuffle_welds", "welds", "start_noise_deg", "station", "render_mode")
@@ -97,8 +98,9 @@ class PolicyPlanner(Planner):
     """``ppo``: roll the policy out in the training env (on this station, from the task's start, through the
     task's welds, with masks); its visited configurations are the trajectory.
 
-    Actions: first a rollout with the most probable allowed action each step; if it runs out of steps (argmax
-    can cycle where the policy is undecided: the shipped policy never finishes floor_pan_inner that way), up to
+    Actions: first a rollout with the most probable allowed action each step (a move to where the robot already
+    stands is never taken, see :meth:`_moving`); if it runs out of steps (argmax can cycle where the policy is
+    undecided: the shipped policy never finishes floor_pan_inner that way), up to
     ``attempts - 1`` rollouts with actions sampled from the masked policy, seeded by the planner's seed (runs
     are reproducible). Sampling alone finishes every task but wanders (~20 % more wear on the held-out tasks).
     ``deterministic=True``: argmax only; ``sample=True``: sampling only.
@@ -193,9 +195,24 @@ class PolicyPlanner(Planner):
     def _step(self, obs, masks, mode: str):
         """Choose an action and take it: the action, ``env.step``'s return and the network's seconds."""
         t0 = time.perf_counter()
-        action = self.agent.predict(obs, masks, deterministic=mode == "argmax")
+        action = self.agent.predict(obs, self._moving(masks), deterministic=mode == "argmax")
         seconds = time.perf_counter() - t0
         return action, self.env.step(action), seconds
+
+
+    def _moving(self, masks: np.ndarray) -> np.ndarray:
+        """``masks`` less the moves to where the robot already stands (a via to the travel posture it is at), unless
+        nothing else is allowed. The env offers them (its observation shows them, as the policy saw them in training),
+        but such a move is a wait that costs a step, and where one was the most probable action the policy stood on
+        it until its steps ran out. The wait itself stays allowed."""
+        env, q = self.env, self.env.q
+        still = [a for a in np.flatnonzero(masks)
+                 if a != env.stay_action and np.abs(env.target(q, int(a)) - q).max() <= STILL]
+        if not still or len(still) == int(masks.sum()):
+            return masks
+        moving = masks.copy()
+        moving[still] = False
+        return moving
 
 
 class _EpisodeFailed(Exception):

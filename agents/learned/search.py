@@ -67,8 +67,7 @@ class PolicySearchPlanner(PolicyPlanner):
     own simulation: the same physics profile the policy trained on).
 
     ``proposals=1`` is the ``ppo`` planner's most probable rollout. If the search does not finish the task, the
-    ``ppo`` planner's sampled rollouts follow. Steps that leave the robot where it is (the wait, a via to where it
-    stands) are not proposed.
+    ``ppo`` planner's sampled rollouts follow. Neither the wait nor a move to where the robot stands is proposed.
     """
 
     name = "ppo-search"
@@ -107,10 +106,13 @@ class PolicySearchPlanner(PolicyPlanner):
         seconds = time.perf_counter() - t0
         before = env.snapshot()
         if not self._incumbent.steps:  # the policy's own rollout from here
-            self._incumbent = self._continue(before, self.agent.predict(obs, masks, deterministic=True), math.inf)
+            self._incumbent = self._continue(before, self.agent.predict(obs, self._moving(masks), deterministic=True),
+                                             math.inf)
             if self._policy_cost is None:
                 self._policy_cost = self._incumbent.cost if self._incumbent.finished else math.inf
-        allowed = self._moves(np.flatnonzero(masks))
+        allowed = np.flatnonzero(self._moving(masks))
+        if len(allowed) > 1:  # the wait changes nothing a search could prefer it for
+            allowed = allowed[allowed != env.stay_action]
         # most probable first; equal probabilities by action index, so the choice is reproducible
         ranked = [int(a) for a in allowed[np.lexsort((allowed, -probs[allowed]))][:self.proposals]]
         tried = {self._incumbent.first_action: self._incumbent}
@@ -143,17 +145,8 @@ class PolicySearchPlanner(PolicyPlanner):
             if terminated or truncated or total >= bound:
                 return _Continuation(steps, bool(terminated and info["is_success"] and total < bound))
             t0 = time.perf_counter()
-            action = self.agent.predict(obs, env.action_masks(), deterministic=True)
+            action = self.agent.predict(obs, self._moving(env.action_masks()), deterministic=True)
             self._network += time.perf_counter() - t0
-
-    def _moves(self, allowed: np.ndarray) -> np.ndarray:
-        """The allowed actions that move the robot (all allowed ones if none does): a step that stays where it is
-        changes nothing a search could prefer it for."""
-        env = self.env
-        q = env.q
-        moving = np.array([a for a in allowed if a != env.stay_action
-                           and not np.allclose(env.target(q, int(a)), q, atol=1e-9)], dtype=int)
-        return moving if len(moving) else allowed
 
 
 def _rounded(cost: float | None) -> float | None:

@@ -94,3 +94,24 @@ def test_same_plan_whatever_was_planned_before(station, tasks):
 def test_proposals_checked(station, bad):
     with pytest.raises(ConfigError, match="proposals"):
         PolicySearchPlanner(station, 0, policy=POLICY, proposals=bad)
+
+
+def test_the_policy_never_takes_a_move_to_where_it_stands(station):
+    """drawn_25 of the 30 drawn welds: at a travel posture the env still offers the via to it (the observation shows
+    it, as in training) and it was the policy's most probable action, so the argmax rollout stood on it until its
+    steps ran out. The planner leaves such moves out: the rollout finishes, every step but a wait moves the robot."""
+    spec = EvalSpec(methods=("ppo",), drawn_tasks=26, seeds=(0,), start_noise_deg=10)
+    task = build_tasks(station, spec)[(("drawn_25",), 0)]
+    planner = PolicyPlanner(station, 0, policy=POLICY, deterministic=True)
+    result = planner.plan(task)
+    env = planner.env
+    env.reset(seed=planner.seed, options={"goals": dict(zip(task.weld_names, task.goals)), "start": task.start})
+    offered_still = 0
+    for a in result.info["actions"]:
+        q = env.q.copy()
+        allowed = np.flatnonzero(env.action_masks())
+        offered_still += sum(a2 != env.stay_action and np.allclose(env.target(q, int(a2)), q, atol=1e-9)
+                             for a2 in allowed)
+        assert a == env.stay_action or not np.allclose(env.target(q, a), q, atol=1e-9)
+        env.step(a)
+    assert offered_still > 0
