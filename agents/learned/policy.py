@@ -199,7 +199,6 @@ class PolicyPlanner(Planner):
         seconds = time.perf_counter() - t0
         return action, self.env.step(action), seconds
 
-
     def _moving(self, masks: np.ndarray) -> np.ndarray:
         """``masks`` less the moves to where the robot already stands (a via to the travel posture it is at), unless
         nothing else is allowed. The env offers them (its observation shows them, as the policy saw them in training),
