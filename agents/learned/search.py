@@ -105,12 +105,12 @@ class PolicySearchPlanner(PolicyPlanner):
         probs = self.agent.probabilities(obs, masks)
         seconds = time.perf_counter() - t0
         before = env.snapshot()
+        moving = self._moving(masks)  # here, before a continuation moves the env on
         if not self._incumbent.steps:  # the policy's own rollout from here
-            self._incumbent = self._continue(before, self.agent.predict(obs, self._moving(masks), deterministic=True),
-                                             math.inf)
+            self._incumbent = self._continue(before, self.agent.predict(obs, moving, deterministic=True), math.inf)
             if self._policy_cost is None:
                 self._policy_cost = self._incumbent.cost if self._incumbent.finished else math.inf
-        allowed = np.flatnonzero(self._moving(masks))
+        allowed = np.flatnonzero(moving)
         if len(allowed) > 1:  # the wait changes nothing a search could prefer it for
             allowed = allowed[allowed != env.stay_action]
         # most probable first; equal probabilities by action index, so the choice is reproducible
