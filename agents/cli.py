@@ -31,7 +31,7 @@ def add_budget_arguments(p, iterations: int = DEFAULT_ITERATIONS, evaluations: i
 
 def add_plan_command(sub) -> None:
     from .learned.policy import DEFAULT_POLICY
-    from .learned.search import MAX_PROPOSALS, PROPOSALS
+    from .learned.search import MAX_PROPOSALS, MAX_REFINE, PROPOSALS, REFINE
     from .planners.registry import PLANNERS
 
     p = sub.add_parser("plan", help="plan the station's weld cycle and measure it in the cable simulator")
@@ -60,6 +60,9 @@ def add_plan_command(sub) -> None:
     p.add_argument("--proposals", type=number(1, MAX_PROPOSALS, integer=True), default=None,
                    help="ppo-search only: the policy's most probable moves each step tries, each continued by the "
                         f"policy to the end (default {PROPOSALS}; 1: the policy's own rollout)")
+    p.add_argument("--refine", type=number(0, MAX_REFINE, integer=True), default=None, metavar="QUERIES",
+                   help="ppo-search only: leg-cost queries (accurate cable simulations of a leg) that move the found "
+                        f"route's vias to cheaper ones (default {REFINE}; 0: the route as the search found it)")
     p.add_argument("--plot", type=output_file, default=None,
                    help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3; missing folders are made)")
     p.add_argument("--out", type=output_file, default=None,
@@ -84,6 +87,10 @@ def cmd_plan(args) -> int:
         if args.planner != "ppo-search":
             raise ConfigError("proposals", f"--proposals applies to ppo-search only, not {args.planner}")
         extra["proposals"] = args.proposals
+    if args.refine is not None:
+        if args.planner != "ppo-search":
+            raise ConfigError("refine", f"--refine applies to ppo-search only, not {args.planner}")
+        extra["refine"] = args.refine
     if args.time_weight is not None:
         if args.planner not in WEAR_AWARE:
             raise ConfigError("time_weight", f"--time-weight applies to {', '.join(WEAR_AWARE)} only, not "

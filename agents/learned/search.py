@@ -1,5 +1,5 @@
 """``ppo-search``: the policy's most probable actions, each continued by the policy to the episode's end in the
-simulation; the cheapest finished continuation (cycle time + ∫C dt) chooses the step."""
+simulation; the cheapest finished continuation (cycle time + ∫C dt) chooses the step; then its vias refined."""
 
 from __future__ import annotations
 
@@ -11,13 +11,27 @@ import numpy as np
 
 from dresspack_gym.env.dresspack_env import EnvSnapshot
 from dresspack_gym.errors import ConfigError
+from dresspack_gym.physics.trajectory import Trajectory
 from dresspack_gym.stations.station import Station
 from dresspack_gym.stations.tasks import Task
 
+from ..planners.leg_cost import TENSION_PEAK_TIME, LegCost
+from ..planners.refine import LocalRefiner, refine_legs
 from .policy import PolicyPlanner
 
 PROPOSALS = 3  # actions tried at every step: the policy's most probable allowed moves
 MAX_PROPOSALS = 64
+# leg-cost queries (accurate cable simulations of a leg) per plan that move the found route's vias off the action
+# set's grid: 20 took a quarter off the gap to ompl-wear on 12 drawn welds, at ~12 s (docs/results_learned.md)
+REFINE = 20
+MAX_REFINE = 10_000
+
+
+def check_refine(refine) -> int:
+    """The refinement's leg-cost queries a plan, or a ConfigError naming the field."""
+    if isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) or not 0 <= refine <= MAX_REFINE:
+        raise ConfigError("refine", f"must be an integer in [0, {MAX_REFINE}] (0: no refinement), got {refine!r}")
+    return int(refine)
 
 
 def check_proposals(proposals) -> int:
@@ -68,20 +82,43 @@ class PolicySearchPlanner(PolicyPlanner):
 
     ``proposals=1`` is the ``ppo`` planner's most probable rollout. If the search does not finish the task, the
     ``ppo`` planner's sampled rollouts follow. Neither the wait nor a move to where the robot stands is proposed.
+
+    Then the route's vias leave the action set's grid: ``refine`` leg-cost queries (``ompl-wear``'s leg cost, each an
+    accurate cable simulation of the leg) of the local refiner move them, leg by leg in path order, keeping a change
+    only where the leg's cost falls; waypoints that do not pay for their stop are dropped. ``refine=0``: the search's
+    route as found.
     """
 
     name = "ppo-search"
     color = "#0b6e4f"
 
-    def __init__(self, station: Station, robot: int = 0, *, proposals: int = PROPOSALS, **kwargs):
-        proposals = check_proposals(proposals)
+    def __init__(self, station: Station, robot: int = 0, *, proposals: int = PROPOSALS, refine: int = REFINE,
+                 **kwargs):
+        proposals, refine = check_proposals(proposals), check_refine(refine)
         super().__init__(station, robot, **kwargs)
-        self.proposals = proposals
+        self.proposals, self.refine = proposals, refine
+        self.refiner = None  # built only if it will be used: its leg cost holds a simulator of its own
+        if refine:
+            leg_cost = LegCost(station, robot, tension_peak_time=TENSION_PEAK_TIME)
+            self.refiner = LocalRefiner(self.validity, leg_cost)
         self._simulated = 0  # env steps this plan simulated
         self._incumbent = _Continuation()  # the cheapest known continuation from the current state
         self._network = 0.0  # seconds in the network (proposals and the continuations' actions)
         self._policy_cost: float | None = None  # the policy's own rollout from the start (inf: unfinished)
         self._cost = 0.0  # the steps taken so far
+
+    def _plan(self, task: Task) -> tuple[Trajectory, dict]:
+        traj, info = super()._plan(task)
+        if self.refiner is None:
+            return traj, info
+        t0, cost = time.perf_counter(), self.refiner.cost
+        cost.reset()  # a plan never reuses an earlier plan's simulations
+        legs, before, after = refine_legs(self.refiner, cost.start_state(task.start), traj.legs(), self.refine,
+                                          self.rng, self.allowance)
+        return Trajectory.from_legs(legs), {
+            **info, "refine_queries": self.refine, "cable_evaluations": cost.evaluations,
+            "waypoints_unrefined": len(traj.waypoints), "leg_cost_unrefined": round(before, 6),
+            "leg_cost": round(after, 6), "refine_s": round(time.perf_counter() - t0, 3)}
 
     def _modes(self) -> list[str]:
         return ["search"] if self.deterministic else ["search", *["sample"] * (self.attempts - 1)]

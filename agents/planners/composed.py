@@ -11,7 +11,7 @@ from dresspack_gym.stations.tasks import Task
 from .base import Planner
 from .leg_cost import LegCost
 from .ompl_connect import OmplConnector
-from .refine import LocalRefiner
+from .refine import LocalRefiner, leg_share
 from .routes import DirectRoute
 
 
@@ -53,7 +53,7 @@ class ComposedPlanner(Planner):
             route_scores.append([float(x) for x in scores])
             best = cands[int(np.argmin(scores))]
             if self.refiner is not None:
-                share = max(0, self.budget.evaluations - self._refine_queries) // (n - k)
+                share = leg_share(self.budget.evaluations, self._refine_queries, n - k)
                 q0 = cost.queries
                 best = self.refiner.improve(state, best, share, self.rng, self.allowance)
                 self._refine_queries += cost.queries - q0

@@ -25,6 +25,11 @@ def densify(leg: np.ndarray, n_interior: int) -> np.ndarray:
     return np.array(pts)
 
 
+def leg_share(queries: int, used: int, legs_left: int) -> int:
+    """The queries the next leg may use: what is left of ``queries``, shared evenly over the legs still to plan."""
+    return max(0, queries - used) // legs_left
+
+
 class LocalRefiner:
     """Random-perturbation hill climbing on a leg's interior waypoints (ends fixed); the step shrinks when a
     sweep finds nothing; then waypoints that do not pay for their stop are dropped. Bounded by leg-cost queries."""
@@ -80,3 +85,19 @@ class LocalRefiner:
         """All segments, or only the two touching waypoint ``around`` (a segment check covers its end points)."""
         ks = range(len(leg) - 1) if around is None else range(max(0, around - 1), min(len(leg) - 1, around + 1))
         return all(self.validity.segment_valid(leg[k], leg[k + 1]) for k in ks)
+
+
+def refine_legs(refiner: LocalRefiner, state: np.ndarray, legs: list[np.ndarray], queries: int,
+                rng: np.random.Generator, allowance: Allowance) -> tuple[list[np.ndarray], float, float]:
+    """Each leg improved in path order from the cable state the ones before it left (``state``: the start's),
+    ``queries`` leg-cost queries shared out over the legs: the legs and their total leg cost before and after."""
+    cost, out, before, after, used = refiner.cost, [], 0.0, 0.0, 0
+    for k, leg in enumerate(legs):
+        before += cost.cost(state, leg)[0]  # from the refined legs' end state: what refining this leg starts from
+        q0 = cost.queries
+        best = refiner.improve(state, leg, leg_share(queries, used, len(legs) - k), rng, allowance)
+        used += cost.queries - q0
+        j, state, _ = cost.cost(state, best)
+        out.append(best)
+        after += j
+    return out, before, after

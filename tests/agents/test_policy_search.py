@@ -1,4 +1,5 @@
-"""ppo-search: the policy's proposals continued by the policy in the simulation, the cheapest continuation kept."""
+"""ppo-search: the policy's proposals continued by the policy in the simulation, the cheapest continuation kept;
+then its vias refined under the wear-aware planner's leg cost."""
 
 from __future__ import annotations
 
@@ -55,7 +56,7 @@ def test_registered():
 def test_one_proposal_is_the_most_probable_rollout(station, tasks):
     task = _task(tasks, 1)
     ppo = PolicyPlanner(station, 0, policy=POLICY, deterministic=True).plan(task)
-    search = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1).plan(task)
+    search = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=0).plan(task)
     assert search.info["mode"] == "search" and search.info["actions"] == ppo.info["actions"]
     np.testing.assert_array_equal(search.trajectory.waypoints, ppo.trajectory.waypoints)
     assert search.trajectory.stops == ppo.trajectory.stops
@@ -67,7 +68,7 @@ def test_search_finds_a_cheaper_path_than_the_policys_and_reports_its_true_cost(
     """drawn_19: the policy's most probable rollout is dear; two proposals a step find a path ~40 % cheaper. The
     reported objectives are those of the actions taken, stepped again in a separate env."""
     task = _task(tasks, 19)
-    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=2)
+    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=2, refine=0)
     result = planner.plan(task)
     info = result.info
     assert info["mode"] == "search" and info["objective"] < 0.8 * info["policy_objective"]
@@ -81,12 +82,14 @@ def test_search_finds_a_cheaper_path_than_the_policys_and_reports_its_true_cost(
 
 
 def test_same_plan_whatever_was_planned_before(station, tasks):
-    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=2, seed=3)
+    """The search and its refinement alike (the refiner's random perturbations restart from the seed each plan)."""
+    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=2, refine=4, seed=3)
     first = planner.plan(_task(tasks, 1))
     planner.plan(_task(tasks, 6))
     again = planner.plan(_task(tasks, 1))
     np.testing.assert_array_equal(first.trajectory.waypoints, again.trajectory.waypoints)
     assert first.info["objective"] == again.info["objective"] <= first.info["policy_objective"]
+    assert first.info["leg_cost"] == again.info["leg_cost"] <= first.info["leg_cost_unrefined"]
     assert first.info["simulated_steps"] == again.info["simulated_steps"] > first.info["policy_steps"]
 
 
@@ -94,6 +97,44 @@ def test_same_plan_whatever_was_planned_before(station, tasks):
 def test_proposals_checked(station, bad):
     with pytest.raises(ConfigError, match="proposals"):
         PolicySearchPlanner(station, 0, policy=POLICY, proposals=bad)
+
+
+def test_refinement_moves_the_vias_to_a_cheaper_route_and_reports_its_cost(station, tasks):
+    """drawn_3: the policy's route, its vias on the action set's grid, is refined with 10 leg-cost queries. The
+    refined route goes through the same stops, each leg's reported cost is the leg cost of the refined legs
+    simulated again from the start, and the accurate replay's cycle time + ∫C dt falls (by a third here)."""
+    from dresspack.agents.planners.leg_cost import TENSION_PEAK_TIME, LegCost
+
+    from dresspack_gym.physics.simulation import CableSimulator
+    from dresspack_gym.physics.trajectory import replay
+
+    task = _task(tasks, 3)
+    found = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=0).plan(task)
+    refined = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=10).plan(task)
+    info = refined.info
+    assert info["actions"] == found.info["actions"] and info["refine_queries"] == 10
+    assert info["waypoints_unrefined"] == len(found.trajectory.waypoints)
+    stops = [found.trajectory.waypoints[i] for i in found.trajectory.stops]
+    # to rounding: the refiner's added waypoints recompute each segment's end as a + (b - a) * 1
+    np.testing.assert_allclose([refined.trajectory.waypoints[i] for i in refined.trajectory.stops], stops, atol=1e-12)
+    cost = LegCost(station, 0, tension_peak_time=TENSION_PEAK_TIME)
+    state, total = cost.start_state(task.start), 0.0
+    for leg in refined.trajectory.legs():
+        j, state, _ = cost.cost(state, leg)
+        total += j
+    assert total == pytest.approx(info["leg_cost"], abs=1e-5) and info["leg_cost"] < info["leg_cost_unrefined"]
+
+    def objective(traj):
+        s = replay(CableSimulator(station), traj).summary()
+        return s["cycle_time"] + s["cost"]
+
+    assert objective(refined.trajectory) < 0.8 * objective(found.trajectory)
+
+
+@pytest.mark.parametrize("bad", [-1, 10_001, 1.5, True, "3"])
+def test_refine_checked(station, bad):
+    with pytest.raises(ConfigError, match="^refine: must be an integer in \\[0, 10000\\]"):
+        PolicySearchPlanner(station, 0, policy=POLICY, refine=bad)
 
 
 def test_the_policy_never_takes_a_move_to_where_it_stands(station):

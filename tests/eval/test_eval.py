@@ -222,6 +222,22 @@ def test_proposals_are_checked_stored_and_reach_the_search(monkeypatch, tmp_path
     assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, "proposals") == {"ppo-search": 5}
 
 
+def test_refine_is_checked_stored_and_reaches_the_search(monkeypatch, tmp_path, capsys):
+    from dresspack.eval.runs import _extends
+
+    for bad in (-1, 10_001, 2.5, True, "3"):
+        with pytest.raises(ConfigError, match="refine"):
+            EvalSpec(methods=("ppo-search",), refine=bad)
+    with pytest.raises(SystemExit):
+        main(["eval", "--planners", "ppo-search", "--refine", "-1"])
+    assert "--refine" in capsys.readouterr().err
+    unrefined = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), refine=0).to_dict()
+    older = {k: v for k, v in unrefined.items() if k != "refine"}  # written before the setting existed: no refinement
+    assert _extends(older, unrefined) and not _extends(older, unrefined | {"refine": 20})
+    spec = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), refine=7)
+    assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, "refine") == {"ppo-search": 7}
+
+
 def _argument_reaching_the_planner(monkeypatch, tmp_path, spec: EvalSpec, name: str) -> dict:
     """Per method, the keyword argument ``name`` the evaluation builds its planner with (the evaluation is stopped
     as soon as the planner would be built)."""
