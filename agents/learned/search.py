@@ -22,7 +22,8 @@ from .policy import PolicyPlanner
 PROPOSALS = 3  # actions tried at every step: the policy's most probable allowed moves
 MAX_PROPOSALS = 64
 # leg-cost queries (accurate cable simulations of a leg) per plan that move the found route's vias off the action
-# set's grid: 20 took a quarter off the gap to ompl-wear on 12 drawn welds, at ~12 s (docs/results_learned.md)
+# set's grid: 20 take the search from 1.29x to 1.12x ompl-wear's T + ∫C dt on 30 drawn welds in ~10 s, 10 to 1.18x
+# (docs/results_learned.md)
 REFINE = 20
 MAX_REFINE = 10_000
 
