@@ -114,10 +114,13 @@ class PolicySearchPlanner(PolicyPlanner):
             return traj, info
         t0, cost = time.perf_counter(), self.refiner.cost
         cost.reset()  # a plan never reuses an earlier plan's simulations
-        legs, before, after = refine_legs(self.refiner, cost.start_state(task.start), traj.legs(), self.refine,
-                                          self.rng, self.allowance)
+        legs, before, after, summaries = refine_legs(self.refiner, cost.start_state(task.start), traj.legs(),
+                                                     self.refine, self.rng, self.allowance)
+        goals = (*task.weld_names, "home")
         return Trajectory.from_legs(legs), {
             **info, "refine_queries": self.refine, "cable_evaluations": cost.evaluations,
+            # the returned route's settles, in the accurate simulation the refinement ranked its legs by
+            "unconverged_settles": [g for g, s in zip(goals, summaries) if s["unconverged_stops"]],
             "waypoints_unrefined": len(traj.waypoints), "leg_cost_unrefined": round(before, 6),
             "leg_cost": round(after, 6), "refine_s": round(time.perf_counter() - t0, 3)}
 

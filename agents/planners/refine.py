@@ -88,19 +88,22 @@ class LocalRefiner:
 
 
 def refine_legs(refiner: LocalRefiner, state: np.ndarray, legs: list[np.ndarray], queries: int,
-                rng: np.random.Generator, allowance: Allowance) -> tuple[list[np.ndarray], float, float]:
+                rng: np.random.Generator, allowance: Allowance) -> tuple[list[np.ndarray], float, float, list[dict]]:
     """Each leg improved in path order from the cable state the ones before it left (``state``: the start's),
     ``queries`` leg-cost queries shared out over the legs; a leg the refiner made dearer is kept as it was (its
-    added waypoints may not all be dropped again). The legs and their total leg cost before and after."""
-    cost, out, before, after, used = refiner.cost, [], 0.0, 0.0, 0
+    added waypoints may not all be dropped again). The legs, their total leg cost before and after, and the kept
+    legs' replay summaries (each with ``unconverged_stops``: whether its settle missed the equilibrium residual)."""
+    cost, out, summaries, before, after, used = refiner.cost, [], [], 0.0, 0.0, 0
     for k, leg in enumerate(legs):
         given = cost.cost(state, leg)[0]  # from the end state of the legs kept before it
         q0 = cost.queries
         best = refiner.improve(state, leg, leg_share(queries, used, len(legs) - k), rng, allowance)
         used += cost.queries - q0
-        if cost.cost(state, best)[0] > given:
-            best = leg
-        j, state, _ = cost.cost(state, best)  # cached: no simulation
+        j, end, summary = cost.cost(state, best)  # cached: no simulation
+        if j > given:
+            best, (j, end, summary) = leg, cost.cost(state, leg)
+        state = end
         out.append(best)
+        summaries.append(summary)
         before, after = before + given, after + j
-    return out, before, after
+    return out, before, after, summaries

@@ -131,6 +131,23 @@ def test_refinement_moves_the_vias_to_a_cheaper_route_and_reports_its_cost(stati
     assert objective(refined.trajectory) < 0.8 * objective(found.trajectory)
 
 
+@pytest.mark.parametrize("settle_time, flagged", [(None, []), (0.05, ["sill_front", "home"])])
+def test_refined_plan_names_the_goals_whose_settle_missed_the_residual(settle_time, flagged):
+    """The refined route's settles (the leg-cost simulations it was ranked by): none on the default station, every
+    goal when the settle is cut to 50 ms."""
+    from dataclasses import replace
+
+    from dresspack_gym.stations.tasks import make_task
+
+    config = load_station("default")
+    if settle_time is not None:
+        config = replace(config, simulation=replace(config.simulation, settle_time=settle_time))
+    station = Station(config)
+    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=2)
+    task = make_task(station, 0, planner.validity.checker.collides, ["sill_front"])
+    assert planner.plan(task).info["unconverged_settles"] == flagged
+
+
 @pytest.mark.parametrize("bad", [-1, 10_001, 1.5, True, "3"])
 def test_refine_checked(station, bad):
     with pytest.raises(ConfigError, match="^refine: must be an integer in \\[0, 10000\\]"):
