@@ -31,7 +31,7 @@ def add_budget_arguments(p, iterations: int = DEFAULT_ITERATIONS, evaluations: i
 
 def add_plan_command(sub) -> None:
     from .learned.policy import DEFAULT_POLICY
-    from .learned.search import MAX_PROPOSALS, MAX_REFINE, PROPOSALS, REFINE
+    from .learned.search import ALTERNATIVES, MAX_ALTERNATIVES, MAX_PROPOSALS, MAX_REFINE, PROPOSALS, REFINE
     from .planners.registry import PLANNERS
 
     p = sub.add_parser("plan", help="plan the station's weld cycle and measure it in the cable simulator")
@@ -63,6 +63,10 @@ def add_plan_command(sub) -> None:
     p.add_argument("--refine", type=number(0, MAX_REFINE, integer=True), default=None, metavar="QUERIES",
                    help="ppo-search only: leg-cost queries (accurate cable simulations of a leg) that move the found "
                         f"route's vias to cheaper ones (default {REFINE}; 0: the route as the search found it)")
+    p.add_argument("--alternatives", type=number(0, MAX_ALTERNATIVES, integer=True), default=None, metavar="ROUTES",
+                   help="ppo-search only: OMPL routes (the direct one, then through random vias) per leg, each scored "
+                        "by cable simulation against the found route's leg before the refinement starts from the "
+                        f"cheapest (default {ALTERNATIVES}; 0: the found route's legs only)")
     p.add_argument("--plot", type=output_file, default=None,
                    help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3; missing folders are made)")
     p.add_argument("--out", type=output_file, default=None,
@@ -91,6 +95,10 @@ def cmd_plan(args) -> int:
         if args.planner != "ppo-search":
             raise ConfigError("refine", f"--refine applies to ppo-search only, not {args.planner}")
         extra["refine"] = args.refine
+    if args.alternatives is not None:
+        if args.planner != "ppo-search":
+            raise ConfigError("alternatives", f"--alternatives applies to ppo-search only, not {args.planner}")
+        extra["alternatives"] = args.alternatives
     if args.time_weight is not None:
         if args.planner not in WEAR_AWARE:
             raise ConfigError("time_weight", f"--time-weight applies to {', '.join(WEAR_AWARE)} only, not "

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from dresspack.agents.cli import add_budget_arguments
 from dresspack.agents.learned.policy import DEFAULT_POLICY
-from dresspack.agents.learned.search import MAX_PROPOSALS, MAX_REFINE
+from dresspack.agents.learned.search import MAX_ALTERNATIVES, MAX_PROPOSALS, MAX_REFINE
 from dresspack.agents.planners.leg_cost import MAX_TIME_WEIGHT
 from dresspack.agents.planners.registry import PLANNERS
 
@@ -76,6 +76,11 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
     p.add_argument("--refine", type=number(0, MAX_REFINE, integer=True), default=defaults.refine, metavar="QUERIES",
                    help="ppo-search: leg-cost queries (accurate cable simulations of a leg) that move the found "
                         f"route's vias to cheaper ones (default: {defaults.refine}; 0: the route as found)")
+    p.add_argument("--alternatives", type=number(0, MAX_ALTERNATIVES, integer=True), default=defaults.alternatives,
+                   metavar="ROUTES",
+                   help="ppo-search: OMPL routes (the direct one, then through random vias) per leg, each scored by "
+                        "one cable simulation against the found route's leg before the refinement starts from the "
+                        f"cheapest (default: {defaults.alternatives}; 0: the found route's legs only)")
     p.add_argument("--robustness-map", default=None,
                    help="robustness map folder to include in the report (default: none)")
     p.add_argument("--jobs", type=number(1, MAX_JOBS, integer=True), default=ALL_CORES,
@@ -94,6 +99,7 @@ def spec_from_args(args) -> EvalSpec:
                     time_budget=args.time_budget,
                     start_noise_deg=args.start_noise_deg, policy=args.policy, cost_variant=args.cost_variant,
                     time_weight=args.time_weight, proposals=args.proposals, refine=args.refine,
+                    alternatives=args.alternatives,
                     drawn_tasks=args.drawn_tasks, drawn_seed=args.drawn_seed)
 
 

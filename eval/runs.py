@@ -16,7 +16,15 @@ from pathlib import Path
 
 import numpy as np
 from dresspack.agents.learned.policy import DEFAULT_POLICY
-from dresspack.agents.learned.search import PROPOSALS, REFINE, PolicySearchPlanner, check_proposals, check_refine
+from dresspack.agents.learned.search import (
+    ALTERNATIVES,
+    PROPOSALS,
+    REFINE,
+    PolicySearchPlanner,
+    check_alternatives,
+    check_proposals,
+    check_refine,
+)
 from dresspack.agents.planners.base import PlanningError
 from dresspack.agents.planners.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Budget
 from dresspack.agents.planners.leg_cost import check_time_weight
@@ -59,6 +67,7 @@ class EvalSpec:
     time_weight: float = 1.0
     proposals: int = PROPOSALS  # ppo-search: the policy's moves tried at every step
     refine: int = REFINE  # ppo-search: leg-cost queries moving the found route's vias
+    alternatives: int = ALTERNATIVES  # ppo-search: OMPL via routes per leg scored against the found route's leg
     policy: str | None = None  # run folder / model / shipped name for ppo (and the random floor's env)
     robot: int = 0
     # > 0: the tasks are this many single welds drawn on the station's parts (weld_sampling), weld k from
@@ -86,6 +95,7 @@ class EvalSpec:
         check_time_weight(self.time_weight)
         check_proposals(self.proposals)
         check_refine(self.refine)
+        check_alternatives(self.alternatives)
         if not 0 <= self.start_noise_deg <= 90:
             raise ConfigError("start_noise_deg", f"must be in [0, 90] deg, got {self.start_noise_deg}")
 
@@ -145,7 +155,7 @@ def load_trajectory(out: Path, row: dict) -> Trajectory | None:
 
 
 # settings added after evaluations were already stored, with the value those evaluations used
-_ADDED_SETTINGS = {"time_weight": 1.0, "proposals": PROPOSALS, "refine": 0}
+_ADDED_SETTINGS = {"time_weight": 1.0, "proposals": PROPOSALS, "refine": 0, "alternatives": 0}
 
 
 def _extends(stored: dict, new: dict) -> bool:
@@ -284,7 +294,7 @@ class RunEvaluator:
                 kwargs["cost_variant"] = spec.cost_variant
                 kwargs["time_weight"] = spec.time_weight
             if method == PolicySearchPlanner.name:
-                kwargs["proposals"], kwargs["refine"] = spec.proposals, spec.refine
+                kwargs.update(proposals=spec.proposals, refine=spec.refine, alternatives=spec.alternatives)
             self.planners[(method, seed)] = make_planner(method, self.station, spec.robot, seed=seed,
                                                          iterations=spec.iterations, evaluations=spec.evaluations,
                                                          routes=spec.routes, time_budget=spec.time_budget, **kwargs)

@@ -16,7 +16,9 @@ from dresspack_gym.stations.station import Station
 from dresspack_gym.stations.tasks import Task
 
 from ..planners.leg_cost import TENSION_PEAK_TIME, LegCost
+from ..planners.ompl_connect import OmplConnector
 from ..planners.refine import LocalRefiner, refine_legs
+from ..planners.routes import ViaRoutes
 from .policy import PolicyPlanner
 
 PROPOSALS = 3  # actions tried at every step: the policy's most probable allowed moves
@@ -26,6 +28,8 @@ MAX_PROPOSALS = 64
 # (docs/results_learned.md)
 REFINE = 20
 MAX_REFINE = 10_000
+ALTERNATIVES = 0  # OMPL routes per leg scored against the found route's leg before refining
+MAX_ALTERNATIVES = 1_000
 
 
 def check_refine(refine) -> int:
@@ -33,6 +37,15 @@ def check_refine(refine) -> int:
     if isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) or not 0 <= refine <= MAX_REFINE:
         raise ConfigError("refine", f"must be an integer in [0, {MAX_REFINE}] (0: no refinement), got {refine!r}")
     return int(refine)
+
+
+def check_alternatives(alternatives) -> int:
+    """OMPL routes per leg scored against the found route's leg, or a ConfigError naming the field."""
+    if isinstance(alternatives, bool) or not isinstance(alternatives, (int, np.integer)) \
+            or not 0 <= alternatives <= MAX_ALTERNATIVES:
+        raise ConfigError("alternatives", f"must be an integer in [0, {MAX_ALTERNATIVES}] (0: the found route's legs "
+                                          f"only), got {alternatives!r}")
+    return int(alternatives)
 
 
 def check_proposals(proposals) -> int:
@@ -84,29 +97,45 @@ class PolicySearchPlanner(PolicyPlanner):
     ``proposals=1`` is the ``ppo`` planner's most probable rollout. If the search does not finish the task, the
     ``ppo`` planner's sampled rollouts follow. Neither the wait nor a move to where the robot stands is proposed.
 
-    Then the route's vias leave the action set's grid: ``refine`` leg-cost queries (``ompl-wear``'s leg cost, each an
-    accurate cable simulation of the leg) of the local refiner move them, leg by leg in path order, keeping a change
-    only where the leg's cost falls; waypoints that do not pay for their stop are dropped. ``refine=0``: the search's
-    route as found.
+    Then, leg by leg in path order, ``alternatives`` OMPL routes between the leg's stops (the direct one, then through
+    random vias: other route classes than the policy's) compete with the found leg, each scored by an accurate cable
+    simulation under ``ompl-wear``'s leg cost; and the route's vias leave the action set's grid: ``refine`` leg-cost
+    queries of the local refiner move them, without adding joint turns. A leg is judged with the found legs after it
+    (its cable end state is their start) and a change kept only where that sum falls, so the route never costs more
+    than the search's in that simulation; waypoints that do not pay for their stop are dropped. ``refine=0`` and
+    ``alternatives=0``: the search's route as found.
     """
 
     name = "ppo-search"
     color = "#0b6e4f"
 
     def __init__(self, station: Station, robot: int = 0, *, proposals: int = PROPOSALS, refine: int = REFINE,
-                 **kwargs):
+                 alternatives: int = ALTERNATIVES, **kwargs):
         proposals, refine = check_proposals(proposals), check_refine(refine)
+        alternatives = check_alternatives(alternatives)
         super().__init__(station, robot, **kwargs)
         self.proposals, self.refine = proposals, refine
         self.refiner = None  # built only if it will be used: its leg cost holds a simulator of its own
-        if refine:
+        if refine or alternatives:
             leg_cost = LegCost(station, robot, tension_peak_time=TENSION_PEAK_TIME)
-            self.refiner = LocalRefiner(self.validity, leg_cost)
+            # the refined vias keep the found route's joint turns: free moves of every joint leave small
+            # back-and-forth turns that make the motion rougher than the planners' (docs/results_learned.md)
+            self.refiner = LocalRefiner(self.validity, leg_cost, keep_turns=True)
+        self.alternatives = alternatives
+        self.connector = self.routes = None
+        if alternatives:
+            self.connector = OmplConnector(self.validity, self.name, True)
+            self.routes = ViaRoutes(self.connector, self.validity, self.budget.iterations, alternatives)
         self._simulated = 0  # env steps this plan simulated
         self._incumbent = _Continuation()  # the cheapest known continuation from the current state
         self._network = 0.0  # seconds in the network (proposals and the continuations' actions)
         self._policy_cost: float | None = None  # the policy's own rollout from the start (inf: unfinished)
         self._cost = 0.0  # the steps taken so far
+
+    def _reseed(self) -> None:
+        super()._reseed()
+        if self.connector is not None:
+            self.connector.reseed(self.seed)
 
     def _plan(self, task: Task) -> tuple[Trajectory, dict]:
         traj, info = super()._plan(task)
@@ -114,15 +143,17 @@ class PolicySearchPlanner(PolicyPlanner):
             return traj, info
         t0, cost = time.perf_counter(), self.refiner.cost
         cost.reset()  # a plan never reuses an earlier plan's simulations
-        legs, before, after, summaries = refine_legs(self.refiner, cost.start_state(task.start), traj.legs(),
-                                                     self.refine, self.rng, self.allowance)
+        route = refine_legs(self.refiner, cost.start_state(task.start), traj.legs(), self.refine, self.rng,
+                            self.allowance, self.routes, self.alternatives)
         goals = (*task.weld_names, "home")
-        return Trajectory.from_legs(legs), {
-            **info, "refine_queries": self.refine, "cable_evaluations": cost.evaluations,
+        return Trajectory.from_legs(route.legs), {
+            **info, "refine_queries": self.refine, "alternatives": self.alternatives,
+            "cable_evaluations": cost.evaluations,
             # the returned route's settles, in the accurate simulation the refinement ranked its legs by
-            "unconverged_settles": [g for g, s in zip(goals, summaries) if s["unconverged_stops"]],
-            "waypoints_unrefined": len(traj.waypoints), "leg_cost_unrefined": round(before, 6),
-            "leg_cost": round(after, 6), "refine_s": round(time.perf_counter() - t0, 3)}
+            "unconverged_settles": [g for g, s in zip(goals, route.summaries) if s["unconverged_stops"]],
+            "rerouted_legs": [goals[k] for k in route.rerouted],  # legs that start from an OMPL route, by goal
+            "waypoints_unrefined": len(traj.waypoints), "leg_cost_unrefined": round(route.cost_given, 6),
+            "leg_cost": round(route.cost, 6), "refine_s": round(time.perf_counter() - t0, 3)}
 
     def _modes(self) -> list[str]:
         return ["search"] if self.deterministic else ["search", *["sample"] * (self.attempts - 1)]

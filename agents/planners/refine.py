@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from dresspack_gym.physics.trajectory import STILL_JOINT
 from dresspack_gym.stations.validity import MotionValidity
 
 from .budget import Allowance
@@ -25,6 +28,20 @@ def densify(leg: np.ndarray, n_interior: int) -> np.ndarray:
     return np.array(pts)
 
 
+def keep_turns(before: np.ndarray, q: np.ndarray, after: np.ndarray, moved: np.ndarray) -> np.ndarray:
+    """``moved``, a new place for the waypoint ``q`` between ``before`` and ``after``, clipped joint by joint so
+    that no joint turns back where it did not (at the waypoint or at its neighbours): a joint that moves one way
+    through ``q`` (or stands) stays between its neighbours' values; a joint that turns back at ``q`` stays beyond
+    both, so it still turns there and its neighbours' directions are kept."""
+    lo, hi = np.minimum(before, after), np.maximum(before, after)
+    out = np.clip(moved, lo, hi)
+    # a turn shorter than STILL_JOINT is no turn (smoothness counts moves above it): such a joint stays between
+    above, below = q > hi + STILL_JOINT, q < lo - STILL_JOINT
+    out[above] = np.maximum(moved[above], hi[above])
+    out[below] = np.minimum(moved[below], lo[below])
+    return out
+
+
 def leg_share(queries: int, used: int, legs_left: int) -> int:
     """The queries the next leg may use: what is left of ``queries``, shared evenly over the legs still to plan."""
     return max(0, queries - used) // legs_left
@@ -32,9 +49,15 @@ def leg_share(queries: int, used: int, legs_left: int) -> int:
 
 class LocalRefiner:
     """Random-perturbation hill climbing on a leg's interior waypoints (ends fixed); the step shrinks when a
-    sweep finds nothing; then waypoints that do not pay for their stop are dropped. Bounded by leg-cost queries."""
+    sweep finds nothing; then waypoints that do not pay for their stop are dropped. Bounded by leg-cost queries.
 
-    def __init__(self, validity: MotionValidity, cost: LegCost, n_interior: int = 3, step_deg: float = 15.0):
+    ``keep_turns``: each move of a waypoint is clipped (:func:`keep_turns`) so that the refined leg's joints turn
+    back no more often than the given leg's: the refinement then never adds the small back-and-forth a random move
+    of every joint leaves in joints the leg barely uses."""
+
+    def __init__(self, validity: MotionValidity, cost: LegCost, n_interior: int = 3, step_deg: float = 15.0,
+                 keep_turns: bool = False):
+        self.keep_turns = keep_turns
         self.validity = validity
         self.cost = cost
         self.n_interior = n_interior
@@ -61,6 +84,8 @@ class LocalRefiner:
                     break
                 trial = best.copy()
                 trial[i] = best[i] + rng.normal(0.0, step, 6)
+                if self.keep_turns:
+                    trial[i] = keep_turns(best[i - 1], best[i], best[i + 1], trial[i])
                 if not self.leg_valid(trial, around=i):
                     continue
                 j = self.cost.cost(state, trial)[0]
@@ -87,23 +112,62 @@ class LocalRefiner:
         return all(self.validity.segment_valid(leg[k], leg[k + 1]) for k in ks)
 
 
+def route_cost(cost: LegCost, state: np.ndarray, legs: list[np.ndarray]) -> float:
+    """The legs' total leg cost, each from the cable state the one before it left (``state``: the first's)."""
+    total = 0.0
+    for leg in legs:
+        j, state, _ = cost.cost(state, leg)
+        total += j
+    return total
+
+
+@dataclass(frozen=True)
+class RefinedRoute:
+    """:func:`refine_legs`' answer: the legs, the given and the returned route's total leg cost, the kept legs'
+    replay summaries (each with ``unconverged_stops``: whether its settle missed the equilibrium residual) and the
+    indexes of the legs that start from another route than the given one."""
+
+    legs: list[np.ndarray]
+    cost_given: float
+    cost: float
+    summaries: list[dict]
+    rerouted: tuple[int, ...]
+
+
 def refine_legs(refiner: LocalRefiner, state: np.ndarray, legs: list[np.ndarray], queries: int,
-                rng: np.random.Generator, allowance: Allowance) -> tuple[list[np.ndarray], float, float, list[dict]]:
+                rng: np.random.Generator, allowance: Allowance, routes=None, alternatives: int = 0) -> RefinedRoute:
     """Each leg improved in path order from the cable state the ones before it left (``state``: the start's),
-    ``queries`` leg-cost queries shared out over the legs; a leg the refiner made dearer is kept as it was (its
-    added waypoints may not all be dropped again). The legs, their total leg cost before and after, and the kept
-    legs' replay summaries (each with ``unconverged_stops``: whether its settle missed the equilibrium residual)."""
-    cost, out, summaries, before, after, used = refiner.cost, [], [], 0.0, 0.0, 0
+    ``queries`` leg-cost queries shared out over the legs. With ``routes`` (a route generator), ``alternatives`` of
+    its candidate legs between the same stops compete with the given leg as the refiner's start.
+
+    A leg's cable end state is the next leg's start, so a leg is judged with what follows it: its cost plus the
+    given later legs' from its end state. A candidate or refined leg is kept only where that sum is lower than the
+    given leg's, so the route never costs more than the given one (the refined leg alone may be cheaper and still
+    leave the cable where the next leg pays for it)."""
+    cost, out, summaries, used, after, rerouted = refiner.cost, [], [], 0, 0.0, []
+    before = route_cost(cost, state, legs)
+
+    def with_rest(leg, k):  # the leg's cost and the given later legs' after it
+        j, end, _ = cost.cost(state, leg)
+        return j + route_cost(cost, end, legs[k + 1:])
+
     for k, leg in enumerate(legs):
-        given = cost.cost(state, leg)[0]  # from the end state of the legs kept before it
+        start, v_start = leg, with_rest(leg, k)
+        if routes is not None and alternatives:
+            for cand in routes.candidates(leg[0], leg[-1], rng, allowance, limit=alternatives):
+                v = with_rest(cand, k)
+                if v < v_start:
+                    start, v_start = cand, v
         q0 = cost.queries
-        best = refiner.improve(state, leg, leg_share(queries, used, len(legs) - k), rng, allowance)
+        best = refiner.improve(state, start, leg_share(queries, used, len(legs) - k), rng, allowance) if queries \
+            else start
         used += cost.queries - q0
-        j, end, summary = cost.cost(state, best)  # cached: no simulation
-        if j > given:
-            best, (j, end, summary) = leg, cost.cost(state, leg)
-        state = end
+        if with_rest(best, k) > v_start:
+            best = start
+        j, state, summary = cost.cost(state, best)  # cached: no simulation
         out.append(best)
         summaries.append(summary)
-        before, after = before + given, after + j
-    return out, before, after, summaries
+        after += j
+        if start is not leg:
+            rerouted.append(k)
+    return RefinedRoute(out, before, after, summaries, tuple(rerouted))

@@ -225,6 +225,7 @@ def test_a_bad_leg_cost_setting_is_an_error_naming_it(planner, name, bad, messag
     ("--time-weight", "thesis-local, ompl-wear, ompl-wear-fmt only", "5", "must be a number in [0, 1000.0] per s"),
     ("--proposals", "ppo-search only", "2", "must be an integer in [1, 64]"),
     ("--refine", "ppo-search only", "2", "must be an integer in [0, 10000]"),
+    ("--alternatives", "ppo-search only", "2", "must be an integer in [0, 1000]"),
 ])
 def test_plan_cli_leg_cost_flags_only_for_the_planners_that_use_them(capsys, flag, applies_to, value, message):
     name = flag[2:].replace("-", "_")

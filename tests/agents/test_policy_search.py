@@ -154,6 +154,32 @@ def test_refine_checked(station, bad):
         PolicySearchPlanner(station, 0, policy=POLICY, refine=bad)
 
 
+@pytest.mark.parametrize("bad", [-1, 1001, 1.5, True, "3"])
+def test_alternatives_checked(station, bad):
+    with pytest.raises(ConfigError, match="^alternatives: must be an integer in \\[0, 1000\\]"):
+        PolicySearchPlanner(station, 0, policy=POLICY, alternatives=bad)
+
+
+def test_alternative_routes_compete_with_the_found_legs_reproducibly(station, tasks):
+    """drawn_4, where the policy's route goes the dear way round: with two OMPL routes per leg scored against the
+    found legs (no refinement), the route costs less than the search's, its reported leg cost is the returned
+    legs' simulated again from the start, and the plan is the same after other plans (OMPL reseeded each plan)."""
+    from dresspack.agents.planners.leg_cost import TENSION_PEAK_TIME, LegCost
+    from dresspack.agents.planners.refine import route_cost
+
+    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=0, alternatives=2)
+    first = planner.plan(_task(tasks, 4))
+    planner.plan(_task(tasks, 3))
+    again = planner.plan(_task(tasks, 4))
+    np.testing.assert_array_equal(first.trajectory.waypoints, again.trajectory.waypoints)
+    info = first.info
+    assert info["rerouted_legs"] and set(info["rerouted_legs"]) <= {"drawn_4", "home"}
+    assert info["leg_cost"] < info["leg_cost_unrefined"]
+    cost = LegCost(station, 0, tension_peak_time=TENSION_PEAK_TIME)
+    total = route_cost(cost, cost.start_state(_task(tasks, 4).start), first.trajectory.legs())
+    assert total == pytest.approx(info["leg_cost"], abs=1e-5)
+
+
 def test_the_policy_never_takes_a_move_to_where_it_stands(station):
     """drawn_25 of the 30 drawn welds: at a travel posture the env still offers the via to it (the observation shows
     it, as in training) and it was the policy's most probable action, so the argmax rollout stood on it until its

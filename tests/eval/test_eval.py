@@ -238,6 +238,22 @@ def test_refine_is_checked_stored_and_reaches_the_search(monkeypatch, tmp_path, 
     assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, "refine") == {"ppo-search": 7}
 
 
+def test_alternatives_are_checked_stored_and_reach_the_search(monkeypatch, tmp_path, capsys):
+    from dresspack.eval.runs import _extends
+
+    for bad in (-1, 1001, 2.5, True, "3"):
+        with pytest.raises(ConfigError, match="^alternatives: must be an integer in \\[0, 1000\\]"):
+            EvalSpec(methods=("ppo-search",), alternatives=bad)
+    with pytest.raises(SystemExit):
+        main(["eval", "--planners", "ppo-search", "--alternatives", "-1"])
+    assert "--alternatives" in capsys.readouterr().err
+    found_only = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), alternatives=0).to_dict()
+    older = {k: v for k, v in found_only.items() if k != "alternatives"}  # written before the setting existed
+    assert _extends(older, found_only) and not _extends(older, found_only | {"alternatives": 4})
+    spec = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), alternatives=3)
+    assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, "alternatives") == {"ppo-search": 3}
+
+
 def _argument_reaching_the_planner(monkeypatch, tmp_path, spec: EvalSpec, name: str) -> dict:
     """Per method, the keyword argument ``name`` the evaluation builds its planner with (the evaluation is stopped
     as soon as the planner would be built)."""
