@@ -28,7 +28,7 @@ MAX_PROPOSALS = 64
 # (docs/results_learned.md)
 REFINE = 20
 MAX_REFINE = 10_000
-ALTERNATIVES = 0  # OMPL routes per leg scored against the found route's leg before refining
+ALTERNATIVES = 4  # OMPL routes per leg scored against the found route's leg before refining
 MAX_ALTERNATIVES = 1_000
 
 

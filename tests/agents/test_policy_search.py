@@ -56,7 +56,7 @@ def test_registered():
 def test_one_proposal_is_the_most_probable_rollout(station, tasks):
     task = _task(tasks, 1)
     ppo = PolicyPlanner(station, 0, policy=POLICY, deterministic=True).plan(task)
-    search = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=0).plan(task)
+    search = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=0, alternatives=0).plan(task)
     assert search.info["mode"] == "search" and search.info["actions"] == ppo.info["actions"]
     np.testing.assert_array_equal(search.trajectory.waypoints, ppo.trajectory.waypoints)
     assert search.trajectory.stops == ppo.trajectory.stops
@@ -68,7 +68,7 @@ def test_search_finds_a_cheaper_path_than_the_policys_and_reports_its_true_cost(
     """drawn_19: the policy's most probable rollout is dear; two proposals a step find a path ~40 % cheaper. The
     reported objectives are those of the actions taken, stepped again in a separate env."""
     task = _task(tasks, 19)
-    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=2, refine=0)
+    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=2, refine=0, alternatives=0)
     result = planner.plan(task)
     info = result.info
     assert info["mode"] == "search" and info["objective"] < 0.8 * info["policy_objective"]
@@ -100,17 +100,18 @@ def test_proposals_checked(station, bad):
 
 
 def test_refinement_moves_the_vias_to_a_cheaper_route_and_reports_its_cost(station, tasks):
-    """drawn_3: the policy's route, its vias on the action set's grid, is refined with 10 leg-cost queries. The
-    refined route goes through the same stops, each leg's reported cost is the leg cost of the refined legs
+    """drawn_3: the policy's route, its vias on the action set's grid, is refined with 10 leg-cost queries (no other
+    routes). The refined route goes through the same stops, the reported costs are the found and the refined legs
     simulated again from the start, and the accurate replay's cycle time + ∫C dt falls (by a third here)."""
     from dresspack.agents.planners.leg_cost import TENSION_PEAK_TIME, LegCost
+    from dresspack.agents.planners.refine import route_cost
 
     from dresspack_gym.physics.simulation import CableSimulator
     from dresspack_gym.physics.trajectory import replay
 
     task = _task(tasks, 3)
-    found = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=0).plan(task)
-    refined = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=10).plan(task)
+    found = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=0, alternatives=0).plan(task)
+    refined = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=10, alternatives=0).plan(task)
     info = refined.info
     assert info["actions"] == found.info["actions"] and info["refine_queries"] == 10
     assert info["waypoints_unrefined"] == len(found.trajectory.waypoints)
@@ -123,6 +124,9 @@ def test_refinement_moves_the_vias_to_a_cheaper_route_and_reports_its_cost(stati
         j, state, _ = cost.cost(state, leg)
         total += j
     assert total == pytest.approx(info["leg_cost"], abs=1e-5) and info["leg_cost"] < info["leg_cost_unrefined"]
+    # the found route's cost: its legs in path order, each from the cable state the found one before it left
+    found_total = route_cost(cost, cost.start_state(task.start), found.trajectory.legs())
+    assert found_total == pytest.approx(info["leg_cost_unrefined"], abs=1e-5)
 
     def objective(traj):
         s = replay(CableSimulator(station), traj).summary()
@@ -143,7 +147,7 @@ def test_refined_plan_names_the_goals_whose_settle_missed_the_residual(settle_ti
     if settle_time is not None:
         config = replace(config, simulation=replace(config.simulation, settle_time=settle_time))
     station = Station(config)
-    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=2)
+    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=2, alternatives=0)
     task = make_task(station, 0, planner.validity.checker.collides, ["sill_front"])
     assert planner.plan(task).info["unconverged_settles"] == flagged
 
