@@ -206,52 +206,26 @@ def test_a_policy_evaluation_names_its_policy_so_a_changed_default_cannot_mix_ro
     assert not _extends(older, named)
 
 
-def test_proposals_are_checked_stored_and_reach_the_search(monkeypatch, tmp_path, capsys):
+@pytest.mark.parametrize("name, bads, cli_bad, older_value, other, given", [
+    ("proposals", (0, 65, 2.5, True, "3"), "0", 3, 5, 5),  # folders written before a setting existed used older_value
+    ("refine", (-1, 10_001, 2.5, True, "3"), "-1", 0, 20, 7),
+    ("alternatives", (-1, 1001, 2.5, True, "3"), "-1", 0, 4, 3),
+])
+def test_search_settings_are_checked_stored_and_reach_the_search(monkeypatch, tmp_path, capsys, name, bads, cli_bad,
+                                                                  older_value, other, given):
     from dresspack.eval.runs import _extends
 
-    for bad in (0, 65, 2.5, True, "3"):
-        with pytest.raises(ConfigError, match="proposals"):
-            EvalSpec(methods=("ppo-search",), proposals=bad)
+    for bad in bads:
+        with pytest.raises(ConfigError, match=f"^{name}: must be an integer in"):
+            EvalSpec(methods=("ppo-search",), **{name: bad})
     with pytest.raises(SystemExit):
-        main(["eval", "--planners", "ppo-search", "--proposals", "0"])
-    assert "--proposals" in capsys.readouterr().err
-    base = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,)).to_dict()
-    older = {k: v for k, v in base.items() if k != "proposals"}  # written before the setting existed (3)
-    assert _extends(older, base) and not _extends(base, base | {"proposals": 5})
-    spec = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), proposals=5)
-    assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, "proposals") == {"ppo-search": 5}
-
-
-def test_refine_is_checked_stored_and_reaches_the_search(monkeypatch, tmp_path, capsys):
-    from dresspack.eval.runs import _extends
-
-    for bad in (-1, 10_001, 2.5, True, "3"):
-        with pytest.raises(ConfigError, match="refine"):
-            EvalSpec(methods=("ppo-search",), refine=bad)
-    with pytest.raises(SystemExit):
-        main(["eval", "--planners", "ppo-search", "--refine", "-1"])
-    assert "--refine" in capsys.readouterr().err
-    unrefined = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), refine=0).to_dict()
-    older = {k: v for k, v in unrefined.items() if k != "refine"}  # written before the setting existed: no refinement
-    assert _extends(older, unrefined) and not _extends(older, unrefined | {"refine": 20})
-    spec = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), refine=7)
-    assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, "refine") == {"ppo-search": 7}
-
-
-def test_alternatives_are_checked_stored_and_reach_the_search(monkeypatch, tmp_path, capsys):
-    from dresspack.eval.runs import _extends
-
-    for bad in (-1, 1001, 2.5, True, "3"):
-        with pytest.raises(ConfigError, match="^alternatives: must be an integer in \\[0, 1000\\]"):
-            EvalSpec(methods=("ppo-search",), alternatives=bad)
-    with pytest.raises(SystemExit):
-        main(["eval", "--planners", "ppo-search", "--alternatives", "-1"])
-    assert "--alternatives" in capsys.readouterr().err
-    found_only = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), alternatives=0).to_dict()
-    older = {k: v for k, v in found_only.items() if k != "alternatives"}  # written before the setting existed
-    assert _extends(older, found_only) and not _extends(older, found_only | {"alternatives": 4})
-    spec = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), alternatives=3)
-    assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, "alternatives") == {"ppo-search": 3}
+        main(["eval", "--planners", "ppo-search", f"--{name}", cli_bad])
+    assert f"--{name}" in capsys.readouterr().err
+    spec = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), **{name: older_value}).to_dict()
+    older = {k: v for k, v in spec.items() if k != name}  # a folder written before the setting existed
+    assert _extends(older, spec) and not _extends(older, spec | {name: other})
+    spec = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), **{name: given})
+    assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, name) == {"ppo-search": given}
 
 
 def _argument_reaching_the_planner(monkeypatch, tmp_path, spec: EvalSpec, name: str) -> dict:
