@@ -32,28 +32,27 @@ ALTERNATIVES = 4  # OMPL routes per leg scored against the found route's leg bef
 MAX_ALTERNATIVES = 1_000
 
 
+def _check_count(value, field: str, lo: int, hi: int, meaning: str = "") -> int:
+    """An integer (not a bool) in [lo, hi], or a ConfigError naming the field (``meaning``: what lo stands for)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
+        raise ConfigError(field, f"must be an integer in [{lo}, {hi}]{f' ({meaning})' if meaning else ''}, "
+                                 f"got {value!r}")
+    return int(value)
+
+
 def check_refine(refine) -> int:
     """The refinement's leg-cost queries a plan, or a ConfigError naming the field."""
-    if isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) or not 0 <= refine <= MAX_REFINE:
-        raise ConfigError("refine", f"must be an integer in [0, {MAX_REFINE}] (0: no refinement), got {refine!r}")
-    return int(refine)
+    return _check_count(refine, "refine", 0, MAX_REFINE, "0: no refinement")
 
 
 def check_alternatives(alternatives) -> int:
     """OMPL routes per leg scored against the found route's leg, or a ConfigError naming the field."""
-    if isinstance(alternatives, bool) or not isinstance(alternatives, (int, np.integer)) \
-            or not 0 <= alternatives <= MAX_ALTERNATIVES:
-        raise ConfigError("alternatives", f"must be an integer in [0, {MAX_ALTERNATIVES}] (0: the found route's legs "
-                                          f"only), got {alternatives!r}")
-    return int(alternatives)
+    return _check_count(alternatives, "alternatives", 0, MAX_ALTERNATIVES, "0: the found route's legs only")
 
 
 def check_proposals(proposals) -> int:
     """The number of proposals a step, or a ConfigError naming the field."""
-    if isinstance(proposals, bool) or not isinstance(proposals, (int, np.integer)) \
-            or not 1 <= proposals <= MAX_PROPOSALS:
-        raise ConfigError("proposals", f"must be an integer in [1, {MAX_PROPOSALS}], got {proposals!r}")
-    return int(proposals)
+    return _check_count(proposals, "proposals", 1, MAX_PROPOSALS)
 
 
 @dataclass
