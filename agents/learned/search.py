@@ -124,6 +124,7 @@ class PolicySearchPlanner(PolicyPlanner):
         self.connector = self.routes = None
         if alternatives:
             self.connector = OmplConnector(self.validity, self.name, True)
+            # its candidates: the direct route, then routes through random vias, ``alternatives`` in all
             self.routes = ViaRoutes(self.connector, self.validity, self.budget.iterations, alternatives)
         self._simulated = 0  # env steps this plan simulated
         self._incumbent = _Continuation()  # the cheapest known continuation from the current state
@@ -143,7 +144,7 @@ class PolicySearchPlanner(PolicyPlanner):
         t0, cost = time.perf_counter(), self.refiner.cost
         cost.reset()  # a plan never reuses an earlier plan's simulations
         route = refine_legs(self.refiner, cost.start_state(task.start), traj.legs(), self.refine, self.rng,
-                            self.allowance, self.routes, self.alternatives)
+                            self.allowance, self.routes)
         goals = (*task.weld_names, "home")
         return Trajectory.from_legs(route.legs), {
             **info, "refine_queries": self.refine, "alternatives": self.alternatives,

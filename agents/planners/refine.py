@@ -135,11 +135,11 @@ class RefinedRoute:
 
 
 def refine_legs(refiner: LocalRefiner, state: np.ndarray, legs: list[np.ndarray], queries: int,
-                rng: np.random.Generator, allowance: Allowance, routes=None, alternatives: int = 0) -> RefinedRoute:
+                rng: np.random.Generator, allowance: Allowance, routes=None) -> RefinedRoute:
     """Each leg improved in path order from the cable state the ones before it left (``state``: the start's),
-    ``queries`` leg-cost queries shared out over the legs. With ``routes`` (a route generator), ``alternatives`` of
-    its candidate legs between the same stops compete with the given leg as the refiner's start (those cheaper than
-    it on their own leg).
+    ``queries`` leg-cost queries shared out over the legs. With ``routes`` (a route generator), its candidate legs
+    between the same stops compete with the given leg as the refiner's start (those cheaper than it on their own
+    leg).
 
     A leg's cable end state is the next leg's start, so a leg is judged with what follows it: its cost plus the
     given later legs' from its end state. A candidate or refined leg is kept only where that sum is lower than the
@@ -154,9 +154,9 @@ def refine_legs(refiner: LocalRefiner, state: np.ndarray, legs: list[np.ndarray]
 
     for k, leg in enumerate(legs):
         start, v_start = leg, with_rest(leg, k)
-        if routes is not None and alternatives:
+        if routes is not None:
             j_given = cost.cost(state, leg)[0]
-            for cand in routes.candidates(leg[0], leg[-1], rng, allowance, limit=alternatives):
+            for cand in routes.candidates(leg[0], leg[-1], rng, allowance):
                 # only a candidate cheaper than the found leg on its own is worth simulating the legs after it
                 if cost.cost(state, cand)[0] < j_given and (v := with_rest(cand, k)) < v_start:
                     start, v_start = cand, v

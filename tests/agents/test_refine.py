@@ -49,13 +49,12 @@ class FakeRoutes:
     def __init__(self, first_leg):
         self.first_leg = first_leg
 
-    def candidates(self, a, b, rng, allowance, limit=None):
+    def candidates(self, a, b, rng, allowance):
         return [self.first_leg] if b[0] == 1.0 else []
 
 
 def _refine(refiner, routes=None):
-    return refine_legs(refiner, np.array([0.0]), [GIVEN, HOME_LEG], 10, np.random.default_rng(0), None,
-                       routes, 1 if routes else 0)
+    return refine_legs(refiner, np.array([0.0]), [GIVEN, HOME_LEG], 10, np.random.default_rng(0), None, routes)
 
 
 def test_route_cost_chains_the_cable_states():
