@@ -5,8 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import isotonic_regression
 
-from dresspack_gym.physics.trajectory import STILL_JOINT
+from dresspack_gym.physics.trajectory import STILL_JOINT, joint_reversals
 from dresspack_gym.stations.validity import MotionValidity
 
 from .budget import Allowance
@@ -42,6 +43,18 @@ def keep_turns(before: np.ndarray, q: np.ndarray, after: np.ndarray, moved: np.n
     return out
 
 
+def straighten(leg: np.ndarray, joint: int) -> np.ndarray:
+    """The leg with ``joint`` never turning back between its ends: its interior values replaced by the nearest
+    (least-squares) sequence that runs monotonically from the leg's start value to its end value (isotonic
+    regression, clipped into the ends' range); the other joints and the ends as they were."""
+    out = leg.copy()
+    a, b = leg[0, joint], leg[-1, joint]
+    if len(leg) > 2:
+        fit = isotonic_regression(leg[1:-1, joint], increasing=bool(b >= a)).x
+        out[1:-1, joint] = np.clip(fit, min(a, b), max(a, b))
+    return out
+
+
 def leg_share(queries: int, used: int, legs_left: int) -> int:
     """The queries the next leg may use: what is left of ``queries``, shared evenly over the legs still to plan."""
     return max(0, queries - used) // legs_left
@@ -53,11 +66,13 @@ class LocalRefiner:
 
     ``keep_turns``: each move of a waypoint is clipped (:func:`keep_turns`) so that the refined leg's joints turn
     back no more often than the given leg's: the refinement then never adds the small back-and-forth a random move
-    of every joint leaves in joints the leg barely uses."""
+    of every joint leaves in joints the leg barely uses. ``straighten``: before the random moves, each joint that
+    turns back within the leg (most turns first) is tried without its turns (:func:`straighten`), kept where the
+    leg stays valid and costs less; these trials spend the same queries."""
 
     def __init__(self, validity: MotionValidity, cost: LegCost, n_interior: int = 3, step_deg: float = 15.0,
-                 keep_turns: bool = False):
-        self.keep_turns = keep_turns
+                 keep_turns: bool = False, straighten: bool = False):
+        self.keep_turns, self.straighten = keep_turns, straighten
         self.validity = validity
         self.cost = cost
         self.n_interior = n_interior
@@ -77,6 +92,14 @@ class LocalRefiner:
         def spent() -> bool:
             return self.cost.queries >= limit or allowance.out_of_time()
 
+        if self.straighten:
+            turns = joint_reversals(best)
+            for joint in np.argsort(-turns, kind="stable")[:np.count_nonzero(turns)]:
+                if spent():
+                    break
+                trial = straighten(best, int(joint))
+                if self.leg_valid(trial) and (j := self.cost.cost(state, trial)[0]) < j_best:
+                    best, j_best = trial, j
         while not spent() and step > np.radians(1.0):
             improved = False
             for i in rng.permutation(np.arange(1, len(best) - 1)):

@@ -274,14 +274,20 @@ def smoothness(traj: Trajectory, limits: JointLimits) -> dict[str, float]:
             "peak_joint_acceleration": motion.peak_acceleration()}
 
 
-def _reversals(waypoints: np.ndarray) -> int:
-    """How often any joint turns back: its moving direction flips from one moving segment of it to its next."""
+def joint_reversals(waypoints: np.ndarray) -> np.ndarray:
+    """Per joint, how often it turns back along the waypoints: its moving direction flips from one moving segment
+    of it to its next (changes below ``STILL_JOINT`` are no move)."""
     dq = np.diff(waypoints, axis=0)
-    reversals = 0
+    out = np.zeros(dq.shape[1], dtype=int)
     for j in range(dq.shape[1]):
         signs = np.sign(dq[np.abs(dq[:, j]) > STILL_JOINT, j])
-        reversals += int(np.count_nonzero(signs[1:] != signs[:-1]))
-    return reversals
+        out[j] = np.count_nonzero(signs[1:] != signs[:-1])
+    return out
+
+
+def _reversals(waypoints: np.ndarray) -> int:
+    """How often any joint turns back (:func:`joint_reversals`, all joints)."""
+    return int(joint_reversals(waypoints).sum())
 
 
 def schedule_smoothness(schedule) -> dict[str, float]:

@@ -1,4 +1,5 @@
-"""The local refinement: its moves keep the leg's joint turns when asked; refine_legs judges a leg with the legs
+"""The local refinement: its moves keep the leg's joint turns when asked and straighten joints that turn where that
+pays; refine_legs judges a leg with the legs
 after it (its cable end state is the next leg's start), so the returned route never costs more than the given one."""
 
 from __future__ import annotations
@@ -6,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from dresspack.agents.planners.budget import Allowance, Budget
-from dresspack.agents.planners.refine import LocalRefiner, keep_turns, refine_legs, route_cost
+from dresspack.agents.planners.refine import LocalRefiner, keep_turns, refine_legs, route_cost, straighten
 
-from dresspack_gym.physics.trajectory import _reversals
+from dresspack_gym.physics.trajectory import _reversals, joint_reversals
 
 # Legs are 2-waypoint arrays told apart by their first joint; the cable "state" is one number. Leg 2 (from the
 # weld, joint 1 = 1 to home, joint 1 = 2) is cheap from state 0 and dear from state 1.
@@ -129,3 +130,54 @@ def test_refinement_that_keeps_turns_adds_none(n_interior):
         results[keep] = (_reversals(out), cost.cost(None, out)[0])
     assert results[False][0] > 0 and results[True][0] == 0
     assert results[True][1] == pytest.approx(-1.7) and results[False][1] < -1.7
+
+
+def test_a_straightened_joint_never_turns_and_nothing_else_moves():
+    """2,000 random legs, a random joint each: it runs monotonically from the leg's start value to its end value,
+    the ends and the other joints are as they were, a second pass changes nothing, and no other monotone profile
+    between the ends (sorted random values in their range) lies nearer to the given one."""
+    rng = np.random.default_rng(11)
+    for _ in range(2000):
+        leg = _random_leg(rng, n=int(rng.integers(3, 9)))
+        j = int(rng.integers(6))
+        out = straighten(leg, j)
+        assert joint_reversals(out)[j] == 0
+        others = np.arange(6) != j
+        np.testing.assert_array_equal(out[:, others], leg[:, others])
+        np.testing.assert_array_equal(out[[0, -1]], leg[[0, -1]])
+        lo, hi = sorted((leg[0, j], leg[-1, j]))
+        assert lo <= out[:, j].min() and out[:, j].max() <= hi
+        np.testing.assert_allclose(straighten(out, j), out, atol=1e-12)
+        other = np.sort(rng.uniform(lo, hi, len(leg) - 2))[:: 1 if leg[-1, j] >= leg[0, j] else -1]
+        assert np.linalg.norm(out[1:-1, j] - leg[1:-1, j]) <= np.linalg.norm(other - leg[1:-1, j]) + 1e-12
+
+
+class _TravelCost:
+    """A leg cost that charges every joint's travel (what a turn adds), or with ``detours`` pays for it."""
+
+    def __init__(self, detours=False):
+        self.queries, self.sign = 0, -1.0 if detours else 1.0
+
+    def cost(self, state, leg):
+        self.queries += 1
+        return self.sign * float(np.abs(np.diff(leg, axis=0)).sum()), state, {"unconverged_stops": 0}
+
+
+# joints 0 and 2 turn back at the middle waypoint, joint 1 runs one way
+TURNING_LEG = np.array([[0.0, 0.0, 0.0, 0, 0, 0], [0.8, 0.3, -0.4, 0, 0, 0], [0.5, 0.6, 0.2, 0, 0, 0],
+                        [1.0, 0.9, 0.1, 0, 0, 0]])
+
+
+@pytest.mark.parametrize("queries", [3, 5, 40])
+def test_turns_are_straightened_where_that_costs_less_and_kept_where_not(queries):
+    """Under a cost that charges travel, the refiner's first trials take out both joints' turns (two queries) and
+    the leg never turns back; under one that pays for detours they are tried, refused, and the turns stay; the
+    queries are the budget's (the start's among them) and the clean-up's either way."""
+    for detours in (False, True):
+        cost = _TravelCost(detours)
+        refiner = LocalRefiner(_AlwaysValid(), cost, n_interior=1, keep_turns=True, straighten=True)
+        out = refiner.improve(np.zeros(1), TURNING_LEG, queries, np.random.default_rng(0), Allowance(Budget()))
+        # the clean-up: at most two queries per interior waypoint it tries to drop (n_interior 1: none added)
+        assert cost.queries <= queries + 2 * (len(TURNING_LEG) - 2)
+        assert joint_reversals(out).sum() == (joint_reversals(TURNING_LEG).sum() if detours else 0)
+        assert cost.cost(None, out)[0] <= cost.cost(None, TURNING_LEG)[0]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dresspack_gym.physics.trajectory import Trajectory, smoothness
+from dresspack_gym.physics.trajectory import Trajectory, joint_reversals, smoothness
 from dresspack_gym.robots.time_law import JointLimits, segment_durations
 
 V = np.radians([110.0, 110.0, 110.0, 190.0, 150.0, 210.0])
@@ -23,6 +23,7 @@ def test_back_and_forth_counts_each_turn():
     traj = _traj(steps)
     total = float(segment_durations(np.radians(steps), LIMITS).sum())
     assert smoothness(traj, LIMITS)["reversals_per_s"] == pytest.approx(3 / total)
+    np.testing.assert_array_equal(joint_reversals(traj.waypoints), [2, 1, 0, 0, 0, 0])
     straight = _traj([[10, 0, 0, 0, 0, 0], [20, 0, 0, 0, 0, 0]])
     assert smoothness(straight, LIMITS)["reversals_per_s"] == 0.0
 
