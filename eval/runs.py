@@ -33,6 +33,7 @@ from tqdm.auto import tqdm
 
 from dresspack_gym.errors import ConfigError, DresspackError
 from dresspack_gym.io.loading import load_station
+from dresspack_gym.io.provenance import code_fingerprint
 from dresspack_gym.physics.simulation import CableSimulator
 from dresspack_gym.physics.trajectory import Replay, Trajectory, replay, smoothness
 from dresspack_gym.physics.wear_cost import cost_function
@@ -41,6 +42,8 @@ from dresspack_gym.stations.tasks import Task, closest_branch, make_task, random
 from dresspack_gym.stations.validity import PLANNER_MARGIN, MotionValidity
 from dresspack_gym.stations.weld_sampling import WeldSampler
 
+# what an evaluation's rows depend on: the simulation and its configs, the planners and shipped policies, the replay
+CODE = ("dresspack_gym", "dresspack_gym.configs", "dresspack.agents", "dresspack.eval")
 METRICS = ("cycle_time", "max_curvature", "max_tension", "min_clearance", "max_twist_rate", "cost", "damage",
            "life_cycles", "reversals_per_s", "peak_joint_acceleration", "planning_time")
 
@@ -176,10 +179,17 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True,
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ConfigError("out", f"{out} is an existing file: give a folder for the report")
-    spec_file = out / "spec.json"
-    if spec_file.is_file() and not _extends(json.loads(spec_file.read_text()), spec.to_dict()):
-        raise ConfigError("out", f"{out} holds an evaluation with other settings (spec.json): choose another "
-                                 "folder, or delete it to start over (adding methods to it is allowed)")
+    spec_file, code = out / "spec.json", code_fingerprint(CODE)
+    if spec_file.is_file():
+        stored = json.loads(spec_file.read_text())
+        stored_code = stored.pop("code", None)  # None: written before the code was recorded
+        if stored_code != code:
+            raise ConfigError("out", f"{out} holds rows of other code (spec.json's code: {stored_code or 'none'}; "
+                                     f"this code: {code}): one folder's rows come from one version of the code; "
+                                     "choose another folder, or delete it to start over")
+        if not _extends(stored, spec.to_dict()):
+            raise ConfigError("out", f"{out} holds an evaluation with other settings (spec.json): choose another "
+                                     "folder, or delete it to start over (adding methods to it is allowed)")
     # every input is checked before anything is written: a failed start leaves no spec.json behind
     station = Station(load_station(spec.station))
     tasks = build_tasks(station, spec)
@@ -188,7 +198,7 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True,
 
         resolve_policy(spec.policy)
     (out / "trajectories").mkdir(parents=True, exist_ok=True)
-    spec_file.write_text(json.dumps(spec.to_dict(), indent=2) + "\n")
+    spec_file.write_text(json.dumps({**spec.to_dict(), "code": code}, indent=2) + "\n")
     done = _read_rows(out / "results.jsonl")
     # rewrite the log with the complete rows only: a line cut by an interruption would otherwise swallow the
     # next row appended to it

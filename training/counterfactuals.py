@@ -26,11 +26,14 @@ import numpy as np
 from dresspack_gym.cli.args import ALL_CORES, MAX_JOBS, number, output_dir
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.fields import check_choice
+from dresspack_gym.io.provenance import code_fingerprint
 
 from .cost_config import CostStudyConfig, CounterfactualConfig, load_cost_config
 
 # the settings that decide the labels: a resumed run must match them (episodes may grow, jobs may change)
 SPEC_FIELDS = ("policy", "seed", "rollout", "env_kwargs")
+# what the labels depend on besides the settings: the simulation and its configs, this labelling code
+CODE = ("dresspack_gym", "dresspack_gym.configs", "dresspack.training")
 WEAR_PARTS = ("curvature", "tension", "distance", "twist", "damage")
 BACKENDS = ("process", "ray")  # where the episodes run: processes on this machine, or Ray actors
 
@@ -145,11 +148,12 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
     spec = {k: getattr(cfg, k) for k in SPEC_FIELDS}
     model_path, env_id, env_kwargs = policy_env(cfg)
     spec["policy_file"] = str(model_path.resolve())
+    spec["code"] = code_fingerprint(CODE)
     (out / "episodes").mkdir(parents=True, exist_ok=True)
     spec_file = out / "spec.json"
     if spec_file.is_file():
         old = json.loads(spec_file.read_text())
-        changed = [k for k in (*SPEC_FIELDS, "policy_file") if old.get(k) != spec[k]]
+        changed = [k for k in (*SPEC_FIELDS, "policy_file", "code") if old.get(k) != spec[k]]
         if changed:
             raise ConfigError(f"counterfactuals.{changed[0]}",
                               f"{out} holds labels made with {changed[0]}={old.get(changed[0])!r}, not "

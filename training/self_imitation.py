@@ -13,6 +13,7 @@ import yaml
 
 from dresspack_gym.cli.args import number, seed
 from dresspack_gym.errors import ConfigError
+from dresspack_gym.io.provenance import code_fingerprint
 
 # Episode k resets the env with seed + k: apart from the training envs' seeds (seed, seed + 1, ...), the callback's
 # (10,000), select-model's (20,000) and the evaluation's weld draws (1,000,000).
@@ -117,7 +118,8 @@ def fit(model_path: Path, rows: list[dict], out: Path, *, epochs: int, learning_
     actions = torch.as_tensor(np.concatenate([a["actions"] for a in arrays]))
     model = MaskablePPO.load(model_path, device="cpu")
     policy = model.policy
-    actor = [p for name, p in policy.named_parameters() if not name.startswith(("mlp_extractor.value_net", "value_net"))]
+    actor = [p for name, p in policy.named_parameters()
+             if not name.startswith(("mlp_extractor.value_net", "value_net"))]
     optimizer = torch.optim.Adam(actor, lr=learning_rate)
     rng = np.random.default_rng(fit_seed)
     losses = []
@@ -157,11 +159,13 @@ def self_imitate(policy: str | Path, out: str | Path, *, episodes: int = IMITATI
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     settings = {"policy": str(model_path), "episodes": episodes, "samples": samples, "first_seed": first_seed,
-                "epochs": epochs, "learning_rate": learning_rate, "batch_size": batch_size}
+                "epochs": epochs, "learning_rate": learning_rate, "batch_size": batch_size,
+                # the rollouts on disk depend on the simulation and this code too
+                "code": code_fingerprint(("dresspack_gym", "dresspack_gym.configs", "dresspack.training"))}
     spec = out / "spec.json"
     if spec.is_file():  # resuming: the rollouts on disk must be the ones these settings make
         old = json.loads(spec.read_text())
-        keys = ("policy", "samples", "first_seed")
+        keys = ("policy", "samples", "first_seed", "code")
         changed = [k for k in keys if old.get(k) != settings[k]]
         if changed:
             raise ConfigError(changed[0], f"{out} was collected with {changed[0]}={old.get(changed[0])!r}, not "
@@ -201,7 +205,8 @@ def _figures(rows: list[dict]) -> dict:
 
 
 def add_self_imitate_command(sub) -> None:
-    p = sub.add_parser("self-imitate", help="fine-tune a policy on its own best rollouts (one round of expert iteration)",
+    p = sub.add_parser("self-imitate",
+                       help="fine-tune a policy on its own best rollouts (one round of expert iteration)",
                        description="Rolls POLICY out SAMPLES times on each of EPISODES training episodes (the most "
                                    "probable actions, then sampled ones), keeps each episode's best finishing "
                                    "rollout and fine-tunes the policy's actor on them. Resumable; OUT becomes a "
@@ -231,6 +236,6 @@ def cmd_self_imitate(args) -> int:
           f"{summary['best_mean_return']:.2f}; on the {summary['both_finished']} both finish, ∫C "
           f"{summary['argmax_integral_cost']:.1f} -> {summary['best_integral_cost']:.1f}, cycle "
           f"{summary['argmax_cycle_time']:.2f} -> {summary['best_cycle_time']:.2f} s")
-    print(f"fit on {summary['fit']['samples']} steps: loss {' -> '.join(f'{x:.3f}' for x in summary['fit']['loss_by_epoch'])}"
-          f"; policy folder {args.out}")
+    loss = " -> ".join(f"{x:.3f}" for x in summary["fit"]["loss_by_epoch"])
+    print(f"fit on {summary['fit']['samples']} steps: loss {loss}; policy folder {args.out}")
     return 0

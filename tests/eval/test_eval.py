@@ -107,6 +107,11 @@ def test_json_summary_keys_and_resume(tiny_report, capsys):
     assert summary["ompl"]["cost"] == pytest.approx(aggregate([r for r in results["rows"]
                                                               if r["method"] == "ompl"])["cost"]["mean"])
     assert len((tiny_report / "results.jsonl").read_text().splitlines()) == 4  # resumed: nothing re-run
+    from dresspack.eval.runs import CODE
+
+    from dresspack_gym.io.provenance import code_fingerprint
+
+    assert json.loads((tiny_report / "spec.json").read_text())["code"] == code_fingerprint(CODE)  # what resumes
 
 
 def test_bad_evaluation_input_names_the_field(tmp_path, capsys):
@@ -163,6 +168,23 @@ def test_an_evaluation_folder_takes_added_methods_but_no_other_change():
     assert not _extends(more, base)  # a stored method dropped
     assert not _extends(more, more | {"policy": "elsewhere"})  # the stored ppo rows came from another policy
     assert not _extends(base, more | {"seeds": [0, 1]}) and not _extends(base, more | {"iterations": 10})
+
+
+@pytest.mark.parametrize("stored_code", ["0123456789ab", None])
+def test_an_evaluation_folder_of_other_code_is_refused_before_anything_runs(tmp_path, stored_code):
+    """A folder whose spec.json records another code fingerprint (or none: written before it was recorded) is not
+    resumed: its rows would mix two versions of the code. The folder is left as it was."""
+    from dresspack.eval.runs import CODE, run_evaluation
+
+    from dresspack_gym.io.provenance import code_fingerprint
+
+    spec = EvalSpec(methods=("ompl",), tasks=(("roof_rail_top",),), seeds=(0,))
+    stored = spec.to_dict() | ({"code": stored_code} if stored_code else {})
+    (tmp_path / "spec.json").write_text(json.dumps(stored))
+    with pytest.raises(ConfigError, match=f"out.*other code.*{stored_code or 'none'}.*{code_fingerprint(CODE)}"):
+        run_evaluation(spec, tmp_path, progress=False)
+    assert json.loads((tmp_path / "spec.json").read_text()) == stored and list(tmp_path.iterdir()) == [
+        tmp_path / "spec.json"]
 
 
 def test_time_weight_is_checked_stored_and_older_folders_still_resume(capsys):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import yaml
@@ -63,6 +65,10 @@ def test_labels_are_the_same_for_one_and_two_jobs_and_a_resumed_run_remakes_only
     with pytest.raises(ConfigError, match="^counterfactuals.seed"):
         generate(cost_config_from_dict({"counterfactuals": {"policy": str(folder), "episodes": 2,
                                                             "seed": 8}}).counterfactuals, tmp_path / "one")
+    spec = json.loads((tmp_path / "one" / "spec.json").read_text())
+    (tmp_path / "one" / "spec.json").write_text(json.dumps(spec | {"code": "0" * 12}))  # labelled by other code
+    with pytest.raises(ConfigError, match="^counterfactuals.code.*000000000000"):
+        generate(cfg, tmp_path / "one", jobs=1, progress=False)
 
 
 def test_counterfactuals_leave_the_env_as_it_was():

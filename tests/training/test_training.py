@@ -298,6 +298,10 @@ def test_self_imitation_keeps_each_episodes_best_rollout_fits_the_actor_alone_an
     assert (out / "rollouts.jsonl").read_text().splitlines() == lines
     with pytest.raises(ConfigError, match="^samples"):
         self_imitate(run, out, episodes=2, samples=4, first_seed=11)
+    spec = json.loads((out / "spec.json").read_text())
+    (out / "spec.json").write_text(json.dumps(spec | {"code": "0" * 12}))  # rolled out by other code
+    with pytest.raises(ConfigError, match="^code.*000000000000"):
+        self_imitate(run, out, episodes=2, samples=3, first_seed=11)
     with pytest.raises(SystemExit):
         cli_main(["self-imitate", run, "--out", str(out), "--samples", "1"])
     assert "--samples" in capsys.readouterr().err
