@@ -15,6 +15,8 @@ from dresspack_gym.physics.trajectory import Trajectory
 from dresspack_gym.stations.station import Station
 from dresspack_gym.stations.tasks import Task
 
+from ..planners.base import PlanningError
+from ..planners.budget import DEFAULT_ROUTES
 from ..planners.leg_cost import TENSION_PEAK_TIME, LegCost
 from ..planners.ompl_connect import OmplConnector
 from ..planners.refine import LocalRefiner, refine_legs
@@ -94,7 +96,10 @@ class PolicySearchPlanner(PolicyPlanner):
     own simulation: the same physics profile the policy trained on).
 
     ``proposals=1`` is the ``ppo`` planner's most probable rollout. If the search does not finish the task, the
-    ``ppo`` planner's sampled rollouts follow. Neither the wait nor a move to where the robot stands is proposed.
+    ``ppo`` planner's sampled rollouts follow; if none finishes and other routes are asked for (``alternatives``),
+    the route starts from OMPL's instead (info ``mode``: ``ompl routes``, with ``policy_failure``): a task the
+    policy cannot finish is planned like ``ompl-wear``'s rather than failed. Neither the wait nor a move to where
+    the robot stands is proposed.
 
     Then, leg by leg in path order, ``alternatives`` OMPL routes between the leg's stops (the direct one, then through
     random vias: other route classes than the policy's) compete with the found leg, each scored by an accurate cable
@@ -141,7 +146,12 @@ class PolicySearchPlanner(PolicyPlanner):
             self.connector.reseed(self.seed)
 
     def _plan(self, task: Task) -> tuple[Trajectory, dict]:
-        traj, info = super()._plan(task)
+        try:
+            traj, info = super()._plan(task)
+        except PlanningError as exc:
+            if self.routes is None:
+                raise
+            traj, info = self._ompl_route(task, str(exc))
         if self.refiner is None:
             return traj, info
         t0, cost = time.perf_counter(), self.refiner.cost
@@ -157,6 +167,18 @@ class PolicySearchPlanner(PolicyPlanner):
             "rerouted_legs": [goals[k] for k in route.rerouted],  # legs that start from an OMPL route, by goal
             "waypoints_unrefined": len(traj.waypoints), "leg_cost_unrefined": round(route.cost_given, 6),
             "leg_cost": round(route.cost, 6), "refine_s": round(time.perf_counter() - t0, 3)}
+
+    def _ompl_route(self, task: Task, policy_failure: str) -> tuple[Trajectory, dict]:
+        """Where the policy does not finish the task: each leg the first of OMPL's routes between its stops (the
+        direct one, else one through a random via), for the other routes and the refinement to work on."""
+        stops = task.waypoints()
+        try:  # the first route found, from as many vias as ompl-wear's candidates may try
+            legs = [self.routes.candidates(a, b, self.rng, self.allowance, limit=1, via_tries=3 * DEFAULT_ROUTES)[0]
+                    for a, b in zip(stops[:-1], stops[1:])]
+        except PlanningError as exc:
+            raise PlanningError(f"{policy_failure}; and {exc}") from None
+        return Trajectory.from_legs(legs), {"policy": str(self.policy_path), "mode": "ompl routes",
+                                            "policy_failure": policy_failure, "unconverged_settles": []}
 
     def _modes(self) -> list[str]:
         return ["search"] if self.deterministic else ["search", *["sample"] * (self.attempts - 1)]

@@ -10,6 +10,7 @@ from scipy.optimize import isotonic_regression
 from dresspack_gym.physics.trajectory import STILL_JOINT, joint_reversals
 from dresspack_gym.stations.validity import MotionValidity
 
+from .base import PlanningError
 from .budget import Allowance
 from .leg_cost import LegCost
 
@@ -135,6 +136,14 @@ class LocalRefiner:
         return all(self.validity.segment_valid(leg[k], leg[k + 1]) for k in ks)
 
 
+def _candidates_or_none(routes, leg: np.ndarray, rng: np.random.Generator, allowance: Allowance) -> list:
+    """The route generator's candidates between the leg's ends; none where it finds no route (the leg stands)."""
+    try:
+        return routes.candidates(leg[0], leg[-1], rng, allowance)
+    except PlanningError:
+        return []
+
+
 def route_cost(cost: LegCost, state: np.ndarray, legs: list[np.ndarray]) -> float:
     """The legs' total leg cost, each from the cable state the one before it left (``state``: the first's)."""
     total = 0.0
@@ -179,7 +188,7 @@ def refine_legs(refiner: LocalRefiner, state: np.ndarray, legs: list[np.ndarray]
         start, v_start = leg, with_rest(leg, k)
         if routes is not None:
             j_given = cost.cost(state, leg)[0]
-            for cand in routes.candidates(leg[0], leg[-1], rng, allowance):
+            for cand in _candidates_or_none(routes, leg, rng, allowance):
                 # only a candidate cheaper than the found leg on its own is worth simulating the legs after it
                 if cost.cost(state, cand)[0] < j_given and (v := with_rest(cand, k)) < v_start:
                     start, v_start = cand, v

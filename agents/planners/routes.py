@@ -50,9 +50,10 @@ class ViaRoutes:
         return None
 
     def candidates(self, a: np.ndarray, b: np.ndarray, rng: np.random.Generator, allowance: Allowance, *,
-                   include_direct: bool = True, limit: int | None = None) -> list[np.ndarray]:
+                   include_direct: bool = True, limit: int | None = None,
+                   via_tries: int | None = None) -> list[np.ndarray]:
         """The direct route (unless ``include_direct`` is False), then via routes: ``limit`` candidates in all
-        (default ``n_routes``)."""
+        (default ``n_routes``), from at most ``via_tries`` vias (default 3 per candidate)."""
         limit = self.n_routes if limit is None else limit
         out = []
         if include_direct:
@@ -60,7 +61,7 @@ class ViaRoutes:
                 out += self.direct.candidates(a, b, rng, allowance)
             except PlanningError:
                 pass
-        for _ in range(3 * limit):
+        for _ in range(3 * limit if via_tries is None else via_tries):
             if len(out) >= limit or allowance.out_of_time():
                 break
             via = self._sample_via(a, b, rng)

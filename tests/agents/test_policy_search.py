@@ -184,6 +184,28 @@ def test_alternative_routes_compete_with_the_found_legs_reproducibly(station, ta
     assert total == pytest.approx(info["leg_cost"], abs=1e-5)
 
 
+def test_a_task_the_policy_cannot_finish_is_planned_from_ompl_routes(station, tasks, monkeypatch):
+    """Where no rollout finishes (here made to fail), a planner with other routes starts from OMPL's routes between
+    the task's stops and says so; it visits the welds in order, passes the validity check and is reproducible.
+    Without other routes the policy's failure is the answer."""
+    from dresspack.agents.planners.base import PlanningError
+
+    def fails(self, task):
+        raise PlanningError("the policy did not finish the task (made to fail)")
+
+    monkeypatch.setattr(PolicyPlanner, "_plan", fails)
+    task = _task(tasks, 1)
+    planner = PolicySearchPlanner(station, 0, policy=POLICY, refine=2, alternatives=1)
+    first, again = planner.plan(task), planner.plan(task)
+    assert first.info["mode"] == "ompl routes" and "made to fail" in first.info["policy_failure"]
+    np.testing.assert_array_equal(first.trajectory.waypoints, again.trajectory.waypoints)
+    legs = first.trajectory.legs()
+    np.testing.assert_allclose([legs[0][0], legs[0][-1], legs[1][-1]], task.waypoints(), atol=1e-9)
+    assert first.info["leg_cost"] <= first.info["leg_cost_unrefined"]
+    with pytest.raises(PlanningError, match="made to fail"):
+        PolicySearchPlanner(station, 0, policy=POLICY, refine=2, alternatives=0).plan(task)
+
+
 def test_the_policy_never_takes_a_move_to_where_it_stands(station):
     """drawn_25 of the 30 drawn welds: at a travel posture the env still offers the via to it (the observation shows
     it, as in training) and it was the policy's most probable action, so the argmax rollout stood on it until its

@@ -79,6 +79,20 @@ def test_a_leg_is_kept_only_where_it_and_the_legs_after_it_cost_less(refined, ro
     assert route.rerouted == ((0,) if routes is not None and first is not GIVEN else ())
 
 
+class NoRoutes:
+    def candidates(self, a, b, rng, allowance):
+        from dresspack.agents.planners.base import PlanningError
+
+        raise PlanningError("no route found between a and b")
+
+
+def test_a_leg_no_other_route_reaches_stands_as_given():
+    """Where the route generator finds no route between a leg's stops, the found leg is kept (no failure)."""
+    route = _refine(FakeRefiner(), NoRoutes())
+    assert route.cost == route.cost_given == 20.0 and route.rerouted == ()
+    np.testing.assert_array_equal(route.legs[0], GIVEN)
+
+
 def _random_leg(rng, n=6):
     """A leg of n waypoints whose joints mix moving one way, turning back and standing still."""
     leg = np.cumsum(rng.normal(0, 0.3, (n, 6)) * (rng.random((n, 6)) < 0.7), axis=0)
