@@ -103,26 +103,29 @@ class PolicySearchPlanner(PolicyPlanner):
 
     Then, leg by leg in path order, ``alternatives`` OMPL routes between the leg's stops (the direct one, then through
     random vias: other route classes than the policy's) compete with the found leg, each scored by an accurate cable
-    simulation under ``ompl-wear``'s leg cost; and the route's vias leave the action set's grid: ``refine`` leg-cost
-    queries of the local refiner first try each joint that turns back within a leg without its turns, then move
-    the vias without adding turns. A leg is judged with the found legs after it
-    (its cable end state is their start) and a change kept only where that sum falls, so the route never costs more
-    than the search's in that simulation; waypoints that do not pay for their stop are dropped. ``refine=0`` and
-    ``alternatives=0``: the search's route as found.
+    simulation under ``ompl-wear``'s leg cost (with ``cost_variant`` and ``time_weight``); and the route's vias leave
+    the action set's grid: ``refine`` leg-cost queries of the local refiner first try each joint that turns back
+    within a leg without its turns, then move the vias without adding turns. A leg is judged with the found legs
+    after it (its cable end state is their start) and a change kept only where that sum falls, so the route never
+    costs more than the search's in that simulation; waypoints that do not pay for their stop are dropped.
+    ``refine=0`` and ``alternatives=0``: the search's route as found.
     """
 
     name = "ppo-search"
     color = "#0b6e4f"
 
     def __init__(self, station: Station, robot: int = 0, *, proposals: int = PROPOSALS, refine: int = REFINE,
-                 alternatives: int = ALTERNATIVES, **kwargs):
+                 alternatives: int = ALTERNATIVES, cost_variant: str = "thesis", time_weight: float = 1.0, **kwargs):
         proposals, refine = check_proposals(proposals), check_refine(refine)
         alternatives = check_alternatives(alternatives)
         super().__init__(station, robot, **kwargs)
         self.proposals, self.refine = proposals, refine
         self.refiner = None  # built only if it will be used: its leg cost holds a simulator of its own
         if refine or alternatives:
-            leg_cost = LegCost(station, robot, tension_peak_time=TENSION_PEAK_TIME)
+            # ompl-wear's leg cost, with the wear cost and time weight asked for (the search ranks by the env's
+            # objective, the one the policy was trained on)
+            leg_cost = LegCost(station, robot, tension_peak_time=TENSION_PEAK_TIME, cost_variant=cost_variant,
+                               time_weight=time_weight)
             # the refined vias keep the found route's joint turns (free moves of every joint leave small
             # back-and-forth turns that make the motion rougher than the planners'), and a joint's turns within a
             # leg are taken out where the leg then costs less: 2.00 -> 1.76 reversals/s on the drawn welds at the

@@ -30,8 +30,8 @@ PLANNERS: dict[str, type[Planner]] = {p.name: p for p in (
     RandomMaskedPlanner,
 )}
 POLICY_METHODS = tuple(name for name, p in PLANNERS.items() if p.uses_policy)
-# the planners that take a cost_variant
-WEAR_AWARE = (ThesisLocalPlanner.name, OmplWearPlanner.name, OmplFmtWearPlanner.name)
+# the planners that take a cost_variant and a time_weight (ppo-search: for its other routes and refinement)
+WEAR_AWARE = (ThesisLocalPlanner.name, OmplWearPlanner.name, OmplFmtWearPlanner.name, PolicySearchPlanner.name)
 # the planners that also charge a leg's peak tension (``tension_peak_time``); thesis-local keeps (4.10) alone
 PEAK_AWARE = (OmplWearPlanner.name, OmplFmtWearPlanner.name)
 COLORS = {name: p.color for name, p in PLANNERS.items()}

@@ -202,19 +202,25 @@ def test_time_weight_is_checked_stored_and_older_folders_still_resume(capsys):
     assert _extends(older, base) and not _extends(older, faster) and not _extends(base, faster)
 
 
-def test_time_weight_reaches_the_wear_aware_leg_cost(monkeypatch, tmp_path):
-    """The weight is the planners' LegCost's (J = weight x seconds + ∫C dt): the one place it acts."""
+def test_time_weight_and_cost_variant_reach_the_wear_aware_leg_cost(monkeypatch, tmp_path):
+    """The weight and the wear cost are the planners' LegCost's (J = weight x seconds + ∫C dt): the one place they
+    act; ppo-search's other routes and refinement use ompl-wear's."""
     from dresspack.eval import runs
 
     from dresspack_gym.io.loading import load_station
     from dresspack_gym.stations.station import Station
 
     real = runs.make_planner
-    spec = EvalSpec(methods=("ompl-wear",), tasks=(("roof_rail_top",),), seeds=(0,), time_weight=7.5)
-    assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, "time_weight") == {"ompl-wear": 7.5}
-    planner = real("ompl-wear", Station(load_station("default")), 0, seed=0, time_weight=7.5, routes=1,
-                   evaluations=1, iterations=100)
-    assert planner.leg_cost.time_weight == 7.5
+    for method in ("ompl-wear", "ppo-search"):
+        spec = EvalSpec(methods=(method,), tasks=(("roof_rail_top",),), seeds=(0,), time_weight=7.5,
+                        cost_variant="damage")
+        for name, value in (("time_weight", 7.5), ("cost_variant", "damage")):
+            assert _argument_reaching_the_planner(monkeypatch, tmp_path / method, spec, name) == {method: value}
+    station = Station(load_station("default"))
+    wear = real("ompl-wear", station, 0, seed=0, time_weight=7.5, cost_variant="damage", routes=1, evaluations=1,
+                iterations=100).leg_cost
+    search = real("ppo-search", station, 0, seed=0, time_weight=7.5, cost_variant="damage").refiner.cost
+    assert wear.time_weight == search.time_weight == 7.5 and wear.cost_variant == search.cost_variant == "damage"
 
 
 def test_a_policy_evaluation_names_its_policy_so_a_changed_default_cannot_mix_rows():
