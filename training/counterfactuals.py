@@ -29,11 +29,10 @@ from dresspack_gym.fields import check_choice
 from dresspack_gym.io.provenance import code_fingerprint
 
 from .cost_config import CostStudyConfig, CounterfactualConfig, load_cost_config
+from .rollouts import ROLLOUT_CODE
 
 # the settings that decide the labels: a resumed run must match them (episodes may grow, jobs may change)
 SPEC_FIELDS = ("policy", "seed", "rollout", "env_kwargs")
-# what the labels depend on besides the settings: the simulation and its configs, this labelling code
-CODE = ("dresspack_gym", "dresspack_gym.configs", "dresspack.training")
 WEAR_PARTS = ("curvature", "tension", "distance", "twist", "damage")
 BACKENDS = ("process", "ray")  # where the episodes run: processes on this machine, or Ray actors
 
@@ -148,7 +147,7 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
     spec = {k: getattr(cfg, k) for k in SPEC_FIELDS}
     model_path, env_id, env_kwargs = policy_env(cfg)
     spec["policy_file"] = str(model_path.resolve())
-    spec["code"] = code_fingerprint(CODE)
+    spec["code"] = code_fingerprint(ROLLOUT_CODE)
     (out / "episodes").mkdir(parents=True, exist_ok=True)
     spec_file = out / "spec.json"
     if spec_file.is_file():

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+# what rolled-out data (counterfactual labels, self-imitation rollouts) depends on besides its settings: the
+# simulation and its configs, the training code that rolls the policy out (a folder of other code is not resumed)
+ROLLOUT_CODE = ("dresspack_gym", "dresspack_gym.configs", "dresspack.training")
+
 
 def roll_out(env, model, episode_seed: int, deterministic: bool, record: bool = False):
     """Reset ``env`` with ``episode_seed`` and act until the episode ends (the most probable allowed action, or one

@@ -151,6 +151,7 @@ def self_imitate(policy: str | Path, out: str | Path, *, episodes: int = IMITATI
     from dresspack.agents.learned.policy import resolve_policy
 
     from .config import check_env_kwargs, train_config_from_dict
+    from .rollouts import ROLLOUT_CODE
 
     model_path, config = resolve_policy(policy)
     # the policy's training config read and its env built here, as training reads them: a bad field is refused
@@ -160,8 +161,7 @@ def self_imitate(policy: str | Path, out: str | Path, *, episodes: int = IMITATI
     out.mkdir(parents=True, exist_ok=True)
     settings = {"policy": str(model_path), "episodes": episodes, "samples": samples, "first_seed": first_seed,
                 "epochs": epochs, "learning_rate": learning_rate, "batch_size": batch_size,
-                # the rollouts on disk depend on the simulation and this code too
-                "code": code_fingerprint(("dresspack_gym", "dresspack_gym.configs", "dresspack.training"))}
+                "code": code_fingerprint(ROLLOUT_CODE)}
     spec = out / "spec.json"
     if spec.is_file():  # resuming: the rollouts on disk must be the ones these settings make
         old = json.loads(spec.read_text())

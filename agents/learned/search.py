@@ -180,8 +180,9 @@ class PolicySearchPlanner(PolicyPlanner):
                     for a, b in zip(stops[:-1], stops[1:])]
         except PlanningError as exc:
             raise PlanningError(f"{policy_failure}; and {exc}") from None
+        # its settles are reported by the refinement's leg simulations, which always follow (routes need a refiner)
         return Trajectory.from_legs(legs), {"policy": str(self.policy_path), "mode": "ompl routes",
-                                            "policy_failure": policy_failure, "unconverged_settles": []}
+                                            "policy_failure": policy_failure}
 
     def _modes(self) -> list[str]:
         return ["search"] if self.deterministic else ["search", *["sample"] * (self.attempts - 1)]

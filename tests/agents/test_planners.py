@@ -222,7 +222,8 @@ def test_a_bad_leg_cost_setting_is_an_error_naming_it(planner, name, bad, messag
 
 @pytest.mark.parametrize("flag,applies_to,value,message", [
     ("--tension-peak-time", "ompl-wear and ompl-wear-fmt only", "0.5", "must be a number in [0, 60.0] s"),
-    ("--time-weight", "thesis-local, ompl-wear, ompl-wear-fmt, ppo-search only", "5", "must be a number in [0, 1000.0] per s"),
+    ("--time-weight", "thesis-local, ompl-wear, ompl-wear-fmt, ppo-search only", "5",
+     "must be a number in [0, 1000.0] per s"),
     ("--proposals", "ppo-search only", "2", "must be an integer in [1, 64]"),
     ("--refine", "ppo-search only", "2", "must be an integer in [0, 10000]"),
     ("--alternatives", "ppo-search only", "2", "must be an integer in [0, 1000]"),
