@@ -59,7 +59,8 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
                            ("ul", answer["bullets"])]
     if answer["table"]["rows"]:
         blocks.append(("table", answer["table"]))
-    blocks += [("h2", "Setup"), ("p", _intro(spec, station)), ("h2", "All tasks"),
+    written = json.loads((out / "spec.json").read_text()) if (out / "spec.json").is_file() else {}
+    blocks += [("h2", "Setup"), ("p", _intro(spec, station, written)), ("h2", "All tasks"),
                ("table", _table(by_method(rows, methods)))]
     figures = {}
     tasks = list(dict.fromkeys(r["task"] for r in rows))
@@ -135,9 +136,15 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
             "results_json": str(out / "results.json"), "figures": figures}
 
 
-def _intro(spec: EvalSpec, station: Station) -> str:
+def _intro(spec: EvalSpec, station: Station, written: dict) -> str:
+    """The setup paragraph; ``written``: the folder's spec.json (the code and libraries its rows came from)."""
     starts = (f"each seed starts at its own valid configuration within {spec.start_noise_deg:g}° of Home"
               if spec.start_noise_deg > 0 else "every run starts at Home")
+    search = (f"; ppo-search tries the policy's {spec.proposals} most probable moves per step, {spec.alternatives} "
+              f"other routes per leg and {spec.refine} refinement queries" if "ppo-search" in spec.methods else "")
+    libraries = ", ".join(f"{k} {v}" for k, v in (written.get("libraries") or {}).items() if v)
+    provenance = (f" Rows computed by code {written['code']}" + (f" with {libraries}" if libraries else "") + "."
+                  if written.get("code") else "")
     return (f"Methods {', '.join(spec.methods)} on {len(spec.tasks)} task(s) × seeds {list(spec.seeds)} "
             f"({starts}; every task ends at Home). Every trajectory is replayed in the same cable simulator "
             f"(timestep {station.config.simulation.timestep * 1000:g} ms); wear cost C is "
@@ -145,10 +152,10 @@ def _intro(spec: EvalSpec, station: Station) -> str:
                "damage": "the worst segment's damage rate (dresspack damage weights)"}[spec.cost_variant]
             + f" and ∫C dt its time integral. Planners get {spec.iterations} OMPL iterations per "
             f"connection, {spec.routes} sampled routes per leg (ompl-wear) and {spec.evaluations} cable-leg "
-            "evaluations of refinement per plan"
+            f"evaluations of refinement per plan{search}"
             + (f", capped at {spec.time_budget:g} s. " if spec.time_budget is not None else ". ")
             + "Metrics are mean ± std over the successful runs (the mean alone where one run succeeded); a method "
-              "that failed every run shows 'failed'.")
+              "that failed every run shows 'failed'." + provenance)
 
 
 def _settle_note(rows: list[dict]) -> str:

@@ -33,7 +33,7 @@ from tqdm.auto import tqdm
 
 from dresspack_gym.errors import ConfigError, DresspackError
 from dresspack_gym.io.loading import load_station
-from dresspack_gym.io.provenance import code_fingerprint
+from dresspack_gym.io.provenance import code_fingerprint, library_versions
 from dresspack_gym.physics.simulation import CableSimulator
 from dresspack_gym.physics.trajectory import Replay, Trajectory, replay, smoothness
 from dresspack_gym.physics.wear_cost import cost_function
@@ -44,6 +44,10 @@ from dresspack_gym.stations.weld_sampling import WeldSampler
 
 # what an evaluation's rows depend on: the simulation and its configs, the planners and shipped policies, the replay
 CODE = ("dresspack_gym", "dresspack_gym.configs", "dresspack.agents", "dresspack.eval")
+# the libraries whose arithmetic the rows depend on: the cable physics, the collision checks' and planners' numbers,
+# the policy's network and the time law (either MuJoCo distribution; one is not installed)
+LIBRARIES = ("mujoco-core", "mujoco", "numpy", "scipy", "ompl", "torch", "stable-baselines3", "sb3-contrib", "ruckig",
+             "gymnasium")
 METRICS = ("cycle_time", "max_curvature", "max_tension", "min_clearance", "max_twist_rate", "cost", "damage",
            "life_cycles", "reversals_per_s", "peak_joint_acceleration", "planning_time")
 
@@ -179,7 +183,7 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True,
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ConfigError("out", f"{out} is an existing file: give a folder for the report")
-    spec_file, code = out / "spec.json", code_fingerprint(CODE)
+    spec_file, code, libraries = out / "spec.json", code_fingerprint(CODE), library_versions(LIBRARIES)
     if spec_file.is_file():
         stored = json.loads(spec_file.read_text())
         stored_code = stored.pop("code", None)  # None: written before the code was recorded
@@ -187,6 +191,15 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True,
             raise ConfigError("out", f"{out} holds rows of other code (spec.json's code: {stored_code or 'none'}; "
                                      f"this code: {code}): one folder's rows come from one version of the code; "
                                      "choose another folder, or delete it to start over")
+        stored_libraries = stored.pop("libraries", None)
+        if stored_libraries != libraries:
+            changed = sorted(k for k in {*(stored_libraries or {}), *libraries}
+                             if (stored_libraries or {}).get(k) != libraries.get(k))
+            raise ConfigError("out", f"{out} holds rows computed with other libraries ("
+                                     + "; ".join(f"{k}: {(stored_libraries or {}).get(k)} there, {libraries.get(k)} "
+                                                 "here" for k in changed)
+                                     + "): one folder's rows come from one set of libraries; choose another "
+                                       "folder, or delete it to start over")
         if not _extends(stored, spec.to_dict()):
             raise ConfigError("out", f"{out} holds an evaluation with other settings (spec.json): choose another "
                                      "folder, or delete it to start over (adding methods to it is allowed)")
@@ -198,7 +211,7 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True,
 
         resolve_policy(spec.policy)
     (out / "trajectories").mkdir(parents=True, exist_ok=True)
-    spec_file.write_text(json.dumps({**spec.to_dict(), "code": code}, indent=2) + "\n")
+    spec_file.write_text(json.dumps({**spec.to_dict(), "code": code, "libraries": libraries}, indent=2) + "\n")
     done = _read_rows(out / "results.jsonl")
     # rewrite the log with the complete rows only: a line cut by an interruption would otherwise swallow the
     # next row appended to it

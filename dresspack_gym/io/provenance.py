@@ -1,9 +1,12 @@
-"""Which code wrote a result: one hash over the files of the packages that made it, so no folder mixes versions."""
+"""Which code and libraries wrote a result: a hash over the packages' files and the libraries' versions, so no
+folder mixes versions."""
 
 from __future__ import annotations
 
 import hashlib
+import platform
 from functools import cache
+from importlib.metadata import PackageNotFoundError, version
 from importlib.util import find_spec
 from pathlib import Path
 
@@ -32,3 +35,16 @@ def code_fingerprint(packages: tuple[str, ...]) -> str:
                 h.update(f.read_bytes())
                 h.update(b"\0")
     return h.hexdigest()[:FINGERPRINT_DIGITS]
+
+
+def library_versions(distributions: tuple[str, ...]) -> dict[str, str | None]:
+    """Python's version and each named distribution's installed version (None where it is not installed): what a
+    result depends on besides the code. The same code, seed and libraries give the same result bit for bit; other
+    versions need not (a last-digit difference early in a plan's search can lead it to another route)."""
+    out: dict[str, str | None] = {"python": platform.python_version()}
+    for name in distributions:
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = None
+    return out

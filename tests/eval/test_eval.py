@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import re
 
+import numpy as np
 import pytest
 
 pytest.importorskip("ompl")
@@ -107,11 +108,15 @@ def test_json_summary_keys_and_resume(tiny_report, capsys):
     assert summary["ompl"]["cost"] == pytest.approx(aggregate([r for r in results["rows"]
                                                               if r["method"] == "ompl"])["cost"]["mean"])
     assert len((tiny_report / "results.jsonl").read_text().splitlines()) == 4  # resumed: nothing re-run
-    from dresspack.eval.runs import CODE
+    from dresspack.eval.runs import CODE, LIBRARIES
 
-    from dresspack_gym.io.provenance import code_fingerprint
+    from dresspack_gym.io.provenance import code_fingerprint, library_versions
 
-    assert json.loads((tiny_report / "spec.json").read_text())["code"] == code_fingerprint(CODE)  # what resumes
+    written = json.loads((tiny_report / "spec.json").read_text())
+    assert written["code"] == code_fingerprint(CODE)  # what resumes
+    assert written["libraries"] == library_versions(LIBRARIES) and written["libraries"]["numpy"] == np.__version__
+    setup = (tiny_report / "report.md").read_text().split("## Setup", 1)[1].split("##", 1)[0]
+    assert f"Rows computed by code {written['code']}" in setup and f"numpy {np.__version__}" in setup
 
 
 def test_bad_evaluation_input_names_the_field(tmp_path, capsys):
@@ -185,6 +190,28 @@ def test_an_evaluation_folder_of_other_code_is_refused_before_anything_runs(tmp_
         run_evaluation(spec, tmp_path, progress=False)
     assert json.loads((tmp_path / "spec.json").read_text()) == stored and list(tmp_path.iterdir()) == [
         tmp_path / "spec.json"]
+
+
+def test_an_evaluation_folder_of_other_libraries_is_refused_naming_them(tmp_path):
+    """The same code with another version of a library (or a folder written before the libraries were recorded)
+    is not resumed: the message names each library that differs, with both versions. The folder is left as it
+    was."""
+    from dresspack.eval.runs import CODE, LIBRARIES, run_evaluation
+
+    from dresspack_gym.io.provenance import code_fingerprint, library_versions
+
+    spec = EvalSpec(methods=("ompl",), tasks=(("roof_rail_top",),), seeds=(0,))
+    here = library_versions(LIBRARIES)
+    for libraries, named in (({**here, "numpy": "1.0.0"}, f"numpy: 1.0.0 there, {np.__version__} here"),
+                             ({k: v for k, v in here.items() if k != "ompl"}, f"ompl: None there, {here['ompl']}"),
+                             (None, "python: None there")):
+        stored = spec.to_dict() | {"code": code_fingerprint(CODE)} | ({"libraries": libraries} if libraries else {})
+        (tmp_path / "spec.json").write_text(json.dumps(stored))
+        with pytest.raises(ConfigError, match="other libraries") as e:
+            run_evaluation(spec, tmp_path, progress=False)
+        assert named in str(e.value)
+        assert json.loads((tmp_path / "spec.json").read_text()) == stored and list(tmp_path.iterdir()) == [
+            tmp_path / "spec.json"]
 
 
 def test_time_weight_is_checked_stored_and_older_folders_still_resume(capsys):

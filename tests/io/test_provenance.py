@@ -7,7 +7,7 @@ import sys
 import pytest
 
 from dresspack_gym.errors import ConfigError
-from dresspack_gym.io.provenance import FINGERPRINT_DIGITS, code_fingerprint
+from dresspack_gym.io.provenance import FINGERPRINT_DIGITS, code_fingerprint, library_versions
 
 
 @pytest.fixture
@@ -50,3 +50,14 @@ def test_an_unknown_package_is_named():
     for name in ("no_such_package_here", "no_such_parent.child"):
         with pytest.raises(ConfigError, match=f"packages.*{name}"):
             _fresh(name)
+
+
+def test_library_versions_are_the_installed_ones_and_none_for_a_missing_one():
+    import platform
+
+    import numpy as np
+    import yaml
+
+    got = library_versions(("numpy", "PyYAML", "no-such-distribution-xyz"))
+    assert got == {"python": platform.python_version(), "numpy": np.__version__, "PyYAML": yaml.__version__,
+                   "no-such-distribution-xyz": None}
