@@ -191,13 +191,12 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True,
             raise ConfigError("out", f"{out} holds rows of other code (spec.json's code: {stored_code or 'none'}; "
                                      f"this code: {code}): one folder's rows come from one version of the code; "
                                      "choose another folder, or delete it to start over")
-        stored_libraries = stored.pop("libraries", None)
+        stored_libraries = stored.pop("libraries", None) or {}  # {}: written before the libraries were recorded
         if stored_libraries != libraries:
-            changed = sorted(k for k in {*(stored_libraries or {}), *libraries}
-                             if (stored_libraries or {}).get(k) != libraries.get(k))
+            changed = sorted(k for k in {*stored_libraries, *libraries} if stored_libraries.get(k) != libraries.get(k))
             raise ConfigError("out", f"{out} holds rows computed with other libraries ("
-                                     + "; ".join(f"{k}: {(stored_libraries or {}).get(k)} there, {libraries.get(k)} "
-                                                 "here" for k in changed)
+                                     + "; ".join(f"{k}: {stored_libraries.get(k)} there, {libraries.get(k)} here"
+                                                 for k in changed)
                                      + "): one folder's rows come from one set of libraries; choose another "
                                        "folder, or delete it to start over")
         if not _extends(stored, spec.to_dict()):

@@ -20,7 +20,7 @@ from ..planners.budget import DEFAULT_ROUTES
 from ..planners.leg_cost import TENSION_PEAK_TIME, LegCost
 from ..planners.ompl_connect import OmplConnector
 from ..planners.refine import LocalRefiner, refine_legs
-from ..planners.routes import ViaRoutes
+from ..planners.routes import VIA_TRIES_PER_ROUTE, ViaRoutes
 from .policy import PolicyPlanner
 
 PROPOSALS = 3  # actions tried at every step: the policy's most probable allowed moves
@@ -175,8 +175,9 @@ class PolicySearchPlanner(PolicyPlanner):
         """Where the policy does not finish the task: each leg the first of OMPL's routes between its stops (the
         direct one, else one through a random via), for the other routes and the refinement to work on."""
         stops = task.waypoints()
-        try:  # the first route found, from as many vias as ompl-wear's candidates may try
-            legs = [self.routes.candidates(a, b, self.rng, self.allowance, limit=1, via_tries=3 * DEFAULT_ROUTES)[0]
+        tries = VIA_TRIES_PER_ROUTE * DEFAULT_ROUTES  # as many vias as ompl-wear's candidates may try
+        try:  # the first route found
+            legs = [self.routes.candidates(a, b, self.rng, self.allowance, limit=1, via_tries=tries)[0]
                     for a, b in zip(stops[:-1], stops[1:])]
         except PlanningError as exc:
             raise PlanningError(f"{policy_failure}; and {exc}") from None

@@ -10,6 +10,8 @@ from .base import PlanningError
 from .budget import Allowance
 from .ompl_connect import OmplConnector
 
+VIA_TRIES_PER_ROUTE = 3  # random vias tried per via route wanted (a via may leave no route through it)
+
 
 class DirectRoute:
     """One candidate: the straight segment, else OMPL's shortest path (today's practice, no cable)."""
@@ -26,7 +28,8 @@ class DirectRoute:
 class ViaRoutes:
     """Up to ``n_routes`` candidates: the direct route, then OMPL routes through random via configurations
     (near the leg's midpoint or anywhere in the limits), so other route classes (under an obstacle instead of
-    over it) are explored. At most 3 vias per route wanted are tried; each half-route gets ``via_iterations``."""
+    over it) are explored. At most ``VIA_TRIES_PER_ROUTE`` vias per route wanted are tried; each half-route gets
+    ``via_iterations``."""
 
     def __init__(self, connector: OmplConnector, validity: MotionValidity, iterations: int, n_routes: int = 12,
                  via_spread_deg: float = 90.0, via_iterations: int | None = None):
@@ -53,7 +56,7 @@ class ViaRoutes:
                    include_direct: bool = True, limit: int | None = None,
                    via_tries: int | None = None) -> list[np.ndarray]:
         """The direct route (unless ``include_direct`` is False), then via routes: ``limit`` candidates in all
-        (default ``n_routes``), from at most ``via_tries`` vias (default 3 per candidate)."""
+        (default ``n_routes``), from at most ``via_tries`` vias (default ``VIA_TRIES_PER_ROUTE`` per candidate)."""
         limit = self.n_routes if limit is None else limit
         out = []
         if include_direct:
@@ -61,7 +64,7 @@ class ViaRoutes:
                 out += self.direct.candidates(a, b, rng, allowance)
             except PlanningError:
                 pass
-        for _ in range(3 * limit if via_tries is None else via_tries):
+        for _ in range(VIA_TRIES_PER_ROUTE * limit if via_tries is None else via_tries):
             if len(out) >= limit or allowance.out_of_time():
                 break
             via = self._sample_via(a, b, rng)
