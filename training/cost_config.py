@@ -15,7 +15,9 @@ from dresspack_gym.shipped import find_shipped
 ROLLOUTS = ("argmax", "sample")
 TARGETS = ("log", "linear")  # regress log(1 + cost) or the cost itself
 LOSSES = ("huber", "mse")
+LABELS = ("step", "to_go")  # the step's time + ∫C dt, or the cost to go of a continued proposal
 MAX_EPISODES = 100_000
+MAX_CONTINUED = 64  # ppo-search's most proposals a step
 # The policy's env may differ only in how episodes are drawn: the action set and the observation must stay the
 # policy's (and the cost model's inputs with them).
 ENV_OVERRIDES = ("start_noise_deg", "part_welds", "weld_tilt_deg", "max_steps")
@@ -29,6 +31,8 @@ class CounterfactualConfig:
     episodes: int = 150
     seed: int = 0  # episode k resets the env (and torch, for sampled actions) from (seed, k) alone
     rollout: str = "sample"  # the visited states: the most probable action each step, or actions sampled
+    continued: int = 0  # the policy's most probable moves at each state continued to the end (cost-to-go labels)
+    every_action: bool = True  # a row for every allowed action; false: for the continued ones only
     env_kwargs: dict = field(default_factory=dict)  # overrides of the policy's env, from ENV_OVERRIDES
 
 
@@ -40,6 +44,7 @@ class CostModelConfig:
     target: str = "log"
     loss: str = "huber"
     parts: bool = True  # also regress the time and the wear integral (extra heads; the ranking uses the total)
+    label: str = "step"
     epochs: int = 150
     batch_size: int = 256
     learning_rate: float = 1e-3
@@ -83,9 +88,15 @@ def cost_config_from_dict(data: dict, default_name: str = "cost_model") -> CostS
         episodes=c.integer("episodes", dc.episodes, lo=1, hi=MAX_EPISODES),
         seed=c.integer("seed", dc.seed, lo=0, hi=MAX_SEED),
         rollout=c.string("rollout", dc.rollout, choices=ROLLOUTS),
+        continued=c.integer("continued", dc.continued, lo=0, hi=MAX_CONTINUED),
+        every_action=c.boolean("every_action", dc.every_action),
         env_kwargs=dict(env_kwargs),
     )
     c.done()
+    if not counterfactuals.every_action and not counterfactuals.continued:
+        raise ConfigError("counterfactuals.every_action", "false keeps only the continued actions' rows: set "
+                                                          "counterfactuals.continued to 1 or more, or every_action "
+                                                          "to true")
     m = s.section("model", {})
     hidden = m.raw("hidden", list(dm.hidden))
     if not (isinstance(hidden, list) and hidden and all(isinstance(n, int) and not isinstance(n, bool) and n > 0
@@ -96,6 +107,7 @@ def cost_config_from_dict(data: dict, default_name: str = "cost_model") -> CostS
         target=m.string("target", dm.target, choices=TARGETS),
         loss=m.string("loss", dm.loss, choices=LOSSES),
         parts=m.boolean("parts", dm.parts),
+        label=m.string("label", dm.label, choices=LABELS),
         epochs=m.integer("epochs", dm.epochs, lo=1, hi=100_000),
         batch_size=m.integer("batch_size", dm.batch_size, lo=1),
         learning_rate=m.number("learning_rate", dm.learning_rate, lo=0.0, lo_open=True, hi=1.0),
@@ -104,6 +116,8 @@ def cost_config_from_dict(data: dict, default_name: str = "cost_model") -> CostS
         seed=m.integer("seed", dm.seed, lo=0, hi=MAX_SEED),
     )
     m.done()
+    if model.label == "to_go" and model.parts:
+        raise ConfigError("model.parts", "the cost to go has no parts (time, wear) to regress: set it false")
     cfg = CostStudyConfig(name=s.string("name", default_name), counterfactuals=counterfactuals, model=model)
     s.done()
     return cfg

@@ -5,7 +5,11 @@
 
 The policy rolls out on drawn episodes; at each state it visits, every allowed action is stepped from a snapshot
 (restored after each) and one row per action records the observation, the action, its target configuration, the
-step's time [s] and wear integral ∫C dt (unscaled, uncapped), and whether it reached the goal. Episode k is seeded
+step's time [s] and wear integral ∫C dt (unscaled, uncapped), whether it reached the goal and the policy's
+probability of it. With ``continued: K`` the policy's K most probable moves (ppo-search's proposals) are also
+continued by its most probable actions to the episode's end: their rows hold the cost to go (the step's and the
+continuation's time + ∫C dt, a cost-to-go label) and whether the continuation finished; ``every_action: false``
+keeps only those rows. Episode k is seeded
 from (seed, k) alone, so the labels do not depend on the number of processes. Output folder: ``spec.json`` (the
 settings the shards were made with), ``episodes/ep_<k>.npz`` (one shard per finished episode: a resumed run skips
 them) and ``summary.json`` (rows, and each session's labels per minute).
@@ -32,7 +36,7 @@ from .cost_config import CostStudyConfig, CounterfactualConfig, load_cost_config
 from .rollouts import ROLLOUT_CODE
 
 # the settings that decide the labels: a resumed run must match them (episodes may grow, jobs may change)
-SPEC_FIELDS = ("policy", "seed", "rollout", "env_kwargs")
+SPEC_FIELDS = ("policy", "seed", "rollout", "continued", "every_action", "env_kwargs")
 WEAR_PARTS = ("curvature", "tension", "distance", "twist", "damage")
 BACKENDS = ("process", "ray")  # where the episodes run: processes on this machine, or Ray actors
 
@@ -56,41 +60,72 @@ def policy_env(cfg: CounterfactualConfig) -> tuple[Path, str, dict]:
 def _init_worker(model_path: str, env_id: str, env_kwargs: dict) -> None:
     import gymnasium as gym
     import torch
-    from sb3_contrib import MaskablePPO
+    from dresspack.agents.learned.policy import PolicyAgent
 
     import dresspack_gym  # noqa: F401  (registers the env ids in a spawned process)
 
     torch.set_num_threads(1)  # one process per core
     _worker["env"] = gym.make(env_id, **env_kwargs).unwrapped
-    _worker["model"] = MaskablePPO.load(model_path, device="cpu")
+    _worker["agent"] = PolicyAgent(Path(model_path))
 
 
-def counterfactual_rows(env, state_obs: np.ndarray, masks: np.ndarray, keep: int | None = None
-                        ) -> tuple[list[dict], tuple | None]:
-    """Step every allowed action from where ``env`` stands, restoring it after each; returns one row per action
-    and, for action ``keep``, the snapshot and step result after it (the episode continues from there without
-    stepping that action again)."""
+def counterfactual_rows(env, state_obs: np.ndarray, masks: np.ndarray, keep: int | None = None,
+                        probs: np.ndarray | None = None, continued: dict[int, object] | None = None,
+                        every_action: bool = True) -> tuple[list[dict], tuple | None]:
+    """Step every allowed action (or, without ``every_action``, those of ``continued``) from where ``env`` stands,
+    restoring it after each; returns one row per action and, for action ``keep``, the snapshot and step result
+    after it (the episode continues from there without stepping that action again). ``probs``: the policy's
+    probability of each action; ``continued``: actions whose rows also get a cost to go, each continued by its
+    ``agent`` (value) to the episode's end."""
     snap, q = env.snapshot(), env.q
     reached_before = env.goal_index
+    continued = continued or {}
     rows, kept = [], None
-    for a in np.flatnonzero(masks):
+    actions = np.flatnonzero(masks) if every_action else sorted(set(continued) | ({keep} - {None}))
+    for a in actions:
         a = int(a)
         target = env.target(q, a)
         result = env.step(a)
         obs, reward, terminated, truncated, info = result
-        rows.append({"obs": state_obs, "action": a, "target": target, "q": q, "time": info["step_time"],
-                     "wear": info["integral_cost"],
-                     "wear_parts": [info[f"integral_cost_{k}"] for k in WEAR_PARTS],
-                     "reached": info["goals_reached"] > reached_before, "terminated": terminated})
+        cost = info["step_time"] + info["integral_cost"]
+        row = {"obs": state_obs, "action": a, "target": target, "q": q, "time": info["step_time"],
+               "wear": info["integral_cost"],
+               "wear_parts": [info[f"integral_cost_{k}"] for k in WEAR_PARTS],
+               "reached": info["goals_reached"] > reached_before, "terminated": terminated,
+               "prob": np.nan if probs is None else float(probs[a]), "to_go": np.nan, "to_go_finished": False,
+               "proposal": a in continued}
         if a == keep:
             kept = (env.snapshot(), result)
+        if a in continued:
+            row["to_go"], row["to_go_finished"] = continue_greedily(env, continued[a], result, cost)
+        if every_action or a in continued:
+            rows.append(row)
         env.restore(snap)
     return rows, kept
 
 
-def run_episode(env, model, index: int, seed: int, rollout: str) -> dict:
-    """One episode: the policy's rollout from episode ``index``'s seed, with every state's counterfactuals."""
+def continue_greedily(env, agent, result: tuple, cost: float) -> tuple[float, bool]:
+    """From the state a step left ``env`` in (``result``, its ``cost``): the policy's most probable moves to the
+    episode's end, as ppo-search continues a proposal; returns (time + ∫C dt of the step and the continuation,
+    whether it finished the task)."""
+    from dresspack.agents.learned.policy import moving_masks
+
+    obs, _, terminated, truncated, info = result
+    total = cost
+    while not (terminated or truncated):
+        action = agent.predict(obs, moving_masks(env, env.action_masks()), deterministic=True)
+        obs, _, terminated, truncated, info = env.step(action)
+        total += info["step_time"] + info["integral_cost"]
+    return total, bool(terminated and info["is_success"])
+
+
+def run_episode(env, agent, index: int, seed: int, rollout: str, continued: int = 0,
+                every_action: bool = True) -> dict:
+    """One episode: the policy's rollout from episode ``index``'s seed, with every state's counterfactuals (and
+    the cost to go of its ``continued`` most probable moves)."""
     import torch
+    from dresspack.agents.learned.policy import moving_masks
+    from dresspack.agents.learned.search import ranked_proposals
 
     s = episode_seed(seed, index)
     torch.manual_seed(s)
@@ -98,9 +133,13 @@ def run_episode(env, model, index: int, seed: int, rollout: str) -> dict:
     rows, done, step, total, info = [], False, 0, 0.0, {}
     while not done:
         masks = env.action_masks()
-        action, _ = model.predict(obs, action_masks=masks, deterministic=rollout == "argmax")
-        action = int(action)
-        state_rows, (snap, (obs, reward, terminated, truncated, info)) = counterfactual_rows(env, obs, masks, action)
+        probs = agent.probabilities(obs, masks)
+        proposals = ranked_proposals(agent.probabilities(obs, moving := moving_masks(env, masks)), moving,
+                                     env.stay_action, continued) if continued else []
+        # the sampled action is drawn before any counterfactual, so torch's generator is where it was without them
+        action = agent.predict(obs, masks, deterministic=rollout == "argmax")
+        state_rows, (snap, (obs, reward, terminated, truncated, info)) = counterfactual_rows(
+            env, obs, masks, action, probs, {a: agent for a in proposals}, every_action)
         for r in state_rows:
             r.update(step=step, chosen=r["action"] == action)
         rows += state_rows
@@ -110,9 +149,9 @@ def run_episode(env, model, index: int, seed: int, rollout: str) -> dict:
             "return": total, "states": step}
 
 
-def _episode_job(job: tuple[int, int, str]) -> dict:
-    index, seed, rollout = job
-    return run_episode(_worker["env"], _worker["model"], index, seed, rollout)
+def _episode_job(job: tuple) -> dict:
+    index, seed, rollout, continued, every_action = job
+    return run_episode(_worker["env"], _worker["agent"], index, seed, rollout, continued, every_action)
 
 
 def shard_arrays(result: dict) -> dict[str, np.ndarray]:
@@ -124,6 +163,8 @@ def shard_arrays(result: dict) -> dict[str, np.ndarray]:
             "q": col("q", np.float64), "time": col("time", np.float64), "wear": col("wear", np.float64),
             "wear_parts": col("wear_parts", np.float64).reshape(n, len(WEAR_PARTS)),
             "reached": col("reached", bool), "terminated": col("terminated", bool), "chosen": col("chosen", bool),
+            "prob": col("prob", np.float64), "to_go": col("to_go", np.float64),
+            "to_go_finished": col("to_go_finished", bool), "proposal": col("proposal", bool),
             "step": col("step", np.int64), "episode": np.full(n, result["index"], dtype=np.int64),
             "episode_seed": np.array(result["seed"], dtype=np.int64),
             "episode_success": np.array(result["success"]), "episode_return": np.array(result["return"])}
@@ -158,7 +199,7 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
                               f"{out} holds labels made with {changed[0]}={old.get(changed[0])!r}, not "
                               f"{spec[changed[0]]!r}: use another --out folder")
     spec_file.write_text(json.dumps(spec, indent=2) + "\n")
-    todo = [(k, cfg.seed, cfg.rollout) for k in range(cfg.episodes) if not shard_path(out, k).is_file()]
+    todo = [(k, cfg.seed, cfg.rollout, cfg.continued, cfg.every_action) for k in range(cfg.episodes) if not shard_path(out, k).is_file()]
     jobs = max(1, min(jobs, len(todo)))
     init = (str(model_path), env_id, env_kwargs)
     # a wrong env argument fails here, naming the field, not inside a worker (one process: its env is the check)
@@ -238,12 +279,16 @@ def _write_summary(out: Path, episodes: int, labels: int, wall: float, cpu: floa
 
 
 def load_counterfactuals(folder: str | Path, episodes: int | None = None) -> dict[str, np.ndarray]:
-    """Every shard's rows in episode order (the first ``episodes`` shards if given); empty dict if none."""
+    """Every shard's rows in episode order (the first ``episodes`` shards if given); empty dict if none. The
+    policy's probabilities and the costs to go are read where every shard has them."""
     paths = sorted((Path(folder) / "episodes").glob("ep_*[0-9].npz"))[:episodes]
     per_row = ("obs", "action", "target", "q", "time", "wear", "wear_parts", "reached", "terminated", "chosen",
                "step", "episode")
     shards = [np.load(p) for p in paths]
-    return {k: np.concatenate([s[k] for s in shards]) for k in per_row} if shards else {}
+    if not shards:
+        return {}
+    later = [k for k in ("prob", "to_go", "to_go_finished", "proposal") if all(k in s for s in shards)]
+    return {k: np.concatenate([s[k] for s in shards]) for k in (*per_row, *later)}
 
 
 def add_counterfactuals_command(sub) -> None:

@@ -26,7 +26,7 @@ def train_cost_model(cfg: CostStudyConfig, data_dir: str | Path, out: str | Path
                      tensorboard: bool = True) -> dict:
     """Fit on ``data_dir``'s shards (the first ``episodes`` if given), write the run folder; returns the metrics."""
     import torch
-    from dresspack.agents.learned.cost_model import features, fit, labels, rank_metrics, state_ids
+    from dresspack.agents.learned.cost_model import features, fit, labelled, labels, rank_metrics, state_ids
 
     from .counterfactuals import load_counterfactuals
 
@@ -34,6 +34,7 @@ def train_cost_model(cfg: CostStudyConfig, data_dir: str | Path, out: str | Path
     data = load_counterfactuals(data_dir, episodes)
     if not data:
         raise ConfigError("--data", f"{data_dir} holds no counterfactual shards (episodes/ep_*.npz)")
+    data = labelled(data, cfg.model.label)
     spec = json.loads((Path(data_dir) / "spec.json").read_text())
     n_actions = _n_actions(spec["policy_file"])
     out = Path(out)
@@ -55,7 +56,7 @@ def train_cost_model(cfg: CostStudyConfig, data_dir: str | Path, out: str | Path
         writer.close()
     x = features(data["obs"], data["action"], data["target"], data["q"], n_actions)
     predicted = model.predict_all(x)[:, 0]
-    true = labels(data, False)[:, 0]
+    true = labels(data, False, cfg.model.label)[:, 0]
     states = state_ids(data)
     held = np.isin(data["episode"], record["held_out_episodes"])
     # an action whose target is where the robot stands (a via it already is at) costs nothing and tops every

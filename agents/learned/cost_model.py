@@ -1,4 +1,5 @@
-"""A learned segment cost: an MLP from (observation, action) to the step's time + ∫C dt, fit on simulated labels."""
+"""A learned cost: an MLP from (observation, action) to the step's time + ∫C dt, or to a proposal's cost to go (the
+step's and the policy's continuation's), fit on simulated labels."""
 
 from __future__ import annotations
 
@@ -25,10 +26,27 @@ def features(obs: np.ndarray, action: np.ndarray, target: np.ndarray, q: np.ndar
     return np.concatenate([obs, one_hot, target / np.pi, (target - q) / np.pi], axis=1).astype(np.float32)
 
 
-def labels(data: dict, parts: bool) -> np.ndarray:
-    """(rows, heads): time + ∫C dt, then with ``parts`` the time and the wear integral."""
+def labels(data: dict, parts: bool, label: str = "step") -> np.ndarray:
+    """(rows, heads): time + ∫C dt, then with ``parts`` the time and the wear integral; or (``label="to_go"``, rows
+    of continued proposals) the cost to go, where a continuation that did not finish counts as the dearest that
+    did (the search never takes one; it ranks last with them)."""
+    if label == "to_go":
+        done = data["to_go_finished"]
+        worst = data["to_go"][done].max() if done.any() else 1.0
+        return np.where(done, data["to_go"], worst)[:, None]
     total = data["time"] + data["wear"]
     return np.stack([total, data["time"], data["wear"]] if parts else [total], axis=1)
+
+
+def labelled(data: dict, label: str) -> dict:
+    """The rows that carry ``label``: all for the step's cost, the continued proposals for the cost to go."""
+    if label == "step":
+        return data
+    if "proposal" not in data or not data["proposal"].any():
+        raise ConfigError("model.label", "to_go needs labels made with counterfactuals.continued >= 1 (costs to "
+                                         "go of the continued proposals); these data have none")
+    keep = data["proposal"]
+    return {k: v[keep] for k, v in data.items()}
 
 
 def state_ids(data: dict) -> np.ndarray:
@@ -116,11 +134,12 @@ class CostModel:
 
 
 def fit(data: dict, n_actions: int, *, hidden: tuple[int, ...], target: str, loss: str, parts: bool, epochs: int,
-        batch_size: int, learning_rate: float, weight_decay: float, held_out: float, seed: int,
+        batch_size: int, learning_rate: float, weight_decay: float, held_out: float, seed: int, label: str = "step",
         log=None, held_out_episodes=None) -> tuple[CostModel, dict]:
     """Fit a CostModel on the rows of the episodes not held out (``held_out_episodes``, or a ``held_out`` fraction
     drawn by ``seed``); returns it and the fit's record (losses per epoch on both sets, the held-out episodes).
-    ``log(epoch, train_loss, held_out_loss)`` is called per epoch."""
+    ``data``: rows that carry ``label`` (:func:`labelled`). ``log(epoch, train_loss, held_out_loss)`` is called per
+    epoch."""
     import torch
 
     torch.set_num_threads(1)  # a small MLP on small batches: threads cost more than they give, and the cores are busy
@@ -131,7 +150,7 @@ def fit(data: dict, n_actions: int, *, hidden: tuple[int, ...], target: str, los
     if held.all() or not held.any():
         raise ConfigError("held_out_episodes", "must hold out some episodes of the data and keep some to fit on")
     model = CostModel(x.shape[1], n_actions, hidden, parts, target)
-    y = model.encode_y(labels(data, parts))
+    y = model.encode_y(labels(data, parts, label))
     model.fit_normalisers(x[~held], y[~held])
     xt, yt = model.net_input(x), torch.as_tensor((y - model.y_mean) / model.y_std)
     criterion = torch.nn.HuberLoss(delta=HUBER_DELTA) if loss == "huber" else torch.nn.MSELoss()

@@ -50,6 +50,21 @@ def resolve_policy(ref: str | Path | None) -> tuple[Path, dict]:
     return model, yaml.safe_load((folder / "config.yaml").read_text())
 
 
+def moving_masks(env: DresspackEnv, masks: np.ndarray) -> np.ndarray:
+    """``masks`` less the moves to where the robot already stands (a via to the travel posture it is at), unless
+    nothing else is allowed. The env offers them (its observation shows them, as the policy saw them in training),
+    but such a move is a wait that costs a step, and where one was the most probable action the policy stood on
+    it until its steps ran out. The wait itself stays allowed."""
+    q = env.q
+    still = [a for a in np.flatnonzero(masks)
+             if a != env.stay_action and np.abs(env.target(q, int(a)) - q).max() <= STILL]
+    if not still or len(still) == int(masks.sum()):
+        return masks
+    moving = masks.copy()
+    moving[still] = False
+    return moving
+
+
 class PolicyAgent:
     """The trained network with the SB3 ``predict`` signature, always masked."""
 
@@ -99,7 +114,7 @@ class PolicyPlanner(Planner):
     task's welds, with masks); its visited configurations are the trajectory.
 
     Actions: first a rollout with the most probable allowed action each step (a move to where the robot already
-    stands is never taken, see :meth:`_moving`); if it runs out of steps (argmax can cycle where the policy is
+    stands is never taken, see :func:`moving_masks`); if it runs out of steps (argmax can cycle where the policy is
     undecided: the shipped policy never finishes floor_pan_inner that way), up to
     ``attempts - 1`` rollouts with actions sampled from the masked policy, seeded by the planner's seed (runs
     are reproducible). Sampling alone finishes every task but wanders (~20 % more wear on the held-out tasks).
@@ -200,18 +215,7 @@ class PolicyPlanner(Planner):
         return action, self.env.step(action), seconds
 
     def _moving(self, masks: np.ndarray) -> np.ndarray:
-        """``masks`` less the moves to where the robot already stands (a via to the travel posture it is at), unless
-        nothing else is allowed. The env offers them (its observation shows them, as the policy saw them in training),
-        but such a move is a wait that costs a step, and where one was the most probable action the policy stood on
-        it until its steps ran out. The wait itself stays allowed."""
-        env, q = self.env, self.env.q
-        still = [a for a in np.flatnonzero(masks)
-                 if a != env.stay_action and np.abs(env.target(q, int(a)) - q).max() <= STILL]
-        if not still or len(still) == int(masks.sum()):
-            return masks
-        moving = masks.copy()
-        moving[still] = False
-        return moving
+        return moving_masks(self.env, masks)
 
 
 class _EpisodeFailed(Exception):

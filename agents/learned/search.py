@@ -34,6 +34,16 @@ ALTERNATIVES = 4  # OMPL routes per leg scored against the found route's leg bef
 MAX_ALTERNATIVES = 1_000
 
 
+def ranked_proposals(probs: np.ndarray, moving: np.ndarray, stay_action: int, k: int) -> list[int]:
+    """The ``k`` most probable allowed moves (``moving``: masks without moves to where the robot stands), the wait
+    left out unless it is all there is (it changes nothing a search could prefer it for); equal probabilities in
+    action order, so the choice is reproducible."""
+    allowed = np.flatnonzero(moving)
+    if len(allowed) > 1:
+        allowed = allowed[allowed != stay_action]
+    return [int(a) for a in allowed[np.lexsort((allowed, -probs[allowed]))][:k]]
+
+
 def _check_count(value, field: str, lo: int, hi: int, meaning: str = "") -> int:
     """An integer (not a bool) in [lo, hi], or a ConfigError naming the field (``meaning``: what lo stands for)."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
@@ -212,11 +222,7 @@ class PolicySearchPlanner(PolicyPlanner):
             self._incumbent = self._continue(before, self.agent.predict(obs, moving, deterministic=True), math.inf)
             if self._policy_cost is None:
                 self._policy_cost = self._incumbent.cost if self._incumbent.finished else math.inf
-        allowed = np.flatnonzero(moving)
-        if len(allowed) > 1:  # the wait changes nothing a search could prefer it for
-            allowed = allowed[allowed != env.stay_action]
-        # most probable first; equal probabilities by action index, so the choice is reproducible
-        ranked = [int(a) for a in allowed[np.lexsort((allowed, -probs[allowed]))][:self.proposals]]
+        ranked = ranked_proposals(probs, moving, env.stay_action, self.proposals)
         tried = {self._incumbent.first_action: self._incumbent}
         best = self._incumbent
         for a in ranked:

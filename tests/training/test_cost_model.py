@@ -46,13 +46,13 @@ def test_labels_are_the_same_for_one_and_two_jobs_and_a_resumed_run_remakes_only
     two = generate(cfg, tmp_path / "two", jobs=2, progress=False)
     a, b = load_counterfactuals(tmp_path / "one"), load_counterfactuals(tmp_path / "two")
     assert one["rows"] == two["rows"] == len(a["action"]) > 10 and one["episodes"] == 2
-    assert set(a) == set(b) and all(np.array_equal(a[k], b[k]) for k in a)
+    assert set(a) == set(b) and all(_same(a[k], b[k]) for k in a)
     assert a["chosen"].sum() == 2 and (a["time"] > 0).any() and (a["wear"] > 0).any()
     assert not np.array_equal(a["obs"][a["episode"] == 0][0], a["obs"][a["episode"] == 1][0])  # own seeds
     shard_path(tmp_path / "one", 1).unlink()
     again = generate(cfg, tmp_path / "one", jobs=1, progress=False)
     assert again["sessions"][-1]["episodes"] == 1 and again["rows"] == one["rows"]
-    assert all(np.array_equal(a[k], v) for k, v in load_counterfactuals(tmp_path / "one").items())
+    assert all(_same(a[k], v) for k, v in load_counterfactuals(tmp_path / "one").items())
     # the model's stage on these labels: a run folder whose model predicts every row
     from dresspack.agents.learned.cost_model import CostModel
     from dresspack.training.train_cost_model import train_cost_model
@@ -69,6 +69,11 @@ def test_labels_are_the_same_for_one_and_two_jobs_and_a_resumed_run_remakes_only
     (tmp_path / "one" / "spec.json").write_text(json.dumps(spec | {"code": "0" * 12}))  # labelled by other code
     with pytest.raises(ConfigError, match="^counterfactuals.code.*000000000000"):
         generate(cfg, tmp_path / "one", jobs=1, progress=False)
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    """Equal arrays, NaN (a label not made: no cost to go) equal to NaN."""
+    return np.array_equal(a, b, equal_nan=a.dtype.kind == "f")
 
 
 def test_counterfactuals_leave_the_env_as_it_was():
