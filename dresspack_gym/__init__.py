@@ -2,6 +2,8 @@
 
 import importlib
 import os
+import sys
+import types
 
 # Offscreen rendering on headless machines needs EGL, chosen when mujoco is first imported (an empty DISPLAY, as
 # some containers set it, is no display either).
@@ -33,6 +35,19 @@ def __getattr__(name: str):
     if name in PUBLIC:
         return getattr(importlib.import_module(f".{PUBLIC[name]}", __name__), name)
     raise AttributeError(f"module 'dresspack_gym' has no attribute {name!r}")
+
+
+class _Package(types.ModuleType):
+    """The package keeps its public names: importing the old module path of the same name (``dresspack_gym.wear_cost``,
+    the module that holds the function ``wear_cost``) would otherwise bind that module over the function."""
+
+    def __setattr__(self, name, value):
+        if name in PUBLIC and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
 
 
 def _register_envs() -> None:

@@ -19,6 +19,14 @@ def test_public_names_load_from_the_package_face(name):
     assert getattr(importlib.import_module(f"dresspack_gym.{dresspack_gym.PUBLIC[name]}"), name) is value
 
 
+def test_an_old_module_path_of_a_public_name_leaves_the_name_alone():
+    """``dresspack_gym.wear_cost`` is the function at the package face, whatever imported its old module path."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        module = importlib.import_module("dresspack_gym.wear_cost")
+    assert module.__name__ == "dresspack_gym.physics.wear_cost" and dresspack_gym.wear_cost is module.wear_cost
+
+
 def test_an_unknown_name_at_the_face_is_an_attribute_error():
     with pytest.raises(AttributeError, match="no_such_name"):
         dresspack_gym.no_such_name  # noqa: B018
