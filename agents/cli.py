@@ -67,6 +67,9 @@ def add_plan_command(sub) -> None:
                    help="ppo-search only: OMPL routes (the direct one, then through random vias) per leg, each scored "
                         "by cable simulation against the found route's leg before the refinement starts from the "
                         f"cheapest (default {ALTERNATIVES}; 0: the found route's legs only)")
+    p.add_argument("--cost-to-go", default=None, metavar="MODEL",
+                   help="ppo-search only: a cost-to-go model (model.pt of dresspack train-cost-model --config "
+                        "cost_to_go) ranks the proposals instead of simulating their continuations")
     p.add_argument("--plot", type=output_file, default=None,
                    help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3; missing folders are made)")
     p.add_argument("--out", type=output_file, default=None,
@@ -99,6 +102,10 @@ def cmd_plan(args) -> int:
         if args.planner != "ppo-search":
             raise ConfigError("alternatives", f"--alternatives applies to ppo-search only, not {args.planner}")
         extra["alternatives"] = args.alternatives
+    if args.cost_to_go is not None:
+        if args.planner != "ppo-search":
+            raise ConfigError("cost_to_go", f"--cost-to-go applies to ppo-search only, not {args.planner}")
+        extra["cost_to_go"] = args.cost_to_go
     if args.time_weight is not None:
         if args.planner not in WEAR_AWARE:
             raise ConfigError("time_weight", f"--time-weight applies to {', '.join(WEAR_AWARE)} only, not "

@@ -81,6 +81,9 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
                    help="ppo-search: OMPL routes (the direct one, then through random vias) per leg, each scored by "
                         "one cable simulation against the found route's leg before the refinement starts from the "
                         f"cheapest (default: {defaults.alternatives}; 0: the found route's legs only)")
+    p.add_argument("--cost-to-go", default=None, metavar="MODEL",
+                   help="ppo-search: a cost-to-go model (model.pt of dresspack train-cost-model --config cost_to_go) "
+                        "ranks the proposals instead of simulating their continuations (default: simulate them)")
     p.add_argument("--robustness-map", default=None,
                    help="robustness map folder to include in the report (default: none)")
     p.add_argument("--jobs", type=number(1, MAX_JOBS, integer=True), default=ALL_CORES,
@@ -99,7 +102,7 @@ def spec_from_args(args) -> EvalSpec:
                     time_budget=args.time_budget,
                     start_noise_deg=args.start_noise_deg, policy=args.policy, cost_variant=args.cost_variant,
                     time_weight=args.time_weight, proposals=args.proposals, refine=args.refine,
-                    alternatives=args.alternatives,
+                    alternatives=args.alternatives, cost_to_go=args.cost_to_go,
                     drawn_tasks=args.drawn_tasks, drawn_seed=args.drawn_seed)
 
 

@@ -141,7 +141,9 @@ def _intro(spec: EvalSpec, station: Station, written: dict) -> str:
     starts = (f"each seed starts at its own valid configuration within {spec.start_noise_deg:g}° of Home"
               if spec.start_noise_deg > 0 else "every run starts at Home")
     search = (f"; ppo-search tries the policy's {spec.proposals} most probable moves per step, {spec.alternatives} "
-              f"other routes per leg and {spec.refine} refinement queries" if "ppo-search" in spec.methods else "")
+              f"other routes per leg and {spec.refine} refinement queries"
+              + (f", the proposals ranked by the cost-to-go model {spec.cost_to_go}" if spec.cost_to_go else "")
+              if "ppo-search" in spec.methods else "")
     libraries = ", ".join(f"{k} {v}" for k, v in (written.get("libraries") or {}).items() if v)
     provenance = (f" Rows computed by code {written['code']}" + (f" with {libraries}" if libraries else "") + "."
                   if written.get("code") else "")

@@ -75,6 +75,7 @@ class EvalSpec:
     proposals: int = PROPOSALS  # ppo-search: the policy's moves tried at every step
     refine: int = REFINE  # ppo-search: leg-cost queries moving the found route's vias
     alternatives: int = ALTERNATIVES  # ppo-search: OMPL via routes per leg scored against the found route's leg
+    cost_to_go: str | None = None  # ppo-search: a cost-to-go model.pt ranks the proposals instead of simulation
     policy: str | None = None  # run folder / model / shipped name for ppo (and the random floor's env)
     robot: int = 0
     # > 0: the tasks are this many single welds drawn on the station's parts (weld_sampling), weld k from
@@ -103,6 +104,9 @@ class EvalSpec:
         check_proposals(self.proposals)
         check_refine(self.refine)
         check_alternatives(self.alternatives)
+        if self.cost_to_go is not None and not Path(self.cost_to_go).is_file():
+            raise ConfigError("cost_to_go", f"{self.cost_to_go} is not a file (a model.pt of dresspack "
+                                            "train-cost-model --config cost_to_go)")
         if not 0 <= self.start_noise_deg <= 90:
             raise ConfigError("start_noise_deg", f"must be in [0, 90] deg, got {self.start_noise_deg}")
 
@@ -162,7 +166,7 @@ def load_trajectory(out: Path, row: dict) -> Trajectory | None:
 
 
 # settings added after evaluations were already stored, with the value those evaluations used
-_ADDED_SETTINGS = {"time_weight": 1.0, "proposals": PROPOSALS, "refine": 0, "alternatives": 0}
+_ADDED_SETTINGS = {"time_weight": 1.0, "proposals": PROPOSALS, "refine": 0, "alternatives": 0, "cost_to_go": None}
 
 
 def _extends(stored: dict, new: dict) -> bool:
@@ -316,7 +320,8 @@ class RunEvaluator:
                 kwargs["cost_variant"] = spec.cost_variant
                 kwargs["time_weight"] = spec.time_weight
             if method == PolicySearchPlanner.name:
-                kwargs.update(proposals=spec.proposals, refine=spec.refine, alternatives=spec.alternatives)
+                kwargs.update(proposals=spec.proposals, refine=spec.refine, alternatives=spec.alternatives,
+                              cost_to_go=spec.cost_to_go)
             self.planners[(method, seed)] = make_planner(method, self.station, spec.robot, seed=seed,
                                                          iterations=spec.iterations, evaluations=spec.evaluations,
                                                          routes=spec.routes, time_budget=spec.time_budget, **kwargs)

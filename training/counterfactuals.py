@@ -199,7 +199,8 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
                               f"{out} holds labels made with {changed[0]}={old.get(changed[0])!r}, not "
                               f"{spec[changed[0]]!r}: use another --out folder")
     spec_file.write_text(json.dumps(spec, indent=2) + "\n")
-    todo = [(k, cfg.seed, cfg.rollout, cfg.continued, cfg.every_action) for k in range(cfg.episodes) if not shard_path(out, k).is_file()]
+    todo = [(k, cfg.seed, cfg.rollout, cfg.continued, cfg.every_action) for k in range(cfg.episodes)
+            if not shard_path(out, k).is_file()]
     jobs = max(1, min(jobs, len(todo)))
     init = (str(model_path), env_id, env_kwargs)
     # a wrong env argument fails here, naming the field, not inside a worker (one process: its env is the check)

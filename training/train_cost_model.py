@@ -26,7 +26,15 @@ def train_cost_model(cfg: CostStudyConfig, data_dir: str | Path, out: str | Path
                      tensorboard: bool = True) -> dict:
     """Fit on ``data_dir``'s shards (the first ``episodes`` if given), write the run folder; returns the metrics."""
     import torch
-    from dresspack.agents.learned.cost_model import features, fit, labelled, labels, rank_metrics, state_ids
+    from dresspack.agents.learned.cost_model import (
+        features,
+        fit,
+        labelled,
+        labels,
+        most_probable,
+        rank_metrics,
+        state_ids,
+    )
 
     from .counterfactuals import load_counterfactuals
 
@@ -59,12 +67,15 @@ def train_cost_model(cfg: CostStudyConfig, data_dir: str | Path, out: str | Path
     true = labels(data, False, cfg.model.label)[:, 0]
     states = state_ids(data)
     held = np.isin(data["episode"], record["held_out_episodes"])
+    # the policy's action the model competes with: the one the rollout took (segment costs), or the most probable
+    # proposal (costs to go: the one ppo's rollout takes)
+    chosen = data["chosen"] if cfg.model.label == "step" else most_probable(data, states)
     # an action whose target is where the robot stands (a via it already is at) costs nothing and tops every
     # state's ranking: the moves alone say how well the model orders real alternatives
     moving = held & (np.abs(data["target"] - data["q"]).max(axis=1) > 0)
-    metrics = {"held_out": rank_metrics(predicted[held], true[held], states[held], data["chosen"][held]),
+    metrics = {"held_out": rank_metrics(predicted[held], true[held], states[held], chosen[held]),
                "held_out_moves_only": rank_metrics(predicted[moving], true[moving], states[moving]),
-               "train": rank_metrics(predicted[~held], true[~held], states[~held], data["chosen"][~held]),
+               "train": rank_metrics(predicted[~held], true[~held], states[~held], chosen[~held]),
                "episodes": int(len(set(data["episode"].tolist()))), "rows": int(len(true)),
                "held_out_episodes": record["held_out_episodes"],
                "final_train_loss": record["train_loss"][-1], "final_held_out_loss": record["held_out_loss"][-1],
@@ -102,6 +113,9 @@ def cmd_train_cost_model(args) -> int:
     per_state, overall = ("-" if h[k] is None else f"{h[k]:.3f}"
                           for k in ("spearman_per_state_mean", "spearman_global"))
     print(json.dumps({k: metrics[k] for k in ("episodes", "rows", "final_train_loss", "final_held_out_loss")}))
+    policy = (f" (the policy's action: top-1 {100 * h['policy_action_top1']:.1f} %, regret "
+              f"{h['policy_action_regret_mean']:.2f})" if "policy_action_top1" in h else "")
     print(f"held out ({h['rows']} rows, {h['states']} states): Spearman global {overall}, per state "
-          f"{per_state}, top-1 {100 * h['top1_agreement']:.1f} %; run folder {args.out}")
+          f"{per_state}, top-1 {100 * h['top1_agreement']:.1f} %, regret {h['mean_regret']:.2f}{policy}; run folder "
+          f"{args.out}")
     return 0

@@ -49,6 +49,15 @@ def labelled(data: dict, label: str) -> dict:
     return {k: v[keep] for k, v in data.items()}
 
 
+def most_probable(data: dict, states: np.ndarray) -> np.ndarray:
+    """A mask of each state's row of the policy's most probable action (the first such row where tied)."""
+    best = np.zeros(len(states), bool)
+    for s in np.unique(states):
+        m = np.flatnonzero(states == s)
+        best[m[int(np.argmax(data["prob"][m]))]] = True
+    return best
+
+
 def state_ids(data: dict) -> np.ndarray:
     """One id per (episode, step): the rows that share it are one state's actions."""
     return np.unique(np.stack([data["episode"], data["step"]], axis=1), axis=0, return_inverse=True)[1].ravel()
@@ -69,11 +78,11 @@ class CostModel:
 
     def __init__(self, n_features: int, n_actions: int, hidden: tuple[int, ...], parts: bool, target: str,
                  x_mean: np.ndarray | None = None, x_std: np.ndarray | None = None,
-                 y_mean: np.ndarray | None = None, y_std: np.ndarray | None = None):
+                 y_mean: np.ndarray | None = None, y_std: np.ndarray | None = None, label: str = "step"):
         import torch
 
         self.n_features, self.n_actions, self.hidden = n_features, n_actions, tuple(hidden)
-        self.parts, self.target = bool(parts), target
+        self.parts, self.target, self.label = bool(parts), target, label
         n_out = len(OUTPUTS) if parts else 1
         layers, width = [], n_features
         for h in self.hidden:
@@ -111,14 +120,15 @@ class CostModel:
         return self.decode_y(out * self.y_std + self.y_mean)
 
     def predict(self, obs, action, target, q) -> np.ndarray:
-        """Predicted time + ∫C dt of each (observation, action, target configuration, configuration) row."""
+        """Predicted time + ∫C dt (of the step, or to go: ``label``) of each (observation, action, target
+        configuration, configuration) row."""
         return self.predict_all(features(obs, action, target, q, self.n_actions))[:, 0]
 
     def save(self, path: str | Path, extra: dict | None = None) -> None:
         import torch
 
         torch.save({"state_dict": self.net.state_dict(), "n_features": self.n_features, "n_actions": self.n_actions,
-                    "hidden": list(self.hidden), "parts": self.parts, "target": self.target,
+                    "hidden": list(self.hidden), "parts": self.parts, "target": self.target, "label": self.label,
                     "x_mean": self.x_mean, "x_std": self.x_std, "y_mean": self.y_mean, "y_std": self.y_std,
                     **(extra or {})}, path)
 
@@ -128,7 +138,7 @@ class CostModel:
 
         d = torch.load(path, map_location="cpu", weights_only=False)
         model = cls(d["n_features"], d["n_actions"], tuple(d["hidden"]), d["parts"], d["target"],
-                    d["x_mean"], d["x_std"], d["y_mean"], d["y_std"])
+                    d["x_mean"], d["x_std"], d["y_mean"], d["y_std"], d.get("label", "step"))
         model.net.load_state_dict(d["state_dict"])
         return model
 
@@ -149,7 +159,7 @@ def fit(data: dict, n_actions: int, *, hidden: tuple[int, ...], target: str, los
         np.isin(data["episode"], np.asarray(held_out_episodes))
     if held.all() or not held.any():
         raise ConfigError("held_out_episodes", "must hold out some episodes of the data and keep some to fit on")
-    model = CostModel(x.shape[1], n_actions, hidden, parts, target)
+    model = CostModel(x.shape[1], n_actions, hidden, parts, target, label=label)
     y = model.encode_y(labels(data, parts, label))
     model.fit_normalisers(x[~held], y[~held])
     xt, yt = model.net_input(x), torch.as_tensor((y - model.y_mean) / model.y_std)
@@ -191,7 +201,7 @@ def rank_metrics(predicted: np.ndarray, true: np.ndarray, states: np.ndarray, ch
     from scipy.stats import spearmanr
 
     per_state, top1, regret, spread = [], [], [], []
-    policy_regret = []
+    policy_regret, policy_top1 = [], []
     for s in np.unique(states):
         m = np.flatnonzero(states == s)
         t, p = true[m], predicted[m]
@@ -201,6 +211,7 @@ def rank_metrics(predicted: np.ndarray, true: np.ndarray, states: np.ndarray, ch
         spread.append((float(t.min()), float(np.median(t)), float(t.max())))
         if chosen is not None and chosen[m].any():
             policy_regret.append(float(t[chosen[m]][0] - t.min()))
+            policy_top1.append(bool(t[chosen[m]][0] <= t.min() + 1e-9))
         if len(m) >= 3 and np.ptp(t) > 0 and np.ptp(p) > 0:
             per_state.append(float(spearmanr(p, t).statistic))
     spread = np.array(spread)
@@ -219,4 +230,5 @@ def rank_metrics(predicted: np.ndarray, true: np.ndarray, states: np.ndarray, ch
            "state_cost_range_median": float(np.median(spread[:, 2] - spread[:, 0]))}
     if policy_regret:
         out["policy_action_regret_mean"] = float(np.mean(policy_regret))
+        out["policy_action_top1"] = float(np.mean(policy_top1))
     return out

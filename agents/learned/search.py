@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -21,6 +22,7 @@ from ..planners.leg_cost import TENSION_PEAK_TIME, LegCost
 from ..planners.ompl_connect import OmplConnector
 from ..planners.refine import LocalRefiner, refine_legs
 from ..planners.routes import VIA_TRIES_PER_ROUTE, ViaRoutes
+from .cost_model import CostModel
 from .policy import PolicyPlanner
 
 PROPOSALS = 3  # actions tried at every step: the policy's most probable allowed moves
@@ -42,6 +44,24 @@ def ranked_proposals(probs: np.ndarray, moving: np.ndarray, stay_action: int, k:
     if len(allowed) > 1:
         allowed = allowed[allowed != stay_action]
     return [int(a) for a in allowed[np.lexsort((allowed, -probs[allowed]))][:k]]
+
+
+def load_cost_to_go(path, n_actions: int) -> CostModel:
+    """A cost-to-go model (``dresspack train-cost-model --config cost_to_go``'s model.pt) for a policy of
+    ``n_actions`` actions, or a ConfigError naming the field."""
+    if not Path(path).is_file():
+        raise ConfigError("cost_to_go", f"{path} is not a file (a model.pt of dresspack train-cost-model)")
+    try:
+        model = CostModel.load(path)
+    except Exception as exc:  # torch's own message says what is wrong with the file
+        raise ConfigError("cost_to_go", f"{path} is not a cost model ({type(exc).__name__}: {exc})") from None
+    if model.label != "to_go":
+        raise ConfigError("cost_to_go", f"{path} predicts a step's cost ({model.label!r}), not the cost to go: fit "
+                                        "one with dresspack train-cost-model --config cost_to_go")
+    if model.n_actions != n_actions:
+        raise ConfigError("cost_to_go", f"{path} was fit for a policy of {model.n_actions} actions; this policy has "
+                                        f"{n_actions}")
+    return model
 
 
 def _check_count(value, field: str, lo: int, hi: int, meaning: str = "") -> int:
@@ -125,11 +145,14 @@ class PolicySearchPlanner(PolicyPlanner):
     color = "#0b6e4f"
 
     def __init__(self, station: Station, robot: int = 0, *, proposals: int = PROPOSALS, refine: int = REFINE,
-                 alternatives: int = ALTERNATIVES, cost_variant: str = "thesis", time_weight: float = 1.0, **kwargs):
+                 alternatives: int = ALTERNATIVES, cost_to_go: str | Path | None = None, cost_variant: str = "thesis",
+                 time_weight: float = 1.0, **kwargs):
         proposals, refine = check_proposals(proposals), check_refine(refine)
         alternatives = check_alternatives(alternatives)
         super().__init__(station, robot, **kwargs)
         self.proposals, self.refine = proposals, refine
+        # ranks the proposals by predicted cost to go instead of simulating their continuations
+        self.cost_to_go = None if cost_to_go is None else load_cost_to_go(cost_to_go, self.agent.n_actions)
         self.refiner = None  # built only if it will be used: its leg cost holds a simulator of its own
         if refine or alternatives:
             # ompl-wear's leg cost, with the wear cost and time weight asked for (the search ranks by the env's
@@ -206,12 +229,15 @@ class PolicySearchPlanner(PolicyPlanner):
             return traj, info
         # the objective in the env's own simulation: the search's path and the policy's most probable rollout
         return traj, {**info, "simulated_steps": self._simulated, "objective": round(self._cost, 6),
+                      "ranked_by": "continuations" if self.cost_to_go is None else "cost-to-go model",
                       "policy_objective": _rounded(self._policy_cost),
                       "inference_s": round(info["inference_s"] + self._network, 5)}
 
     def _step(self, obs, masks, mode: str):
         if mode != "search":
             return super()._step(obs, masks, mode)
+        if self.cost_to_go is not None:
+            return self._ranked_step(obs, masks)
         env = self.env
         t0 = time.perf_counter()
         probs = self.agent.probabilities(obs, masks)
@@ -237,6 +263,24 @@ class PolicySearchPlanner(PolicyPlanner):
         self._cost += first.cost
         self._incumbent = _Continuation(best.steps[1:], True) if best.finished else _Continuation()
         return first.action, first.result, seconds
+
+    def _ranked_step(self, obs, masks):
+        """The proposal of least predicted cost to go, taken without simulating any continuation."""
+        env, q = self.env, self.env.q
+        t0 = time.perf_counter()
+        moving = self._moving(masks)
+        ranked = ranked_proposals(self.agent.probabilities(obs, moving), moving, env.stay_action, self.proposals)
+        action = ranked[0]
+        if len(ranked) > 1:
+            n = len(ranked)
+            predicted = self.cost_to_go.predict(np.repeat(obs[None], n, 0), np.array(ranked),
+                                                np.array([env.target(q, a) for a in ranked]), np.repeat(q[None], n, 0))
+            action = ranked[int(np.argmin(predicted))]  # the most probable of the cheapest
+        seconds = time.perf_counter() - t0
+        result = env.step(action)
+        self._simulated += 1
+        self._cost += result[4]["step_time"] + result[4]["integral_cost"]
+        return action, result, seconds
 
     def _continue(self, start: EnvSnapshot, action: int, bound: float) -> _Continuation:
         """From ``start``: ``action``, then the policy's most probable actions to the episode's end, abandoned once

@@ -227,3 +227,67 @@ def test_the_policy_never_takes_a_move_to_where_it_stands(station):
         assert a == env.stay_action or not np.allclose(env.target(q, a), q, atol=1e-9)
         env.step(a)
     assert offered_still > 0
+
+
+def _cost_to_go_file(planner, path, prefer: str):
+    """A linear cost-to-go model.pt for ``planner``'s policy that ranks proposals by action index alone: ``prefer``
+    "low" (the lowest index is cheapest) or "none" (all equal: the most probable proposal stays first)."""
+    import torch
+    from dresspack.agents.learned.cost_model import CostModel
+
+    n_actions, n_obs = planner.agent.n_actions, planner.env.observation_space.shape[0]
+    model = CostModel(n_obs + n_actions + 12, n_actions, (), parts=False, target="linear", label="to_go")
+    with torch.no_grad():
+        layer = model.net[0]
+        layer.weight.zero_()
+        layer.bias.fill_(10.0)
+        if prefer == "low":
+            layer.weight[0, n_obs:n_obs + n_actions] = torch.arange(n_actions, dtype=torch.float32)
+    model.save(path)
+    return path
+
+
+@pytest.mark.parametrize("prefer", ["low", "none"])
+def test_a_cost_to_go_model_ranks_the_proposals_without_simulating_them(station, tasks, tmp_path, prefer):
+    """Each step takes the proposal the model predicts cheapest to go, one env step a decision; a model that ranks
+    them all equal leaves the policy's own most probable rollout."""
+    from dresspack.agents.learned.policy import moving_masks
+    from dresspack.agents.learned.search import ranked_proposals
+
+    task = _task(tasks, 1)
+    plain = PolicySearchPlanner(station, 0, policy=POLICY, proposals=3, refine=0, alternatives=0)
+    path = _cost_to_go_file(plain, tmp_path / "ctg.pt", prefer)
+    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=3, refine=0, alternatives=0,
+                                  cost_to_go=str(path))
+    info = planner.plan(task).info
+    assert info["mode"] == "search" and info["ranked_by"] == "cost-to-go model"
+    assert info["simulated_steps"] == info["policy_steps"] == len(info["actions"])  # no continuation simulated
+    env = pickle.loads(pickle.dumps(planner.env))
+    obs, _ = env.reset(seed=planner.seed, options={"goals": dict(zip(task.weld_names, task.goals)),
+                                                   "start": task.start})
+    for a in info["actions"]:
+        moving = moving_masks(env, env.action_masks())
+        ranked = ranked_proposals(planner.agent.probabilities(obs, moving), moving, env.stay_action, 3)
+        assert a == (min(ranked) if prefer == "low" else ranked[0])
+        obs, *_ = env.step(a)
+    assert _objective_of(env, task, planner.seed, info["actions"]) == pytest.approx(info["objective"], abs=1e-5)
+    argmax = PolicyPlanner(station, 0, policy=POLICY, deterministic=True).plan(task).info["actions"]
+    assert (info["actions"] == argmax) == (prefer == "none")
+
+
+def test_cost_to_go_model_checked(station, tmp_path):
+    from dresspack.agents.learned.cost_model import CostModel
+
+    with pytest.raises(ConfigError, match="^cost_to_go: .*not a file"):
+        PolicySearchPlanner(station, 0, policy=POLICY, cost_to_go=str(tmp_path / "missing.pt"))
+    (tmp_path / "junk.pt").write_text("not a model")
+    with pytest.raises(ConfigError, match="^cost_to_go: .*not a cost model"):
+        PolicySearchPlanner(station, 0, policy=POLICY, cost_to_go=str(tmp_path / "junk.pt"))
+    plain = PolicySearchPlanner(station, 0, policy=POLICY, refine=0, alternatives=0)
+    n_actions, n_obs = plain.agent.n_actions, plain.env.observation_space.shape[0]
+    CostModel(n_obs + n_actions + 12, n_actions, (4,), parts=False, target="log").save(tmp_path / "step.pt")
+    with pytest.raises(ConfigError, match="^cost_to_go: .*a step's cost"):
+        PolicySearchPlanner(station, 0, policy=POLICY, cost_to_go=str(tmp_path / "step.pt"))
+    CostModel(20, n_actions + 1, (4,), parts=False, target="log", label="to_go").save(tmp_path / "other.pt")
+    with pytest.raises(ConfigError, match=f"^cost_to_go: .*{n_actions + 1} actions"):
+        PolicySearchPlanner(station, 0, policy=POLICY, cost_to_go=str(tmp_path / "other.pt"))

@@ -283,6 +283,20 @@ def test_search_settings_are_checked_stored_and_reach_the_search(monkeypatch, tm
     assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, name) == {"ppo-search": given}
 
 
+def test_a_cost_to_go_model_is_checked_stored_and_reaches_the_search(monkeypatch, tmp_path):
+    from dresspack.eval.runs import _extends
+
+    with pytest.raises(ConfigError, match="^cost_to_go: .*missing.pt is not a file"):
+        EvalSpec(methods=("ppo-search",), cost_to_go=str(tmp_path / "missing.pt"))
+    (tmp_path / "ctg.pt").write_bytes(b"")
+    spec = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,),
+                    cost_to_go=str(tmp_path / "ctg.pt"))
+    plain = {k: v for k, v in spec.to_dict().items() if k != "cost_to_go"}  # a folder written before the setting
+    assert _extends(plain, plain | {"cost_to_go": None}) and not _extends(plain, spec.to_dict())
+    assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, "cost_to_go") == {
+        "ppo-search": str(tmp_path / "ctg.pt")}
+
+
 def _argument_reaching_the_planner(monkeypatch, tmp_path, spec: EvalSpec, name: str) -> dict:
     """Per method, the keyword argument ``name`` the evaluation builds its planner with (the evaluation is stopped
     as soon as the planner would be built)."""

@@ -100,6 +100,53 @@ def test_counterfactuals_leave_the_env_as_it_was():
         assert np.array_equal(env.sim.get_state(), twin.sim.get_state())
 
 
+def test_continued_proposals_hold_the_cost_to_go_of_the_policys_continuation(tiny_policy):
+    """Each state's K most probable moves carry the time + ∫C dt of the step and of the policy's most probable
+    actions after it to the episode's end (stepped again here in a twin env); the other rows carry none."""
+    import gymnasium as gym
+    from dresspack.agents.learned.policy import PolicyAgent, moving_masks
+    from dresspack.agents.learned.search import ranked_proposals
+    from dresspack.training.counterfactuals import episode_seed, run_episode
+
+    _, folder = tiny_policy
+    kwargs = {**TINY_ENV, "max_steps": 3}
+    env, twin = (gym.make("dresspack_gym/StudWelding-v0", **kwargs).unwrapped for _ in range(2))
+    agent = PolicyAgent(folder / "model.zip")
+    every = run_episode(env, agent, 0, 5, "argmax", continued=2)
+    only = run_episode(env, agent, 0, 5, "argmax", continued=2, every_action=False)
+    proposals = [r for r in every["rows"] if r["proposal"]]
+    assert [r["action"] for r in only["rows"]] == [r["action"] for r in proposals] and len(proposals) >= 4
+    assert all(np.isnan(r["to_go"]) for r in every["rows"] if not r["proposal"])
+    assert all(r["to_go"] == o["to_go"] and r["prob"] == o["prob"] for r, o in zip(proposals, only["rows"]))
+    obs, _ = twin.reset(seed=episode_seed(5, 0))
+    first = [r for r in only["rows"] if r["step"] == 0]
+    moving = moving_masks(twin, twin.action_masks())
+    assert [r["action"] for r in first] == sorted(ranked_proposals(agent.probabilities(obs, moving), moving,
+                                                                   twin.stay_action, 2))
+    snap = twin.snapshot()
+    for row in first:
+        twin.restore(snap)
+        obs, _, terminated, truncated, info = twin.step(row["action"])
+        total = info["step_time"] + info["integral_cost"]
+        while not (terminated or truncated):
+            a = agent.predict(obs, moving_masks(twin, twin.action_masks()), deterministic=True)
+            obs, _, terminated, truncated, info = twin.step(a)
+            total += info["step_time"] + info["integral_cost"]
+        assert row["to_go"] == pytest.approx(total, rel=1e-12) and row["to_go"] > row["time"] + row["wear"]
+        assert row["to_go_finished"] == bool(terminated and info["is_success"])
+
+
+def test_an_unfinished_continuation_ranks_with_the_dearest_finished_one():
+    from dresspack.agents.learned.cost_model import labelled, labels
+
+    data = {"to_go": np.array([5.0, 9.0, 3.0, np.nan]), "to_go_finished": np.array([True, True, False, False]),
+            "proposal": np.array([True, True, True, False]), "time": np.ones(4), "wear": np.ones(4)}
+    rows = labelled(data, "to_go")
+    assert labels(rows, False, "to_go")[:, 0].tolist() == [5.0, 9.0, 9.0]
+    with pytest.raises(ConfigError, match="^model.label: to_go needs"):
+        labelled({**data, "proposal": np.zeros(4, bool)}, "to_go")
+
+
 def _synthetic(episodes=12, steps=3, n_actions=6, seed=0):
     """Rows whose cost is a smooth function of the action's joint change: a model must learn it from features."""
     rng = np.random.default_rng(seed)
@@ -148,6 +195,10 @@ def test_the_cost_model_fits_a_tiny_dataset_and_ranks_held_out_actions(tmp_path)
     ({"counterfactuals": {"rollout": "greedy"}}, "counterfactuals.rollout"),
     ({"counterfactuals": {"episodes": 0}}, "counterfactuals.episodes"),
     ({"counterfactuals": {"env_kwargs": {"action_set": "joint_steps"}}}, "counterfactuals.env_kwargs.action_set"),
+    ({"counterfactuals": {"continued": -1}}, "counterfactuals.continued"),
+    ({"counterfactuals": {"every_action": False}}, "counterfactuals.every_action"),
+    ({"model": {"label": "return"}}, "model.label"),
+    ({"model": {"label": "to_go"}}, "model.parts"),
 ])
 def test_bad_cost_config_fields_are_named(data, field):
     with pytest.raises(ConfigError) as err:
