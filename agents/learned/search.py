@@ -23,7 +23,7 @@ from ..planners.ompl_connect import OmplConnector
 from ..planners.refine import LocalRefiner, refine_legs
 from ..planners.routes import VIA_TRIES_PER_ROUTE, ViaRoutes
 from .cost_model import CostModel
-from .policy import PolicyPlanner
+from .policy import STILL, PolicyPlanner, _EpisodeFailed
 
 PROPOSALS = 3  # actions tried at every step: the policy's most probable allowed moves
 MAX_PROPOSALS = 64
@@ -183,7 +183,7 @@ class PolicySearchPlanner(PolicyPlanner):
 
     def _plan(self, task: Task) -> tuple[Trajectory, dict]:
         try:
-            traj, info = super()._plan(task)
+            traj, info = self._policy_route(task)
         except PlanningError as exc:
             if self.routes is None:
                 raise
@@ -204,6 +204,33 @@ class PolicySearchPlanner(PolicyPlanner):
             "waypoints_unrefined": len(traj.waypoints), "leg_cost_unrefined": round(route.cost_given, 6),
             "leg_cost": round(route.cost, 6), "refine_s": round(time.perf_counter() - t0, 3)}
 
+    def _policy_route(self, task: Task) -> tuple[Trajectory, dict]:
+        """The route the rest starts from: the search's; with a cost-to-go model, the cheaper (in the env's
+        simulation) of the ranked rollout and the policy's most probable one, so it never costs more than the
+        ``ppo`` planner's route; where neither finishes, the first of the policy's sampled rollouts that does."""
+        if self.cost_to_go is None:
+            return super()._plan(task)
+        if not np.allclose(task.end, self.env.placement.home):
+            raise PlanningError("the policy's episodes end at Home; this task ends elsewhere")
+        modes = ["search", "argmax"] + ([] if self.deterministic else ["sample"] * (self.attempts - 1))
+        found, failures = [], []
+        for mode in modes:
+            try:
+                traj, info = self._rollout(task, mode)
+            except _EpisodeFailed as exc:
+                failures.append(f"{mode}: {exc}")
+                continue
+            # the ranked rollout is reported as such ("search" is the simulated search's mode)
+            found.append((traj, {**info, "mode": "ranked" if mode == "search" else mode,
+                                 "attempts": len(found) + len(failures) + 1}))
+            if mode != "search":  # the ranked rollout's one check is the first the policy itself finishes
+                break
+        if not found:
+            raise PlanningError("the policy did not finish the task (" + "; ".join(failures) + ")")
+        traj, info = min(found, key=lambda f: f[1]["objective"])
+        return traj, {**info, "ranked_objective": found[0][1]["objective"] if found[0][1]["mode"] == "ranked"
+                      else None}
+
     def _ompl_route(self, task: Task, policy_failure: str) -> tuple[Trajectory, dict]:
         """Where the policy does not finish the task: each leg the first of OMPL's routes between its stops (the
         direct one, else one through a random via), for the other routes and the refinement to work on."""
@@ -223,10 +250,11 @@ class PolicySearchPlanner(PolicyPlanner):
 
     def _rollout(self, task: Task, mode: str):
         self._simulated, self._incumbent, self._network = 0, _Continuation(), 0.0
+        self._visited = (-1, [])  # the ranked steps' configurations since the last goal reached (its index)
         self._policy_cost, self._cost = None, 0.0
         traj, info = super()._rollout(task, mode)
         if mode != "search":
-            return traj, info
+            return traj, {**info, "objective": round(self._cost, 6)}
         # the objective in the env's own simulation: the search's path and the policy's most probable rollout
         return traj, {**info, "simulated_steps": self._simulated, "objective": round(self._cost, 6),
                       "ranked_by": "continuations" if self.cost_to_go is None else "cost-to-go model",
@@ -235,7 +263,9 @@ class PolicySearchPlanner(PolicyPlanner):
 
     def _step(self, obs, masks, mode: str):
         if mode != "search":
-            return super()._step(obs, masks, mode)
+            action, result, seconds = super()._step(obs, masks, mode)
+            self._cost += result[4]["step_time"] + result[4]["integral_cost"]
+            return action, result, seconds
         if self.cost_to_go is not None:
             return self._ranked_step(obs, masks)
         env = self.env
@@ -265,16 +295,27 @@ class PolicySearchPlanner(PolicyPlanner):
         return first.action, first.result, seconds
 
     def _ranked_step(self, obs, masks):
-        """The proposal of least predicted cost to go, taken without simulating any continuation."""
+        """The proposal of least predicted cost to go, taken without simulating any continuation. A proposal back to
+        a configuration the robot stood at since its last goal is taken only if all are: a learned ranking can
+        prefer a move that makes no progress, and then again its reverse, until the episode's steps run out."""
         env, q = self.env, self.env.q
         t0 = time.perf_counter()
         moving = self._moving(masks)
         ranked = ranked_proposals(self.agent.probabilities(obs, moving), moving, env.stay_action, self.proposals)
+        goal, visited = self._visited
+        if goal != env.goal_index:
+            goal, visited = env.goal_index, []
+        visited.append(q.copy())
+        self._visited = (goal, visited)
+        targets = [env.target(q, a) for a in ranked]
+        new = [k for k, t in enumerate(targets) if not any(np.abs(t - v).max() <= STILL for v in visited)]
+        if new and len(new) < len(ranked):
+            ranked, targets = [ranked[k] for k in new], [targets[k] for k in new]
         action = ranked[0]
         if len(ranked) > 1:
             n = len(ranked)
-            predicted = self.cost_to_go.predict(np.repeat(obs[None], n, 0), np.array(ranked),
-                                                np.array([env.target(q, a) for a in ranked]), np.repeat(q[None], n, 0))
+            predicted = self.cost_to_go.predict(np.repeat(obs[None], n, 0), np.array(ranked), np.array(targets),
+                                                np.repeat(q[None], n, 0))
             action = ranked[int(np.argmin(predicted))]  # the most probable of the cheapest
         seconds = time.perf_counter() - t0
         result = env.step(action)

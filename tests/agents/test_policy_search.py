@@ -248,9 +248,11 @@ def _cost_to_go_file(planner, path, prefer: str):
 
 
 @pytest.mark.parametrize("prefer", ["low", "none"])
-def test_a_cost_to_go_model_ranks_the_proposals_without_simulating_them(station, tasks, tmp_path, prefer):
-    """Each step takes the proposal the model predicts cheapest to go, one env step a decision; a model that ranks
-    them all equal leaves the policy's own most probable rollout."""
+def test_a_cost_to_go_model_ranks_the_proposals_and_the_cheaper_of_its_rollout_and_the_policys_is_kept(
+        station, tasks, tmp_path, prefer):
+    """Each ranked step takes the proposal the model predicts cheapest to go, one env step a decision; the route is
+    the cheaper of that rollout and the policy's most probable one, so never dearer than ppo's. A model that ranks
+    all proposals equal leaves the policy's own rollout."""
     from dresspack.agents.learned.policy import moving_masks
     from dresspack.agents.learned.search import ranked_proposals
 
@@ -260,19 +262,29 @@ def test_a_cost_to_go_model_ranks_the_proposals_without_simulating_them(station,
     planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=3, refine=0, alternatives=0,
                                   cost_to_go=str(path))
     info = planner.plan(task).info
-    assert info["mode"] == "search" and info["ranked_by"] == "cost-to-go model"
-    assert info["simulated_steps"] == info["policy_steps"] == len(info["actions"])  # no continuation simulated
+    ppo = PolicyPlanner(station, 0, policy=POLICY, deterministic=True).plan(task).info
     env = pickle.loads(pickle.dumps(planner.env))
+    argmax_objective = _objective_of(env, task, planner.seed, ppo["actions"])
+    assert info["objective"] == pytest.approx(min(info["ranked_objective"], argmax_objective), abs=1e-5)
+    assert info["mode"] == ("ranked" if info["ranked_objective"] <= info["objective"] else "argmax")
+    planner._reseed()
+    traj, ranked = planner._rollout(task, "search")  # the ranked rollout alone
+    assert ranked["ranked_by"] == "cost-to-go model" and ranked["objective"] == info["ranked_objective"]
+    assert ranked["simulated_steps"] == ranked["policy_steps"] == len(ranked["actions"])  # no continuation
     obs, _ = env.reset(seed=planner.seed, options={"goals": dict(zip(task.weld_names, task.goals)),
                                                    "start": task.start})
-    for a in info["actions"]:
+    goal, visited = env.goal_index, [env.q.copy()]
+    for a in ranked["actions"]:
         moving = moving_masks(env, env.action_masks())
-        ranked = ranked_proposals(planner.agent.probabilities(obs, moving), moving, env.stay_action, 3)
-        assert a == (min(ranked) if prefer == "low" else ranked[0])
+        proposals = ranked_proposals(planner.agent.probabilities(obs, moving), moving, env.stay_action, 3)
+        fresh = [p for p in proposals if not any(np.allclose(env.target(env.q, p), v, atol=1e-9) for v in visited)]
+        assert a == (min(fresh or proposals) if prefer == "low" else (fresh or proposals)[0])
         obs, *_ = env.step(a)
-    assert _objective_of(env, task, planner.seed, info["actions"]) == pytest.approx(info["objective"], abs=1e-5)
-    argmax = PolicyPlanner(station, 0, policy=POLICY, deterministic=True).plan(task).info["actions"]
-    assert (info["actions"] == argmax) == (prefer == "none")
+        if env.goal_index != goal:  # configurations are not revisited until a goal is reached
+            goal, visited = env.goal_index, []
+        visited.append(env.q.copy())
+    assert _objective_of(env, task, planner.seed, ranked["actions"]) == pytest.approx(ranked["objective"], abs=1e-5)
+    assert (ranked["actions"] == ppo["actions"]) == (prefer == "none")
 
 
 def test_cost_to_go_model_checked(station, tmp_path):
