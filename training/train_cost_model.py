@@ -23,8 +23,10 @@ from .cost_config import CostStudyConfig, load_cost_config
 
 
 def train_cost_model(cfg: CostStudyConfig, data_dir: str | Path, out: str | Path, *, episodes: int | None = None,
-                     tensorboard: bool = True) -> dict:
-    """Fit on ``data_dir``'s shards (the first ``episodes`` if given), write the run folder; returns the metrics."""
+                     tensorboard: bool = True, folds: int = 0) -> dict:
+    """Fit on ``data_dir``'s shards (the first ``episodes`` if given), write the run folder; returns the metrics.
+    ``folds`` > 1: also a cross-validation by episode (each fold's episodes predicted by a model fit on the others;
+    metrics["cross_validation"] ranks those predictions), which one held-out split is too small to judge."""
     import torch
     from dresspack.agents.learned.cost_model import (
         features,
@@ -73,11 +75,22 @@ def train_cost_model(cfg: CostStudyConfig, data_dir: str | Path, out: str | Path
     # an action whose target is where the robot stands (a via it already is at) costs nothing and tops every
     # state's ranking: the moves alone say how well the model orders real alternatives
     moving = held & (np.abs(data["target"] - data["q"]).max(axis=1) > 0)
+    if folds > 1:
+        episodes_ = np.unique(data["episode"])
+        if folds > len(episodes_):
+            raise ConfigError("--folds", f"{folds} folds need as many episodes; the data have {len(episodes_)}")
+        out_of_fold = np.empty_like(predicted)
+        for fold in np.array_split(np.random.default_rng(cfg.model.seed).permutation(episodes_), folds):
+            other, _ = fit(data, n_actions, **{**asdict(cfg.model), "held_out_episodes": fold})
+            rows = np.isin(data["episode"], fold)
+            out_of_fold[rows] = other.predict_all(x[rows])[:, 0]
     metrics = {"held_out": rank_metrics(predicted[held], true[held], states[held], chosen[held]),
                "held_out_moves_only": rank_metrics(predicted[moving], true[moving], states[moving]),
                "train": rank_metrics(predicted[~held], true[~held], states[~held], chosen[~held]),
                "episodes": int(len(set(data["episode"].tolist()))), "rows": int(len(true)),
                "held_out_episodes": record["held_out_episodes"],
+               **({"cross_validation": {"folds": folds, **rank_metrics(out_of_fold, true, states, chosen)}}
+                  if folds > 1 else {}),
                "final_train_loss": record["train_loss"][-1], "final_held_out_loss": record["held_out_loss"][-1],
                "loss_by_epoch": {"train": record["train_loss"], "held_out": record["held_out_loss"]}}
     model.save(out / "model.pt", extra={"policy_file": spec["policy_file"]})
@@ -100,6 +113,8 @@ def add_train_cost_model_command(sub) -> None:
     p.add_argument("--out", type=output_dir, required=True, help="run folder (model.pt, metrics.json, tb/)")
     p.add_argument("--episodes", type=number(2, 100_000, integer=True),
                    help="use only the first N episodes' shards (learning curves)")
+    p.add_argument("--folds", type=number(2, 100, integer=True), default=None,
+                   help="also cross-validate by episode in this many folds (metrics.json's cross_validation)")
     p.add_argument("--force", action="store_true", help="replace a model already in --out")
     p.set_defaults(func=cmd_train_cost_model)
 
@@ -108,14 +123,21 @@ def cmd_train_cost_model(args) -> int:
     if (Path(args.out) / "model.pt").exists() and not args.force:
         raise ConfigError("--out", f"{args.out} already holds a model.pt: choose another --out or replace it with "
                                    "--force")
-    metrics = train_cost_model(load_cost_config(args.config), args.data, args.out, episodes=args.episodes)
-    h = metrics["held_out"]
-    per_state, overall = ("-" if h[k] is None else f"{h[k]:.3f}"
-                          for k in ("spearman_per_state_mean", "spearman_global"))
+    metrics = train_cost_model(load_cost_config(args.config), args.data, args.out, episodes=args.episodes,
+                               folds=args.folds or 0)
     print(json.dumps({k: metrics[k] for k in ("episodes", "rows", "final_train_loss", "final_held_out_loss")}))
-    policy = (f" (the policy's action: top-1 {100 * h['policy_action_top1']:.1f} %, regret "
-              f"{h['policy_action_regret_mean']:.2f})" if "policy_action_top1" in h else "")
-    print(f"held out ({h['rows']} rows, {h['states']} states): Spearman global {overall}, per state "
-          f"{per_state}, top-1 {100 * h['top1_agreement']:.1f} %, regret {h['mean_regret']:.2f}{policy}; run folder "
-          f"{args.out}")
+    print(f"held out: {_ranking(metrics['held_out'])}; run folder {args.out}")
+    if "cross_validation" in metrics:
+        print(f"{metrics['cross_validation']['folds']}-fold by episode: {_ranking(metrics['cross_validation'])}")
     return 0
+
+
+def _ranking(m: dict) -> str:
+    """One line of rank metrics: Spearman ρ, how often the model's cheapest is the cheapest, and its regret beside
+    the policy's action's."""
+    per_state, overall = ("-" if m[k] is None else f"{m[k]:.3f}" for k in ("spearman_per_state_mean",
+                                                                        "spearman_global"))
+    policy = (f" (the policy's action: top-1 {100 * m['policy_action_top1']:.1f} %, regret "
+              f"{m['policy_action_regret_mean']:.2f})" if "policy_action_top1" in m else "")
+    return (f"{m['rows']} rows, {m['states']} states: Spearman global {overall}, per state {per_state}, top-1 "
+            f"{100 * m['top1_agreement']:.1f} %, regret {m['mean_regret']:.2f}{policy}")

@@ -58,8 +58,13 @@ def test_labels_are_the_same_for_one_and_two_jobs_and_a_resumed_run_remakes_only
     from dresspack.training.train_cost_model import train_cost_model
 
     study = cost_config_from_dict({"model": {"hidden": [8], "epochs": 2, "held_out": 0.5}})
-    metrics = train_cost_model(study, tmp_path / "one", tmp_path / "model", tensorboard=False)
+    metrics = train_cost_model(study, tmp_path / "one", tmp_path / "model", tensorboard=False, folds=2)
     assert metrics["rows"] == one["rows"] and metrics["held_out"]["states"] == 1
+    # cross-validated by episode: every row predicted by the model fit on the other episode
+    assert metrics["cross_validation"]["folds"] == 2 and metrics["cross_validation"]["rows"] == one["rows"]
+    assert metrics["cross_validation"]["states"] == 2
+    with pytest.raises(ConfigError, match="^--folds: 3 folds need as many episodes; the data have 2"):
+        train_cost_model(study, tmp_path / "one", tmp_path / "model3", tensorboard=False, folds=3)
     cost = CostModel.load(tmp_path / "model" / "model.pt").predict(a["obs"], a["action"], a["target"], a["q"])
     assert cost.shape == a["time"].shape and np.isfinite(cost).all()
     with pytest.raises(ConfigError, match="^counterfactuals.seed"):
