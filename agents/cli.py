@@ -69,7 +69,8 @@ def add_plan_command(sub) -> None:
                         f"cheapest (default {ALTERNATIVES}; 0: the found route's legs only)")
     p.add_argument("--cost-to-go", default=None, metavar="MODEL",
                    help="ppo-search only: a cost-to-go model (model.pt of dresspack train-cost-model --config "
-                        "cost_to_go) ranks the proposals instead of simulating their continuations")
+                        "cost_to_go), or the name of one shipped with the policy (cost_to_go), ranks the proposals "
+                        "instead of simulating their continuations")
     p.add_argument("--plot", type=output_file, default=None,
                    help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3; missing folders are made)")
     p.add_argument("--out", type=output_file, default=None,

@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-from dresspack.agents.learned.policy import DEFAULT_POLICY
+from dresspack.agents.learned.policy import DEFAULT_POLICY, resolve_policy
 from dresspack.agents.learned.search import (
     ALTERNATIVES,
     PROPOSALS,
@@ -24,6 +24,7 @@ from dresspack.agents.learned.search import (
     check_alternatives,
     check_proposals,
     check_refine,
+    resolve_cost_to_go,
 )
 from dresspack.agents.planners.base import PlanningError
 from dresspack.agents.planners.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, Budget
@@ -104,9 +105,8 @@ class EvalSpec:
         check_proposals(self.proposals)
         check_refine(self.refine)
         check_alternatives(self.alternatives)
-        if self.cost_to_go is not None and not Path(self.cost_to_go).is_file():
-            raise ConfigError("cost_to_go", f"{self.cost_to_go} is not a file (a model.pt of dresspack "
-                                            "train-cost-model --config cost_to_go)")
+        if self.cost_to_go is not None:  # named now, not after the other methods' runs
+            resolve_cost_to_go(self.cost_to_go, resolve_policy(self.policy)[0])
         if not 0 <= self.start_noise_deg <= 90:
             raise ConfigError("start_noise_deg", f"must be in [0, 90] deg, got {self.start_noise_deg}")
 

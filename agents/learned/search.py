@@ -46,11 +46,23 @@ def ranked_proposals(probs: np.ndarray, moving: np.ndarray, stay_action: int, k:
     return [int(a) for a in allowed[np.lexsort((allowed, -probs[allowed]))][:k]]
 
 
+def resolve_cost_to_go(ref: str | Path, policy_file: Path) -> Path:
+    """A cost-to-go model file: a path, or the name of one shipped beside the policy (``cost_to_go``: the policy
+    folder's cost_to_go.pt); a ConfigError naming the field and the shipped names otherwise."""
+    path = Path(ref)
+    if path.is_file():
+        return path
+    shipped = policy_file.parent / f"{ref}.pt"
+    if shipped.is_file():
+        return shipped
+    names = sorted(p.stem for p in policy_file.parent.glob("*.pt"))
+    raise ConfigError("cost_to_go", f"{ref} is neither a file (a model.pt of dresspack train-cost-model) nor a model "
+                                    f"shipped with the policy ({names or 'it ships none'})")
+
+
 def load_cost_to_go(path, n_actions: int) -> CostModel:
     """A cost-to-go model (``dresspack train-cost-model --config cost_to_go``'s model.pt) for a policy of
     ``n_actions`` actions, or a ConfigError naming the field."""
-    if not Path(path).is_file():
-        raise ConfigError("cost_to_go", f"{path} is not a file (a model.pt of dresspack train-cost-model)")
     try:
         model = CostModel.load(path)
     except Exception as exc:  # torch's own message says what is wrong with the file
@@ -152,7 +164,8 @@ class PolicySearchPlanner(PolicyPlanner):
         super().__init__(station, robot, **kwargs)
         self.proposals, self.refine = proposals, refine
         # ranks the proposals by predicted cost to go instead of simulating their continuations
-        self.cost_to_go = None if cost_to_go is None else load_cost_to_go(cost_to_go, self.agent.n_actions)
+        self.cost_to_go = None if cost_to_go is None else load_cost_to_go(
+            resolve_cost_to_go(cost_to_go, self.policy_path), self.agent.n_actions)
         self.refiner = None  # built only if it will be used: its leg cost holds a simulator of its own
         if refine or alternatives:
             # ompl-wear's leg cost, with the wear cost and time weight asked for (the search ranks by the env's

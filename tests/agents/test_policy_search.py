@@ -290,8 +290,10 @@ def test_a_cost_to_go_model_ranks_the_proposals_and_the_cheaper_of_its_rollout_a
 def test_cost_to_go_model_checked(station, tmp_path):
     from dresspack.agents.learned.cost_model import CostModel
 
-    with pytest.raises(ConfigError, match="^cost_to_go: .*not a file"):
+    with pytest.raises(ConfigError, match=r"^cost_to_go: .*missing.pt is neither a file .*\(\['cost_to_go'\]\)"):
         PolicySearchPlanner(station, 0, policy=POLICY, cost_to_go=str(tmp_path / "missing.pt"))
+    shipped = PolicySearchPlanner(station, 0, policy=POLICY, refine=0, alternatives=0, cost_to_go="cost_to_go")
+    assert shipped.cost_to_go.label == "to_go"  # the model shipped beside the policy, by name
     (tmp_path / "junk.pt").write_text("not a model")
     with pytest.raises(ConfigError, match="^cost_to_go: .*not a cost model"):
         PolicySearchPlanner(station, 0, policy=POLICY, cost_to_go=str(tmp_path / "junk.pt"))

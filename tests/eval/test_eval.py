@@ -286,7 +286,7 @@ def test_search_settings_are_checked_stored_and_reach_the_search(monkeypatch, tm
 def test_a_cost_to_go_model_is_checked_stored_and_reaches_the_search(monkeypatch, tmp_path):
     from dresspack.eval.runs import _extends
 
-    with pytest.raises(ConfigError, match="^cost_to_go: .*missing.pt is not a file"):
+    with pytest.raises(ConfigError, match="^cost_to_go: .*missing.pt is neither a file"):
         EvalSpec(methods=("ppo-search",), cost_to_go=str(tmp_path / "missing.pt"))
     (tmp_path / "ctg.pt").write_bytes(b"")
     spec = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,),
