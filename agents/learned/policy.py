@@ -160,7 +160,7 @@ class PolicyPlanner(Planner):
         for attempt, mode in enumerate(self._modes()):
             try:
                 traj, info = self._rollout(task, mode)
-            except _EpisodeFailed as exc:
+            except EpisodeFailed as exc:
                 failures.append(f"{mode}: {exc}")
                 continue
             return traj, {**info, "mode": mode, "attempts": attempt + 1}
@@ -201,7 +201,7 @@ class PolicyPlanner(Planner):
                 if not info["settle_converged"]:
                     unconverged.append((*task.weld_names, "home")[reached_before])
         if not info["is_success"]:
-            raise _EpisodeFailed(f"{info['goals_reached']}/{info['n_goals']} goals in {env.max_steps} steps")
+            raise EpisodeFailed(f"{info['goals_reached']}/{info['n_goals']} goals in {env.max_steps} steps")
         traj = Trajectory(np.array(waypoints), tuple(stops))
         return traj, {"policy": str(self.policy_path), "policy_steps": env.steps, "actions": actions,
                       "masked_actions": masked_taken, "inference_s": round(inference, 5),
@@ -218,7 +218,7 @@ class PolicyPlanner(Planner):
         return moving_masks(self.env, masks)
 
 
-class _EpisodeFailed(Exception):
+class EpisodeFailed(Exception):
     """One rollout ran out of steps (the planner may try again)."""
 
 

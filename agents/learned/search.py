@@ -23,7 +23,7 @@ from ..planners.ompl_connect import OmplConnector
 from ..planners.refine import LocalRefiner, refine_legs
 from ..planners.routes import VIA_TRIES_PER_ROUTE, ViaRoutes
 from .cost_model import CostModel
-from .policy import STILL, PolicyPlanner, _EpisodeFailed
+from .policy import STILL, EpisodeFailed, PolicyPlanner
 
 PROPOSALS = 3  # actions tried at every step: the policy's most probable allowed moves
 MAX_PROPOSALS = 64
@@ -151,6 +151,11 @@ class PolicySearchPlanner(PolicyPlanner):
     after it (its cable end state is their start) and a change kept only where that sum falls, so the route never
     costs more than the search's in that simulation; waypoints that do not pay for their stop are dropped.
     ``refine=0`` and ``alternatives=0``: the search's route as found.
+
+    With ``cost_to_go`` (a model fit by ``dresspack train-cost-model --config cost_to_go``, or the name of one
+    shipped beside the policy) no continuation is simulated: each step takes the proposal of least predicted cost to
+    go, never one back to a configuration the robot stood at since its last goal unless all are, and the route is the
+    cheaper of that ranked rollout and the policy's most probable one (info ``mode``: ``ranked`` or ``argmax``).
     """
 
     name = "ppo-search"
@@ -188,6 +193,7 @@ class PolicySearchPlanner(PolicyPlanner):
         self._network = 0.0  # seconds in the network (proposals and the continuations' actions)
         self._policy_cost: float | None = None  # the policy's own rollout from the start (inf: unfinished)
         self._cost = 0.0  # the steps taken so far
+        self._visited: tuple[int, list] = (-1, [])  # the ranked steps' configurations since goal k was reached
 
     def _reseed(self) -> None:
         super()._reseed()
@@ -230,7 +236,7 @@ class PolicySearchPlanner(PolicyPlanner):
         for mode in modes:
             try:
                 traj, info = self._rollout(task, mode)
-            except _EpisodeFailed as exc:
+            except EpisodeFailed as exc:
                 failures.append(f"{mode}: {exc}")
                 continue
             # the ranked rollout is reported as such ("search" is the simulated search's mode)
@@ -263,7 +269,7 @@ class PolicySearchPlanner(PolicyPlanner):
 
     def _rollout(self, task: Task, mode: str):
         self._simulated, self._incumbent, self._network = 0, _Continuation(), 0.0
-        self._visited = (-1, [])  # the ranked steps' configurations since the last goal reached (its index)
+        self._visited = (-1, [])
         self._policy_cost, self._cost = None, 0.0
         traj, info = super()._rollout(task, mode)
         if mode != "search":
