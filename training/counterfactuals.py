@@ -70,16 +70,16 @@ def _init_worker(model_path: str, env_id: str, env_kwargs: dict) -> None:
 
 
 def counterfactual_rows(env, state_obs: np.ndarray, masks: np.ndarray, keep: int | None = None,
-                        probs: np.ndarray | None = None, continued: dict[int, object] | None = None,
+                        probs: np.ndarray | None = None, continued=(), agent=None,
                         every_action: bool = True) -> tuple[list[dict], tuple | None]:
-    """Step every allowed action (or, without ``every_action``, those of ``continued``) from where ``env`` stands,
+    """Step every allowed action (or, without ``every_action``, those ``continued``) from where ``env`` stands,
     restoring it after each; returns one row per action and, for action ``keep``, the snapshot and step result
     after it (the episode continues from there without stepping that action again). ``probs``: the policy's
-    probability of each action; ``continued``: actions whose rows also get a cost to go, each continued by its
-    ``agent`` (value) to the episode's end."""
+    probability of each action; ``continued``: actions whose rows also get a cost to go, continued by ``agent``
+    to the episode's end."""
     snap, q = env.snapshot(), env.q
     reached_before = env.goal_index
-    continued = continued or {}
+    continued = set(continued)
     rows, kept = [], None
     actions = np.flatnonzero(masks) if every_action else sorted(set(continued) | ({keep} - {None}))
     for a in actions:
@@ -97,7 +97,7 @@ def counterfactual_rows(env, state_obs: np.ndarray, masks: np.ndarray, keep: int
         if a == keep:
             kept = (env.snapshot(), result)
         if a in continued:
-            row["to_go"], row["to_go_finished"] = continue_greedily(env, continued[a], result, cost)
+            row["to_go"], row["to_go_finished"] = continue_greedily(env, agent, result, cost)
         if every_action or a in continued:
             rows.append(row)
         env.restore(snap)
@@ -134,12 +134,12 @@ def run_episode(env, agent, index: int, seed: int, rollout: str, continued: int 
     while not done:
         masks = env.action_masks()
         probs = agent.probabilities(obs, masks)
-        proposals = ranked_proposals(agent.probabilities(obs, moving := moving_masks(env, masks)), moving,
-                                     env.stay_action, continued) if continued else []
+        # ranked as the search ranks them: by the policy's probabilities, less the moves to where the robot stands
+        proposals = ranked_proposals(probs, moving_masks(env, masks), env.stay_action, continued) if continued else []
         # the sampled action is drawn before any counterfactual, so torch's generator is where it was without them
         action = agent.predict(obs, masks, deterministic=rollout == "argmax")
         state_rows, (snap, (obs, reward, terminated, truncated, info)) = counterfactual_rows(
-            env, obs, masks, action, probs, {a: agent for a in proposals}, every_action)
+            env, obs, masks, action, probs, proposals, agent, every_action)
         for r in state_rows:
             r.update(step=step, chosen=r["action"] == action)
         rows += state_rows

@@ -76,11 +76,11 @@ def train_cost_model(cfg: CostStudyConfig, data_dir: str | Path, out: str | Path
     # state's ranking: the moves alone say how well the model orders real alternatives
     moving = held & (np.abs(data["target"] - data["q"]).max(axis=1) > 0)
     if folds > 1:
-        episodes_ = np.unique(data["episode"])
-        if folds > len(episodes_):
-            raise ConfigError("--folds", f"{folds} folds need as many episodes; the data have {len(episodes_)}")
+        episode_ids = np.unique(data["episode"])
+        if folds > len(episode_ids):
+            raise ConfigError("--folds", f"{folds} folds need as many episodes; the data have {len(episode_ids)}")
         out_of_fold = np.empty_like(predicted)
-        for fold in np.array_split(np.random.default_rng(cfg.model.seed).permutation(episodes_), folds):
+        for fold in np.array_split(np.random.default_rng(cfg.model.seed).permutation(episode_ids), folds):
             other, _ = fit(data, n_actions, **{**asdict(cfg.model), "held_out_episodes": fold})
             rows = np.isin(data["episode"], fold)
             out_of_fold[rows] = other.predict_all(x[rows])[:, 0]
