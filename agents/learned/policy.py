@@ -154,8 +154,7 @@ class PolicyPlanner(Planner):
         self.agent.reset(self.seed)
 
     def _plan(self, task: Task) -> tuple[Trajectory, dict]:
-        if not np.allclose(task.end, self.env.placement.home):
-            raise PlanningError("the policy's episodes end at Home; this task ends elsewhere")
+        self._check_ends_at_home(task)
         failures = []
         for attempt, mode in enumerate(self._modes()):
             try:
@@ -165,6 +164,10 @@ class PolicyPlanner(Planner):
                 continue
             return traj, {**info, "mode": mode, "attempts": attempt + 1}
         raise PlanningError("the policy did not finish the task (" + "; ".join(failures) + ")")
+
+    def _check_ends_at_home(self, task: Task) -> None:
+        if not np.allclose(task.end, self.env.placement.home):
+            raise PlanningError("the policy's episodes end at Home; this task ends elsewhere")
 
     def _modes(self) -> list[str]:
         """How each rollout chooses its actions, in the order they are tried."""

@@ -225,30 +225,25 @@ class PolicySearchPlanner(PolicyPlanner):
 
     def _policy_route(self, task: Task) -> tuple[Trajectory, dict]:
         """The route the rest starts from: the search's; with a cost-to-go model, the cheaper (in the env's
-        simulation) of the ranked rollout and the policy's most probable one, so it never costs more than the
-        ``ppo`` planner's route; where neither finishes, the first of the policy's sampled rollouts that does."""
+        simulation) of the ranked rollout and the policy's own route (``ppo``'s: its most probable rollout, else the
+        first of its sampled ones that finishes), so it never costs more than ``ppo``'s."""
         if self.cost_to_go is None:
             return super()._plan(task)
-        if not np.allclose(task.end, self.env.placement.home):
-            raise PlanningError("the policy's episodes end at Home; this task ends elsewhere")
-        modes = ["search", "argmax"] + ([] if self.deterministic else ["sample"] * (self.attempts - 1))
-        found, failures = [], []
-        for mode in modes:
-            try:
-                traj, info = self._rollout(task, mode)
-            except EpisodeFailed as exc:
-                failures.append(f"{mode}: {exc}")
-                continue
-            # the ranked rollout is reported as such ("search" is the simulated search's mode)
-            found.append((traj, {**info, "mode": "ranked" if mode == "search" else mode,
-                                 "attempts": len(found) + len(failures) + 1}))
-            if mode != "search":  # the ranked rollout's one check is the first the policy itself finishes
-                break
-        if not found:
-            raise PlanningError("the policy did not finish the task (" + "; ".join(failures) + ")")
-        traj, info = min(found, key=lambda f: f[1]["objective"])
-        return traj, {**info, "ranked_objective": found[0][1]["objective"] if found[0][1]["mode"] == "ranked"
-                      else None}
+        self._check_ends_at_home(task)
+        try:
+            traj, info = self._rollout(task, "search")
+            ranked = (traj, {**info, "mode": "ranked", "attempts": 1})  # "search" is the simulated search's mode
+        except EpisodeFailed as exc:
+            ranked, failure = None, f"ranked: {exc}"
+        try:
+            traj, info = super()._plan(task)  # the policy's own route (_modes: not the ranked rollout)
+        except PlanningError as exc:
+            if ranked is None:
+                raise PlanningError(f"{exc}; {failure}") from None
+            traj, info = ranked
+        if ranked is not None and ranked[1]["objective"] <= info["objective"]:
+            traj, info = ranked
+        return traj, {**info, "ranked_objective": None if ranked is None else ranked[1]["objective"]}
 
     def _ompl_route(self, task: Task, policy_failure: str) -> tuple[Trajectory, dict]:
         """Where the policy does not finish the task: each leg the first of OMPL's routes between its stops (the
@@ -265,6 +260,8 @@ class PolicySearchPlanner(PolicyPlanner):
                                             "policy_failure": policy_failure}
 
     def _modes(self) -> list[str]:
+        if self.cost_to_go is not None:  # the ranked rollout is tried apart, beside the policy's own (_policy_route)
+            return super()._modes()
         return ["search"] if self.deterministic else ["search", *["sample"] * (self.attempts - 1)]
 
     def _rollout(self, task: Task, mode: str):
