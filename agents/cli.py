@@ -91,22 +91,11 @@ def cmd_plan(args) -> int:
             raise ConfigError("tension_peak_time", f"--tension-peak-time applies to {' and '.join(PEAK_AWARE)} "
                                                    f"only, not {args.planner}")
         extra["tension_peak_time"] = args.tension_peak_time
-    if args.proposals is not None:
-        if args.planner != "ppo-search":
-            raise ConfigError("proposals", f"--proposals applies to ppo-search only, not {args.planner}")
-        extra["proposals"] = args.proposals
-    if args.refine is not None:
-        if args.planner != "ppo-search":
-            raise ConfigError("refine", f"--refine applies to ppo-search only, not {args.planner}")
-        extra["refine"] = args.refine
-    if args.alternatives is not None:
-        if args.planner != "ppo-search":
-            raise ConfigError("alternatives", f"--alternatives applies to ppo-search only, not {args.planner}")
-        extra["alternatives"] = args.alternatives
-    if args.cost_to_go is not None:
-        if args.planner != "ppo-search":
-            raise ConfigError("cost_to_go", f"--cost-to-go applies to ppo-search only, not {args.planner}")
-        extra["cost_to_go"] = args.cost_to_go
+    for name in ("proposals", "refine", "alternatives", "cost_to_go"):  # the learned planner's own settings
+        if getattr(args, name) is not None:
+            if args.planner != "ppo-search":
+                raise ConfigError(name, f"--{name.replace('_', '-')} applies to ppo-search only, not {args.planner}")
+            extra[name] = getattr(args, name)
     if args.time_weight is not None:
         if args.planner not in WEAR_AWARE:
             raise ConfigError("time_weight", f"--time-weight applies to {', '.join(WEAR_AWARE)} only, not "

@@ -237,6 +237,11 @@ def test_plan_cli_leg_cost_flags_only_for_the_planners_that_use_them(capsys, fla
     assert message in capsys.readouterr().err
 
 
+def test_plan_cli_cost_to_go_only_for_ppo_search(capsys):
+    assert cli_main(["plan", "--station", "thesis_curvature", "--planner", "ompl", "--cost-to-go", "cost_to_go"]) == 2
+    assert "cost_to_go: --cost-to-go applies to ppo-search only, not ompl" in capsys.readouterr().err
+
+
 def test_leg_cost_time_weight_charges_each_second_that_much_more():
     """J(w) - J(1) = (w - 1) · T of the leg, T its replayed cycle time; the wear terms are the same."""
     from dresspack.agents.planners.leg_cost import LegCost
