@@ -12,7 +12,9 @@ from dresspack_gym.fields import Section
 from dresspack_gym.io.loading import read_yaml
 from dresspack_gym.shipped import find_shipped
 
-ROLLOUTS = ("argmax", "sample")
+# the visited states: the policy's most probable actions, its sampled ones, or ppo-search's ranked rule (the policy's
+# proposals ranked by a cost-to-go model: labels on the states the ranked planner visits, a DAgger round)
+ROLLOUTS = ("argmax", "sample", "ranked")
 TARGETS = ("log", "linear")  # regress log(1 + cost) or the cost itself
 LOSSES = ("huber", "mse")
 LABELS = ("step", "to_go")  # the step's time + ∫C dt, or the cost to go of a continued proposal
@@ -30,7 +32,8 @@ class CounterfactualConfig:
     policy: str = "goal_conditioned"  # shipped policy name, run folder or model .zip (its config.yaml gives the env)
     episodes: int = 150
     seed: int = 0  # episode k resets the env (and torch, for sampled actions) from (seed, k) alone
-    rollout: str = "sample"  # the visited states: the most probable action each step, or actions sampled
+    rollout: str = "sample"  # the visited states: the most probable action each step, actions sampled, or ranked
+    cost_to_go: str | None = None  # rollout "ranked": its model (a model.pt, or a name shipped beside the policy)
     continued: int = 0  # the policy's most probable moves at each state continued to the end (cost-to-go labels)
     every_action: bool = True  # a row for every allowed action; false: for the continued ones only
     env_kwargs: dict = field(default_factory=dict)  # overrides of the policy's env, from ENV_OVERRIDES
@@ -88,6 +91,7 @@ def cost_config_from_dict(data: dict, default_name: str = "cost_model") -> CostS
         episodes=c.integer("episodes", dc.episodes, lo=1, hi=MAX_EPISODES),
         seed=c.integer("seed", dc.seed, lo=0, hi=MAX_SEED),
         rollout=c.string("rollout", dc.rollout, choices=ROLLOUTS),
+        cost_to_go=None if c.raw("cost_to_go", None) is None else c.string("cost_to_go"),
         continued=c.integer("continued", dc.continued, lo=0, hi=MAX_CONTINUED),
         every_action=c.boolean("every_action", dc.every_action),
         env_kwargs=dict(env_kwargs),
@@ -97,6 +101,10 @@ def cost_config_from_dict(data: dict, default_name: str = "cost_model") -> CostS
         raise ConfigError("counterfactuals.every_action", "false keeps only the continued actions' rows: set "
                                                           "counterfactuals.continued to 1 or more, or every_action "
                                                           "to true")
+    if (counterfactuals.rollout == "ranked") != (counterfactuals.cost_to_go is not None):
+        raise ConfigError("counterfactuals.cost_to_go", "the ranked rollout needs its cost-to-go model (a model.pt "
+                                                        "or a name shipped beside the policy, e.g. cost_to_go), "
+                                                        "and only it takes one")
     m = s.section("model", {})
     hidden = m.raw("hidden", list(dm.hidden))
     if not (isinstance(hidden, list) and hidden and all(isinstance(n, int) and not isinstance(n, bool) and n > 0

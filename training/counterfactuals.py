@@ -30,17 +30,21 @@ import numpy as np
 from dresspack_gym.cli.args import ALL_CORES, MAX_JOBS, number, output_dir
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.fields import check_choice
-from dresspack_gym.io.provenance import code_fingerprint
+from dresspack_gym.io.provenance import code_fingerprint, file_digest, library_versions
 
-from .cost_config import CostStudyConfig, CounterfactualConfig, load_cost_config
+from .cost_config import MAX_EPISODES, CostStudyConfig, CounterfactualConfig, load_cost_config
 from .rollouts import ROLLOUT_CODE
 
 # the settings that decide the labels: a resumed run must match them (episodes may grow, jobs may change)
-SPEC_FIELDS = ("policy", "seed", "rollout", "continued", "every_action", "env_kwargs")
+SPEC_FIELDS = ("policy", "seed", "rollout", "cost_to_go", "continued", "every_action", "env_kwargs")
 WEAR_PARTS = ("curvature", "tension", "distance", "twist", "damage")
 BACKENDS = ("process", "ray")  # where the episodes run: processes on this machine, or Ray actors
 
-_worker: dict = {}  # the process's env and policy, built once by _init_worker
+# the libraries whose arithmetic the labels depend on: the cable physics, the policy's and the cost-to-go model's
+# networks, the time law (either MuJoCo distribution; one is not installed)
+LIBRARIES = ("mujoco-core", "mujoco", "numpy", "torch", "stable-baselines3", "sb3-contrib", "ruckig", "gymnasium")
+
+_worker: dict = {}  # the process's env, policy and ranked rule, built once by _init_worker
 
 
 def episode_seed(seed: int, index: int) -> int:
@@ -57,16 +61,19 @@ def policy_env(cfg: CounterfactualConfig) -> tuple[Path, str, dict]:
     return model_path, train_cfg.get("env_id", "dresspack_gym/StudWelding-v0"), env_kwargs
 
 
-def _init_worker(model_path: str, env_id: str, env_kwargs: dict) -> None:
+def _init_worker(model_path: str, env_id: str, env_kwargs: dict, cost_to_go: str | None = None) -> None:
     import gymnasium as gym
     import torch
     from dresspack.agents.learned.policy import PolicyAgent
+    from dresspack.agents.learned.search import PROPOSALS, RankedChooser, load_cost_to_go
 
     import dresspack_gym  # noqa: F401  (registers the env ids in a spawned process)
 
     torch.set_num_threads(1)  # one process per core
     _worker["env"] = gym.make(env_id, **env_kwargs).unwrapped
     _worker["agent"] = PolicyAgent(Path(model_path))
+    _worker["chooser"] = None if cost_to_go is None else RankedChooser(
+        load_cost_to_go(cost_to_go, _worker["agent"].n_actions), PROPOSALS)
 
 
 def counterfactual_rows(env, state_obs: np.ndarray, masks: np.ndarray, keep: int | None = None,
@@ -93,36 +100,45 @@ def counterfactual_rows(env, state_obs: np.ndarray, masks: np.ndarray, keep: int
                "wear_parts": [info[f"integral_cost_{k}"] for k in WEAR_PARTS],
                "reached": info["goals_reached"] > reached_before, "terminated": terminated,
                "prob": np.nan if probs is None else float(probs[a]), "to_go": np.nan, "to_go_finished": False,
-               "proposal": a in continued}
+               "proposal": a in continued, "settled": _settled(info, reached_before), "to_go_settled": True}
         if a == keep:
             kept = (env.snapshot(), result)
         if a in continued:
-            row["to_go"], row["to_go_finished"] = continue_greedily(env, agent, result, cost)
+            row["to_go"], row["to_go_finished"], settled = continue_greedily(env, agent, result, cost)
+            row["to_go_settled"] = row["settled"] and settled
         if every_action or a in continued:
             rows.append(row)
         env.restore(snap)
     return rows, kept
 
 
-def continue_greedily(env, agent, result: tuple, cost: float) -> tuple[float, bool]:
+def continue_greedily(env, agent, result: tuple, cost: float) -> tuple[float, bool, bool]:
     """From the state a step left ``env`` in (``result``, its ``cost``): the policy's most probable moves to the
     episode's end, as ppo-search continues a proposal; returns (time + ∫C dt of the step and the continuation,
-    whether it finished the task)."""
+    whether it finished the task, whether every settle at a goal on the way converged)."""
     from dresspack.agents.learned.policy import moving_masks
 
     obs, _, terminated, truncated, info = result
-    total = cost
+    total, settled = cost, True
     while not (terminated or truncated):
-        action = agent.predict(obs, moving_masks(env, env.action_masks()), deterministic=True)
+        action, before = agent.predict(obs, moving_masks(env, env.action_masks()), deterministic=True), env.goal_index
         obs, _, terminated, truncated, info = env.step(action)
         total += info["step_time"] + info["integral_cost"]
-    return total, bool(terminated and info["is_success"])
+        settled = settled and _settled(info, before)
+    return total, bool(terminated and info["is_success"]), settled
+
+
+def _settled(info: dict, goals_before: int) -> bool:
+    """Whether a step's wear was read from a cable at rest where it had to be: a step that reached a goal settles
+    there to equilibrium (false if that settle ended above the residual); other steps are not held to it."""
+    return bool(info["settle_converged"]) if info["goals_reached"] > goals_before else True
 
 
 def run_episode(env, agent, index: int, seed: int, rollout: str, continued: int = 0,
-                every_action: bool = True) -> dict:
-    """One episode: the policy's rollout from episode ``index``'s seed, with every state's counterfactuals (and
-    the cost to go of its ``continued`` most probable moves)."""
+                every_action: bool = True, chooser=None) -> dict:
+    """One episode: the policy's rollout from episode ``index``'s seed (``rollout``: its most probable actions, its
+    sampled ones, or those of ``chooser``, ppo-search's ranked rule), with every state's counterfactuals (and the
+    cost to go of the policy's ``continued`` most probable moves)."""
     import torch
     from dresspack.agents.learned.policy import moving_masks
     from dresspack.agents.learned.search import ranked_proposals
@@ -130,14 +146,19 @@ def run_episode(env, agent, index: int, seed: int, rollout: str, continued: int 
     s = episode_seed(seed, index)
     torch.manual_seed(s)
     obs, _ = env.reset(seed=s)
+    if rollout == "ranked":
+        chooser.reset()
     rows, done, step, total, info = [], False, 0, 0.0, {}
     while not done:
         masks = env.action_masks()
         probs = agent.probabilities(obs, masks)
         # ranked as the search ranks them: by the policy's probabilities, less the moves to where the robot stands
-        proposals = ranked_proposals(probs, moving_masks(env, masks), env.stay_action, continued) if continued else []
-        # the sampled action is drawn before any counterfactual, so torch's generator is where it was without them
-        action = agent.predict(obs, masks, deterministic=rollout == "argmax")
+        moving = moving_masks(env, masks)
+        proposals = ranked_proposals(probs, moving, env.stay_action, continued) if continued else []
+        if rollout == "ranked":
+            action = chooser.choose(env, obs, probs, moving)
+        else:  # a sampled action is drawn before any counterfactual: torch's generator is where it was without them
+            action = agent.predict(obs, masks, deterministic=rollout == "argmax")
         state_rows, (snap, (obs, reward, terminated, truncated, info)) = counterfactual_rows(
             env, obs, masks, action, probs, proposals, agent, every_action)
         for r in state_rows:
@@ -151,7 +172,8 @@ def run_episode(env, agent, index: int, seed: int, rollout: str, continued: int 
 
 def _episode_job(job: tuple) -> dict:
     index, seed, rollout, continued, every_action = job
-    return run_episode(_worker["env"], _worker["agent"], index, seed, rollout, continued, every_action)
+    return run_episode(_worker["env"], _worker["agent"], index, seed, rollout, continued, every_action,
+                       _worker["chooser"])
 
 
 def shard_arrays(result: dict) -> dict[str, np.ndarray]:
@@ -165,6 +187,7 @@ def shard_arrays(result: dict) -> dict[str, np.ndarray]:
             "reached": col("reached", bool), "terminated": col("terminated", bool), "chosen": col("chosen", bool),
             "prob": col("prob", np.float64), "to_go": col("to_go", np.float64),
             "to_go_finished": col("to_go_finished", bool), "proposal": col("proposal", bool),
+            "settled": col("settled", bool), "to_go_settled": col("to_go_settled", bool),
             "step": col("step", np.int64), "episode": np.full(n, result["index"], dtype=np.int64),
             "episode_seed": np.array(result["seed"], dtype=np.int64),
             "episode_success": np.array(result["success"]), "episode_return": np.array(result["return"])}
@@ -188,12 +211,18 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
     spec = {k: getattr(cfg, k) for k in SPEC_FIELDS}
     model_path, env_id, env_kwargs = policy_env(cfg)
     spec["policy_file"] = str(model_path.resolve())
+    cost_to_go = None if cfg.cost_to_go is None else _cost_to_go_file(cfg.cost_to_go, model_path)
+    spec["cost_to_go_file"] = None if cost_to_go is None else str(cost_to_go.resolve())
+    spec["cost_to_go_digest"] = None if cost_to_go is None else file_digest(cost_to_go)
     spec["code"] = code_fingerprint(ROLLOUT_CODE)
+    spec["libraries"] = library_versions(LIBRARIES)
     (out / "episodes").mkdir(parents=True, exist_ok=True)
     spec_file = out / "spec.json"
     if spec_file.is_file():
         old = json.loads(spec_file.read_text())
-        changed = [k for k in (*SPEC_FIELDS, "policy_file", "code") if old.get(k) != spec[k]]
+        old.setdefault("libraries", spec["libraries"])  # written before the libraries were recorded
+        changed = [k for k in (*SPEC_FIELDS, "policy_file", "cost_to_go_digest", "code", "libraries")
+                   if old.get(k) != spec[k]]
         if changed:
             raise ConfigError(f"counterfactuals.{changed[0]}",
                               f"{out} holds labels made with {changed[0]}={old.get(changed[0])!r}, not "
@@ -202,7 +231,7 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
     todo = [(k, cfg.seed, cfg.rollout, cfg.continued, cfg.every_action) for k in range(cfg.episodes)
             if not shard_path(out, k).is_file()]
     jobs = max(1, min(jobs, len(todo)))
-    init = (str(model_path), env_id, env_kwargs)
+    init = (str(model_path), env_id, env_kwargs, None if cost_to_go is None else str(cost_to_go))
     # a wrong env argument fails here, naming the field, not inside a worker (one process: its env is the check)
     if todo:
         _checked(_init_worker if jobs == 1 and backend == "process" else _check_env, *init)
@@ -239,7 +268,22 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
     return _write_summary(out, written, labels, wall, cpu, jobs)
 
 
-def _check_env(model_path: str, env_id: str, env_kwargs: dict) -> None:
+def _cost_to_go_file(ref: str, policy_file: Path) -> Path:
+    """The ranked rollout's model file, checked (a cost-to-go model for this policy's actions), or a ConfigError
+    naming the field."""
+    from dresspack.agents.learned.search import load_cost_to_go, resolve_cost_to_go
+
+    from .train_cost_model import policy_actions
+
+    try:
+        path = resolve_cost_to_go(ref, policy_file)
+        load_cost_to_go(path, policy_actions(policy_file))
+    except ConfigError as exc:
+        raise ConfigError(f"counterfactuals.{exc.field}", str(exc).split(": ", 1)[-1]) from None
+    return path
+
+
+def _check_env(model_path: str, env_id: str, env_kwargs: dict, cost_to_go: str | None = None) -> None:
     import gymnasium as gym
 
     gym.make(env_id, **env_kwargs).close()
@@ -288,8 +332,30 @@ def load_counterfactuals(folder: str | Path, episodes: int | None = None) -> dic
     shards = [np.load(p) for p in paths]
     if not shards:
         return {}
-    later = [k for k in ("prob", "to_go", "to_go_finished", "proposal") if all(k in s for s in shards)]
+    later = [k for k in ("prob", "to_go", "to_go_finished", "proposal", "settled", "to_go_settled")
+             if all(k in s for s in shards)]
     return {k: np.concatenate([s[k] for s in shards]) for k in (*per_row, *later)}
+
+
+def load_label_folders(folders, episodes: int | None = None) -> tuple[dict[str, np.ndarray], list[dict]]:
+    """The rows of several data folders of one policy (the first ``episodes`` shards of each), and each folder's
+    spec.json. Folder k's episode ids are offset by k * MAX_EPISODES, so episodes of different folders never share
+    an id (held-out splits and states stay apart); the first folder's ids are its own."""
+    data, specs = [], []
+    for k, folder in enumerate(folders):
+        spec_file = Path(folder) / "spec.json"
+        rows = load_counterfactuals(folder, episodes)
+        if not rows or not spec_file.is_file():
+            raise ConfigError("--data", f"{folder} holds no counterfactual shards (episodes/ep_*.npz, spec.json)")
+        spec = json.loads(spec_file.read_text())
+        if specs and spec["policy_file"] != specs[0]["policy_file"]:
+            raise ConfigError("--data", f"{folder} holds labels of {spec['policy_file']}, {folders[0]} of "
+                                        f"{specs[0]['policy_file']}: one model is fit to one policy's labels")
+        rows["episode"] = rows["episode"] + k * MAX_EPISODES
+        data.append(rows)
+        specs.append(spec)
+    shared = set.intersection(*(set(d) for d in data))  # columns later label formats added are read where all have them
+    return {c: np.concatenate([d[c] for d in data]) for c in data[0] if c in shared}, specs
 
 
 def add_counterfactuals_command(sub) -> None:

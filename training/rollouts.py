@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 # what rolled-out data (counterfactual labels, self-imitation rollouts) depends on besides its settings: the
-# simulation and its configs, the training code that rolls the policy out (a folder of other code is not resumed)
-ROLLOUT_CODE = ("dresspack_gym", "dresspack_gym.configs", "dresspack.training")
+# simulation and its configs, the training code that rolls the policy out, the agents' code that chooses its actions
+# (the policy's masks, ppo-search's ranked rule) and the shipped policies (a folder of other code is not resumed)
+ROLLOUT_CODE = ("dresspack_gym", "dresspack_gym.configs", "dresspack.training", "dresspack.agents")
 
 
 def roll_out(env, model, episode_seed: int, deterministic: bool, record: bool = False):

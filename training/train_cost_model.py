@@ -19,12 +19,13 @@ import yaml
 from dresspack_gym.cli.args import number, output_dir
 from dresspack_gym.errors import ConfigError
 
-from .cost_config import CostStudyConfig, load_cost_config
+from .cost_config import MAX_EPISODES, CostStudyConfig, load_cost_config
 
 
-def train_cost_model(cfg: CostStudyConfig, data_dir: str | Path, out: str | Path, *, episodes: int | None = None,
+def train_cost_model(cfg: CostStudyConfig, data_dir, out: str | Path, *, episodes: int | None = None,
                      tensorboard: bool = True, folds: int = 0) -> dict:
-    """Fit on ``data_dir``'s shards (the first ``episodes`` if given), write the run folder; returns the metrics.
+    """Fit on the shards of ``data_dir`` (a folder, or a list of folders of one policy's labels: e.g. a DAgger
+    round's beside the first; the first ``episodes`` of each if given), write the run folder; returns the metrics.
     ``folds`` > 1: also a cross-validation by episode (each fold's episodes predicted by a model fit on the others;
     metrics["cross_validation"] ranks those predictions), which one held-out split is too small to judge."""
     import torch
@@ -38,18 +39,22 @@ def train_cost_model(cfg: CostStudyConfig, data_dir: str | Path, out: str | Path
         state_ids,
     )
 
-    from .counterfactuals import load_counterfactuals
+    from .counterfactuals import load_label_folders
 
     torch.set_num_threads(1)  # a small MLP; the cores are the data generation's
-    data = load_counterfactuals(data_dir, episodes)
-    if not data:
-        raise ConfigError("--data", f"{data_dir} holds no counterfactual shards (episodes/ep_*.npz)")
+    folders = [str(d) for d in ([data_dir] if isinstance(data_dir, (str, Path)) else data_dir)]
+    data, specs = load_label_folders(folders, episodes)
+    per_folder = [{"folder": f, "episodes": _ranges(np.unique(data["episode"][data["episode"] // MAX_EPISODES == k]
+                                                               % MAX_EPISODES)),
+                   **{k2: s.get(k2) for k2 in ("rollout", "seed", "cost_to_go", "code", "libraries")}}
+                  for k, (f, s) in enumerate(zip(folders, specs))]
     data = labelled(data, cfg.model.label)
-    spec = json.loads((Path(data_dir) / "spec.json").read_text())
-    n_actions = _n_actions(spec["policy_file"])
+    spec = specs[0]
+    n_actions = policy_actions(spec["policy_file"])
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "config.yaml").write_text(yaml.safe_dump({**cfg.to_dict(), "data": str(data_dir)}, sort_keys=False))
+    (out / "config.yaml").write_text(yaml.safe_dump(
+        {**cfg.to_dict(), "data": folders[0] if len(folders) == 1 else folders}, sort_keys=False))
     writer = None
     if tensorboard:
         from torch.utils.tensorboard import SummaryWriter
@@ -87,7 +92,9 @@ def train_cost_model(cfg: CostStudyConfig, data_dir: str | Path, out: str | Path
     metrics = {"held_out": rank_metrics(predicted[held], true[held], states[held], chosen[held]),
                "held_out_moves_only": rank_metrics(predicted[moving], true[moving], states[moving]),
                "train": rank_metrics(predicted[~held], true[~held], states[~held], chosen[~held]),
-               "episodes": int(len(set(data["episode"].tolist()))), "rows": int(len(true)),
+               "episodes": int(len(set(data["episode"].tolist()))), "rows": int(len(true)), "data": per_folder,
+               **({"unsettled_rows": int((~data["to_go_settled"]).sum())}
+                  if cfg.model.label == "to_go" and "to_go_settled" in data else {}),
                "held_out_episodes": record["held_out_episodes"],
                **({"cross_validation": {"folds": folds, **rank_metrics(out_of_fold, true, states, chosen)}}
                   if folds > 1 else {}),
@@ -98,7 +105,20 @@ def train_cost_model(cfg: CostStudyConfig, data_dir: str | Path, out: str | Path
     return metrics
 
 
-def _n_actions(policy_file: str) -> int:
+def _ranges(ids) -> str:
+    """Episode ids as ranges, e.g. 0-305,307: which episodes a model was fit on, in a line."""
+    ids, parts, k = [int(i) for i in ids], [], 0
+    while k < len(ids):
+        j = k
+        while j + 1 < len(ids) and ids[j + 1] == ids[j] + 1:
+            j += 1
+        parts.append(str(ids[k]) if j == k else f"{ids[k]}-{ids[j]}")
+        k = j + 1
+    return ",".join(parts)
+
+
+def policy_actions(policy_file: str | Path) -> int:
+    """How many actions the policy in ``policy_file`` (a MaskablePPO .zip) chooses among."""
     from sb3_contrib import MaskablePPO
 
     return int(MaskablePPO.load(policy_file, device="cpu").action_space.n)
@@ -109,10 +129,12 @@ def add_train_cost_model_command(sub) -> None:
                        description=__doc__.split("\n")[0])
     p.add_argument("--config", default="cost_model",
                    help="cost-model YAML (path, or a name in configs/training/; default cost_model)")
-    p.add_argument("--data", required=True, help="folder written by dresspack counterfactuals")
+    p.add_argument("--data", required=True, nargs="+", metavar="FOLDER",
+                   help="folder(s) written by dresspack counterfactuals for one policy (e.g. a DAgger round's "
+                        "labels beside the first)")
     p.add_argument("--out", type=output_dir, required=True, help="run folder (model.pt, metrics.json, tb/)")
     p.add_argument("--episodes", type=number(2, 100_000, integer=True),
-                   help="use only the first N episodes' shards (learning curves)")
+                   help="use only the first N episodes' shards of each folder (learning curves)")
     p.add_argument("--folds", type=number(2, 100, integer=True), default=None,
                    help="also cross-validate by episode in this many folds (metrics.json's cross_validation)")
     p.add_argument("--force", action="store_true", help="replace a model already in --out")

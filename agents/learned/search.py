@@ -99,6 +99,40 @@ def check_proposals(proposals) -> int:
     return _check_count(proposals, "proposals", 1, MAX_PROPOSALS)
 
 
+class RankedChooser:
+    """The ranked planner's rule for one episode: of the policy's ``proposals`` most probable allowed moves, the one
+    of least predicted cost to go (``model``), the most probable of equals. A proposal back to a configuration the
+    robot stood at since its last goal is taken only if all are: a learned ranking can prefer a move that makes no
+    progress, and then again its reverse, until the episode's steps run out (7 of 30 drawn welds without this)."""
+
+    def __init__(self, model: CostModel, proposals: int):
+        self.model, self.proposals = model, proposals
+        self.reset()
+
+    def reset(self) -> None:
+        """A new episode: no configuration visited."""
+        self._goal, self._visited = -1, []
+
+    def choose(self, env, obs: np.ndarray, probs: np.ndarray, moving: np.ndarray) -> int:
+        """The action for ``env``'s state (``probs``: the policy's probabilities; ``moving``: its masks without
+        moves to where the robot stands); records the state as visited."""
+        q = env.q
+        ranked = ranked_proposals(probs, moving, env.stay_action, self.proposals)
+        if self._goal != env.goal_index:
+            self._goal, self._visited = env.goal_index, []
+        self._visited.append(q.copy())
+        targets = [env.target(q, a) for a in ranked]
+        new = [k for k, t in enumerate(targets) if not any(np.abs(t - v).max() <= STILL for v in self._visited)]
+        if new and len(new) < len(ranked):
+            ranked, targets = [ranked[k] for k in new], [targets[k] for k in new]
+        if len(ranked) == 1:
+            return ranked[0]
+        n = len(ranked)
+        predicted = self.model.predict(np.repeat(obs[None], n, 0), np.array(ranked), np.array(targets),
+                                       np.repeat(q[None], n, 0))
+        return ranked[int(np.argmin(predicted))]  # the most probable of the cheapest
+
+
 @dataclass
 class _Step:
     """One simulated env step: its action, ``env.step``'s return and the state after it."""
@@ -171,6 +205,7 @@ class PolicySearchPlanner(PolicyPlanner):
         # ranks the proposals by predicted cost to go instead of simulating their continuations
         self.cost_to_go = None if cost_to_go is None else load_cost_to_go(
             resolve_cost_to_go(cost_to_go, self.policy_path), self.agent.n_actions)
+        self._chooser = None if self.cost_to_go is None else RankedChooser(self.cost_to_go, proposals)
         self.refiner = None  # built only if it will be used: its leg cost holds a simulator of its own
         if refine or alternatives:
             # ompl-wear's leg cost, with the wear cost and time weight asked for (the search ranks by the env's
@@ -193,7 +228,6 @@ class PolicySearchPlanner(PolicyPlanner):
         self._network = 0.0  # seconds in the network (proposals and the continuations' actions)
         self._policy_cost: float | None = None  # the policy's own rollout from the start (inf: unfinished)
         self._cost = 0.0  # the steps taken so far
-        self._visited: tuple[int, list] = (-1, [])  # the ranked steps' configurations since goal k was reached
 
     def _reseed(self) -> None:
         super()._reseed()
@@ -266,7 +300,8 @@ class PolicySearchPlanner(PolicyPlanner):
 
     def _rollout(self, task: Task, mode: str):
         self._simulated, self._incumbent, self._network = 0, _Continuation(), 0.0
-        self._visited = (-1, [])
+        if self._chooser is not None:
+            self._chooser.reset()
         self._policy_cost, self._cost = None, 0.0
         traj, info = super()._rollout(task, mode)
         if mode != "search":
@@ -311,28 +346,11 @@ class PolicySearchPlanner(PolicyPlanner):
         return first.action, first.result, seconds
 
     def _ranked_step(self, obs, masks):
-        """The proposal of least predicted cost to go, taken without simulating any continuation. A proposal back to
-        a configuration the robot stood at since its last goal is taken only if all are: a learned ranking can
-        prefer a move that makes no progress, and then again its reverse, until the episode's steps run out."""
-        env, q = self.env, self.env.q
+        """The ranked rule's action (:class:`RankedChooser`), taken without simulating any continuation."""
+        env = self.env
         t0 = time.perf_counter()
         moving = self._moving(masks)
-        ranked = ranked_proposals(self.agent.probabilities(obs, moving), moving, env.stay_action, self.proposals)
-        goal, visited = self._visited
-        if goal != env.goal_index:
-            goal, visited = env.goal_index, []
-        visited.append(q.copy())
-        self._visited = (goal, visited)
-        targets = [env.target(q, a) for a in ranked]
-        new = [k for k, t in enumerate(targets) if not any(np.abs(t - v).max() <= STILL for v in visited)]
-        if new and len(new) < len(ranked):
-            ranked, targets = [ranked[k] for k in new], [targets[k] for k in new]
-        action = ranked[0]
-        if len(ranked) > 1:
-            n = len(ranked)
-            predicted = self.cost_to_go.predict(np.repeat(obs[None], n, 0), np.array(ranked), np.array(targets),
-                                                np.repeat(q[None], n, 0))
-            action = ranked[int(np.argmin(predicted))]  # the most probable of the cheapest
+        action = self._chooser.choose(env, obs, self.agent.probabilities(obs, moving), moving)
         seconds = time.perf_counter() - t0
         result = env.step(action)
         self._simulated += 1

@@ -48,3 +48,9 @@ def library_versions(distributions: tuple[str, ...]) -> dict[str, str | None]:
         except PackageNotFoundError:
             out[name] = None
     return out
+
+
+def file_digest(path: str | Path) -> str:
+    """A SHA-256 (its first ``FINGERPRINT_DIGITS`` hex digits) of one file's bytes: a model a result was made with,
+    which may live outside the fingerprinted packages."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:FINGERPRINT_DIGITS]

@@ -152,6 +152,83 @@ def test_an_unfinished_continuation_ranks_with_the_dearest_finished_one():
         labelled({**data, "proposal": np.zeros(4, bool)}, "to_go")
 
 
+def _index_model(env, path, n_actions: int):
+    """A linear cost-to-go model.pt that predicts a proposal cheaper the lower its action index."""
+    import torch
+    from dresspack.agents.learned.cost_model import CostModel
+
+    n_obs = env.observation_space.shape[0]
+    model = CostModel(n_obs + n_actions + 12, n_actions, (), parts=False, target="linear", label="to_go")
+    with torch.no_grad():
+        model.net[0].weight.zero_()
+        model.net[0].bias.fill_(10.0)
+        model.net[0].weight[0, n_obs:n_obs + n_actions] = torch.arange(n_actions, dtype=torch.float32)
+    model.save(path)
+    return path
+
+
+def test_a_ranked_rollout_labels_the_states_ppo_search_s_ranked_rule_visits(tiny_policy, tmp_path):
+    """DAgger labels: each step is the one ppo-search's ranked rule takes (here with a model preferring the lowest
+    action index among the policy's 3 most probable moves), and each state's proposals are labelled as for the
+    policy's own rollout; the same labels on one and two processes; the spec names the model by its digest."""
+    import gymnasium as gym
+    from dresspack.agents.learned.policy import PolicyAgent, moving_masks
+    from dresspack.agents.learned.search import ranked_proposals
+    from dresspack.training.counterfactuals import episode_seed, generate, load_counterfactuals
+
+    env, folder = tiny_policy
+    agent = PolicyAgent(folder / "model.zip")
+    model = _index_model(env, tmp_path / "ctg.pt", agent.n_actions)
+    raw = {"counterfactuals": {"policy": str(folder), "episodes": 2, "seed": 3, "rollout": "ranked",
+                               "cost_to_go": str(model), "continued": 4, "every_action": False}}
+    cfg = cost_config_from_dict(raw).counterfactuals
+    one = generate(cfg, tmp_path / "one", jobs=1, progress=False)
+    two = generate(cfg, tmp_path / "two", jobs=2, progress=False)
+    a, b = load_counterfactuals(tmp_path / "one"), load_counterfactuals(tmp_path / "two")
+    assert one["rows"] == two["rows"] and set(a) == set(b) and all(_same(a[k], b[k]) for k in a)
+    assert a["proposal"].all() and a["settled"].all() and {"to_go_settled", "to_go"} <= set(a)
+    twin = gym.make("dresspack_gym/StudWelding-v0", **TINY_ENV).unwrapped
+    for episode in (0, 1):
+        obs, _ = twin.reset(seed=episode_seed(3, episode))
+        moving = moving_masks(twin, twin.action_masks())
+        proposals = ranked_proposals(agent.probabilities(obs, moving), moving, twin.stay_action, 3)
+        rows = a["episode"] == episode
+        assert a["action"][rows & a["chosen"]].tolist() == [min(proposals)]  # one decision an episode here
+        assert len(proposals) == 3 and rows.sum() == 4
+    spec = json.loads((tmp_path / "one" / "spec.json").read_text())
+    assert spec["cost_to_go_file"] == str(model.resolve()) and len(spec["cost_to_go_digest"]) == 12
+    assert spec["libraries"]["numpy"] == np.__version__
+    _index_model(env, model, agent.n_actions + 1)  # another model at the same path: not these labels' model
+    with pytest.raises(ConfigError, match="^counterfactuals.cost_to_go: .*fit for a policy of"):
+        generate(cfg, tmp_path / "one", jobs=1, progress=False)
+
+
+def test_a_model_is_fit_to_several_label_folders_of_one_policy(tiny_policy, tmp_path):
+    """A DAgger round's labels beside the first: their episodes keep apart (ids offset by folder), the metrics
+    name each folder's episodes; folders of two policies are refused."""
+    from dresspack.training.cost_config import MAX_EPISODES
+    from dresspack.training.counterfactuals import generate, load_label_folders
+    from dresspack.training.train_cost_model import _ranges, train_cost_model
+
+    _, folder = tiny_policy
+    for seed, out in ((7, "a"), (8, "b")):
+        generate(cost_config_from_dict({"counterfactuals": {"policy": str(folder), "episodes": 2, "seed": seed,
+                                                            "rollout": "sample"}}).counterfactuals,
+                 tmp_path / out, jobs=1, progress=False)
+    data, specs = load_label_folders([tmp_path / "a", tmp_path / "b"])
+    assert sorted(set(data["episode"].tolist())) == [0, 1, MAX_EPISODES, MAX_EPISODES + 1]
+    assert [s["seed"] for s in specs] == [7, 8]
+    study = cost_config_from_dict({"model": {"hidden": [8], "epochs": 2, "held_out": 0.5}})
+    metrics = train_cost_model(study, [tmp_path / "a", tmp_path / "b"], tmp_path / "m", tensorboard=False)
+    assert metrics["episodes"] == 4 and [d["episodes"] for d in metrics["data"]] == ["0-1", "0-1"]
+    assert [d["seed"] for d in metrics["data"]] == [7, 8]
+    assert _ranges([0, 1, 2, 5, 7, 8]) == "0-2,5,7-8"
+    spec = json.loads((tmp_path / "b" / "spec.json").read_text())
+    (tmp_path / "b" / "spec.json").write_text(json.dumps(spec | {"policy_file": "/elsewhere/model.zip"}))
+    with pytest.raises(ConfigError, match="^--data: .*one model is fit to one policy's labels"):
+        load_label_folders([tmp_path / "a", tmp_path / "b"])
+
+
 def _synthetic(episodes=12, steps=3, n_actions=6, seed=0):
     """Rows whose cost is a smooth function of the action's joint change: a model must learn it from features."""
     rng = np.random.default_rng(seed)
@@ -204,6 +281,9 @@ def test_the_cost_model_fits_a_tiny_dataset_and_ranks_held_out_actions(tmp_path)
     ({"counterfactuals": {"every_action": False}}, "counterfactuals.every_action"),
     ({"model": {"label": "return"}}, "model.label"),
     ({"model": {"label": "to_go"}}, "model.parts"),
+    ({"counterfactuals": {"rollout": "ranked"}}, "counterfactuals.cost_to_go"),
+    ({"counterfactuals": {"rollout": "sample", "cost_to_go": "cost_to_go"}}, "counterfactuals.cost_to_go"),
+    ({"counterfactuals": {"rollout": "ranked", "cost_to_go": 3}}, "counterfactuals.cost_to_go"),
 ])
 def test_bad_cost_config_fields_are_named(data, field):
     with pytest.raises(ConfigError) as err:
