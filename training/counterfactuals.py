@@ -211,6 +211,7 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
     spec = {k: getattr(cfg, k) for k in SPEC_FIELDS}
     model_path, env_id, env_kwargs = policy_env(cfg)
     spec["policy_file"] = str(model_path.resolve())
+    spec["policy_digest"] = file_digest(model_path)
     cost_to_go = None if cfg.cost_to_go is None else _cost_to_go_file(cfg.cost_to_go, model_path)
     spec["cost_to_go_file"] = None if cost_to_go is None else str(cost_to_go.resolve())
     spec["cost_to_go_digest"] = None if cost_to_go is None else file_digest(cost_to_go)
@@ -220,8 +221,9 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
     spec_file = out / "spec.json"
     if spec_file.is_file():
         old = json.loads(spec_file.read_text())
-        old.setdefault("libraries", spec["libraries"])  # written before the libraries were recorded
-        changed = [k for k in (*SPEC_FIELDS, "policy_file", "cost_to_go_digest", "code", "libraries")
+        for k in ("libraries", "policy_digest"):  # written before these were recorded
+            old.setdefault(k, spec[k])
+        changed = [k for k in (*SPEC_FIELDS, "policy_file", "policy_digest", "cost_to_go_digest", "code", "libraries")
                    if old.get(k) != spec[k]]
         if changed:
             raise ConfigError(f"counterfactuals.{changed[0]}",
@@ -348,7 +350,7 @@ def load_label_folders(folders, episodes: int | None = None) -> tuple[dict[str, 
         if not rows or not spec_file.is_file():
             raise ConfigError("--data", f"{folder} holds no counterfactual shards (episodes/ep_*.npz, spec.json)")
         spec = json.loads(spec_file.read_text())
-        if specs and spec["policy_file"] != specs[0]["policy_file"]:
+        if specs and _policy_identity(spec) != _policy_identity(specs[0]):
             raise ConfigError("--data", f"{folder} holds labels of {spec['policy_file']}, {folders[0]} of "
                                         f"{specs[0]['policy_file']}: one model is fit to one policy's labels")
         rows["episode"] = rows["episode"] + k * MAX_EPISODES
@@ -356,6 +358,13 @@ def load_label_folders(folders, episodes: int | None = None) -> tuple[dict[str, 
         specs.append(spec)
     shared = set.intersection(*(set(d) for d in data))  # columns later label formats added are read where all have them
     return {c: np.concatenate([d[c] for d in data]) for c in data[0] if c in shared}, specs
+
+
+def _policy_identity(spec: dict) -> str:
+    """Which policy a data folder's labels are of: its model file's digest (the same policy in another checkout
+    is the same), the path where the spec predates digests and the file is gone."""
+    path = Path(spec["policy_file"])
+    return spec.get("policy_digest") or (file_digest(path) if path.is_file() else str(path))
 
 
 def add_counterfactuals_command(sub) -> None:

@@ -224,7 +224,11 @@ def test_a_model_is_fit_to_several_label_folders_of_one_policy(tiny_policy, tmp_
     assert [d["seed"] for d in metrics["data"]] == [7, 8]
     assert _ranges([0, 1, 2, 5, 7, 8]) == "0-2,5,7-8"
     spec = json.loads((tmp_path / "b" / "spec.json").read_text())
-    (tmp_path / "b" / "spec.json").write_text(json.dumps(spec | {"policy_file": "/elsewhere/model.zip"}))
+    moved = tmp_path / "elsewhere.zip"  # the same policy in another checkout: the same policy
+    moved.write_bytes((folder / "model.zip").read_bytes())
+    (tmp_path / "b" / "spec.json").write_text(json.dumps(spec | {"policy_file": str(moved)}))
+    assert load_label_folders([tmp_path / "a", tmp_path / "b"])[0]["episode"].size == data["episode"].size
+    (tmp_path / "b" / "spec.json").write_text(json.dumps(spec | {"policy_file": str(moved), "policy_digest": "0" * 12}))
     with pytest.raises(ConfigError, match="^--data: .*one model is fit to one policy's labels"):
         load_label_folders([tmp_path / "a", tmp_path / "b"])
 
