@@ -81,10 +81,11 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
                    help="ppo-search: OMPL routes (the direct one, then through random vias) per leg, each scored by "
                         "one cable simulation against the found route's leg before the refinement starts from the "
                         f"cheapest (default: {defaults.alternatives}; 0: the found route's legs only)")
-    p.add_argument("--cost-to-go", default=None, metavar="MODEL",
-                   help="ppo-search: a cost-to-go model (model.pt of dresspack train-cost-model --config cost_to_go), "
-                        "or the name of one shipped with the policy (cost_to_go), ranks the proposals instead of "
-                        "simulating their continuations (default: simulate them)")
+    p.add_argument("--cost-to-go", default=defaults.cost_to_go, metavar="MODEL",
+                   help="ppo-search: what ranks the proposals: auto (the cost-to-go model shipped with the policy, "
+                        "if it ships one), none (simulate each one's continuation by the policy), a model.pt of "
+                        "dresspack train-cost-model --config cost_to_go, or the name of a model shipped with the "
+                        f"policy (default: {defaults.cost_to_go})")
     p.add_argument("--robustness-map", default=None,
                    help="robustness map folder to include in the report (default: none)")
     p.add_argument("--jobs", type=number(1, MAX_JOBS, integer=True), default=ALL_CORES,

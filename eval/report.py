@@ -10,6 +10,8 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+from dresspack.agents.learned.policy import resolve_policy
+from dresspack.agents.learned.search import AUTO, resolve_cost_to_go
 from dresspack.agents.planners.registry import COLORS
 
 from dresspack_gym.io.loading import load_station
@@ -136,13 +138,21 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
             "results_json": str(out / "results.json"), "figures": figures}
 
 
+def _ranked_by(spec: EvalSpec) -> str:
+    """What ranked ppo-search's proposals: the cost-to-go model's file, or the simulated continuations."""
+    model = resolve_cost_to_go(spec.cost_to_go, resolve_policy(spec.policy)[0])
+    if model is None:
+        return " (each continued by the policy to the end in the simulation)"
+    return (f" (ranked by the cost-to-go model {model.name} shipped with the policy)" if spec.cost_to_go == AUTO
+            else f" (ranked by the cost-to-go model {spec.cost_to_go})")
+
+
 def _intro(spec: EvalSpec, station: Station, written: dict) -> str:
     """The setup paragraph; ``written``: the folder's spec.json (the code and libraries its rows came from)."""
     starts = (f"each seed starts at its own valid configuration within {spec.start_noise_deg:g}° of Home"
               if spec.start_noise_deg > 0 else "every run starts at Home")
-    search = (f"; ppo-search tries the policy's {spec.proposals} most probable moves per step, {spec.alternatives} "
-              f"other routes per leg and {spec.refine} refinement queries"
-              + (f", the proposals ranked by the cost-to-go model {spec.cost_to_go}" if spec.cost_to_go else "")
+    search = (f"; ppo-search tries the policy's {spec.proposals} most probable moves per step{_ranked_by(spec)}, "
+              f"{spec.alternatives} other routes per leg and {spec.refine} refinement queries"
               if "ppo-search" in spec.methods else "")
     libraries = ", ".join(f"{k} {v}" for k, v in (written.get("libraries") or {}).items() if v)
     provenance = (f" Rows computed by code {written['code']}" + (f" with {libraries}" if libraries else "") + "."

@@ -18,6 +18,8 @@ import numpy as np
 from dresspack.agents.learned.policy import DEFAULT_POLICY, resolve_policy
 from dresspack.agents.learned.search import (
     ALTERNATIVES,
+    AUTO,
+    NONE,
     PROPOSALS,
     REFINE,
     PolicySearchPlanner,
@@ -76,7 +78,9 @@ class EvalSpec:
     proposals: int = PROPOSALS  # ppo-search: the policy's moves tried at every step
     refine: int = REFINE  # ppo-search: leg-cost queries moving the found route's vias
     alternatives: int = ALTERNATIVES  # ppo-search: OMPL via routes per leg scored against the found route's leg
-    cost_to_go: str | None = None  # ppo-search: a cost-to-go model.pt ranks the proposals instead of simulation
+    # ppo-search: what ranks the proposals (search.resolve_cost_to_go): auto (the model shipped with the policy),
+    # a model.pt or shipped name, or None (stored for "none"): simulated continuations
+    cost_to_go: str | None = AUTO
     policy: str | None = None  # run folder / model / shipped name for ppo (and the random floor's env)
     robot: int = 0
     # > 0: the tasks are this many single welds drawn on the station's parts (weld_sampling), weld k from
@@ -105,7 +109,9 @@ class EvalSpec:
         check_proposals(self.proposals)
         check_refine(self.refine)
         check_alternatives(self.alternatives)
-        if self.cost_to_go is not None:  # named now, not after the other methods' runs
+        if self.cost_to_go == NONE:  # one spelling in spec.json: folders written before the setting hold None
+            object.__setattr__(self, "cost_to_go", None)
+        if self.cost_to_go not in (None, AUTO):  # named now, not after the other methods' runs
             resolve_cost_to_go(self.cost_to_go, resolve_policy(self.policy)[0])
         if not 0 <= self.start_noise_deg <= 90:
             raise ConfigError("start_noise_deg", f"must be in [0, 90] deg, got {self.start_noise_deg}")

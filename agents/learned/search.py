@@ -1,5 +1,5 @@
-"""``ppo-search``: the policy's most probable actions, each continued by the policy to the episode's end in the
-simulation; the cheapest finished continuation (cycle time + ∫C dt) chooses the step; then its vias refined."""
+"""``ppo-search``: the policy's most probable moves, ranked by a learned cost to go or by simulating each one's
+continuation by the policy to the episode's end; then other routes and the route's vias, scored by cable simulation."""
 
 from __future__ import annotations
 
@@ -46,9 +46,24 @@ def ranked_proposals(probs: np.ndarray, moving: np.ndarray, stay_action: int, k:
     return [int(a) for a in allowed[np.lexsort((allowed, -probs[allowed]))][:k]]
 
 
-def resolve_cost_to_go(ref: str | Path, policy_file: Path) -> Path:
-    """A cost-to-go model file: a path, or the name of one shipped beside the policy (``cost_to_go``: the policy
-    folder's cost_to_go.pt); a ConfigError naming the field and the shipped names otherwise."""
+# what ranks ppo-search's proposals by default: the cost-to-go model shipped beside the policy (its folder's
+# cost_to_go.pt) where it ships one, else the simulated continuations. On 30 drawn welds x 3 seeds of the default
+# station and its variant the shipped model gives the simulated search's T + ∫C dt in about two thirds of its
+# planning time (docs/results_learned.md)
+AUTO = "auto"
+NONE = "none"  # simulate every proposal's continuation
+SHIPPED_COST_TO_GO = "cost_to_go"  # the file name (cost_to_go.pt) a policy folder ships its model under
+
+
+def resolve_cost_to_go(ref: str | Path | None, policy_file: Path) -> Path | None:
+    """The cost-to-go model file that ranks the proposals, or None where the continuations are simulated: ``auto``
+    (the policy folder's cost_to_go.pt if it ships one), ``none`` (or None), a path, or the name of a model shipped
+    beside the policy; a ConfigError naming the field and the shipped names otherwise."""
+    if ref is None or ref == NONE:
+        return None
+    if ref == AUTO:
+        shipped = policy_file.parent / f"{SHIPPED_COST_TO_GO}.pt"
+        return shipped if shipped.is_file() else None
     path = Path(ref)
     if path.is_file():
         return path
@@ -56,8 +71,9 @@ def resolve_cost_to_go(ref: str | Path, policy_file: Path) -> Path:
     if shipped.is_file():
         return shipped
     names = sorted(p.stem for p in policy_file.parent.glob("*.pt"))
-    raise ConfigError("cost_to_go", f"{ref} is neither a file (a model.pt of dresspack train-cost-model) nor a model "
-                                    f"shipped with the policy ({names or 'it ships none'})")
+    raise ConfigError("cost_to_go", f"{ref} is neither {AUTO}, {NONE}, a file (a model.pt of dresspack "
+                                    "train-cost-model) nor a model shipped with the policy "
+                                    f"({names or 'it ships none'})")
 
 
 def load_cost_to_go(path, n_actions: int) -> CostModel:
@@ -160,22 +176,29 @@ class _Continuation:
 
 
 class PolicySearchPlanner(PolicyPlanner):
-    """``ppo-search``: a rollout search (policy iteration by simulation) on top of the policy.
+    """``ppo-search``: a rollout search (policy iteration: a learned cost to go, or simulation) on top of the policy.
 
-    At every step the policy's ``proposals`` most probable allowed moves are each simulated from an env snapshot
-    and continued by the policy's most probable actions to the episode's end; each is scored by its finished
-    continuation's cycle time + ∫C dt (the planners' objective at time weight 1), and the step of the cheapest
-    is taken. The best continuation found so far (the incumbent) is kept and reused, so only new proposals are
-    simulated, and a continuation is abandoned as soon as its cost so far passes the incumbent's (every step's cost
-    is positive). The incumbent at the start is the policy's own most probable rollout, and each step keeps a
-    continuation at most as dear as the one before, so the result never costs more than that rollout (in the env's
-    own simulation: the same physics profile the policy trained on).
+    With ``cost_to_go`` (default ``auto``: the model shipped beside the policy, where it ships one; or a model fit
+    by ``dresspack train-cost-model --config cost_to_go``, or the name of one shipped beside the policy) no
+    continuation is simulated: each step takes the proposal of least predicted cost to go (:class:`RankedChooser`),
+    and the route is the cheaper, in the env's simulation, of that ranked rollout and the policy's most probable one
+    (info ``mode``: ``ranked`` or ``argmax``), so never dearer than ``ppo``'s.
 
-    ``proposals=1`` is the ``ppo`` planner's most probable rollout. If the search does not finish the task, the
-    ``ppo`` planner's sampled rollouts follow; if none finishes and other routes are asked for (``alternatives``),
-    the route starts from OMPL's instead (info ``mode``: ``ompl routes``, with ``policy_failure``): a task the
-    policy cannot finish is planned like ``ompl-wear``'s rather than failed. Neither the wait nor a move to where
-    the robot stands is proposed.
+    With ``cost_to_go="none"`` (or where the policy ships no model), at every step the policy's ``proposals`` most
+    probable allowed moves are each simulated from an env snapshot and continued by the policy's most probable
+    actions to the episode's end; each is scored by its finished continuation's cycle time + ∫C dt (the planners'
+    objective at time weight 1), and the step of the cheapest is taken. The best continuation found so far (the
+    incumbent) is kept and reused, so only new proposals are simulated, and a continuation is abandoned as soon as
+    its cost so far passes the incumbent's (every step's cost is positive). The incumbent at the start is the
+    policy's own most probable rollout, and each step keeps a continuation at most as dear as the one before, so the
+    result never costs more than that rollout (in the env's own simulation: the same physics profile the policy
+    trained on).
+
+    ``proposals=1`` is the ``ppo`` planner's most probable rollout, either way. If the search does not finish the
+    task, the ``ppo`` planner's sampled rollouts follow; if none finishes and other routes are asked for
+    (``alternatives``), the route starts from OMPL's instead (info ``mode``: ``ompl routes``, with
+    ``policy_failure``): a task the policy cannot finish is planned like ``ompl-wear``'s rather than failed. Neither
+    the wait nor a move to where the robot stands is proposed.
 
     Then, leg by leg in path order, ``alternatives`` OMPL routes between the leg's stops (the direct one, then through
     random vias: other route classes than the policy's) compete with the found leg, each scored by an accurate cable
@@ -186,25 +209,21 @@ class PolicySearchPlanner(PolicyPlanner):
     costs more than the search's in that simulation; waypoints that do not pay for their stop are dropped.
     ``refine=0`` and ``alternatives=0``: the search's route as found.
 
-    With ``cost_to_go`` (a model fit by ``dresspack train-cost-model --config cost_to_go``, or the name of one
-    shipped beside the policy) no continuation is simulated: each step takes the proposal of least predicted cost to
-    go, never one back to a configuration the robot stood at since its last goal unless all are, and the route is the
-    cheaper of that ranked rollout and the policy's most probable one (info ``mode``: ``ranked`` or ``argmax``).
     """
 
     name = "ppo-search"
     color = "#0b6e4f"
 
     def __init__(self, station: Station, robot: int = 0, *, proposals: int = PROPOSALS, refine: int = REFINE,
-                 alternatives: int = ALTERNATIVES, cost_to_go: str | Path | None = None, cost_variant: str = "thesis",
+                 alternatives: int = ALTERNATIVES, cost_to_go: str | Path | None = AUTO, cost_variant: str = "thesis",
                  time_weight: float = 1.0, **kwargs):
         proposals, refine = check_proposals(proposals), check_refine(refine)
         alternatives = check_alternatives(alternatives)
         super().__init__(station, robot, **kwargs)
         self.proposals, self.refine = proposals, refine
         # ranks the proposals by predicted cost to go instead of simulating their continuations
-        self.cost_to_go = None if cost_to_go is None else load_cost_to_go(
-            resolve_cost_to_go(cost_to_go, self.policy_path), self.agent.n_actions)
+        model_file = resolve_cost_to_go(cost_to_go, self.policy_path)
+        self.cost_to_go = None if model_file is None else load_cost_to_go(model_file, self.agent.n_actions)
         self._chooser = None if self.cost_to_go is None else RankedChooser(self.cost_to_go, proposals)
         self.refiner = None  # built only if it will be used: its leg cost holds a simulator of its own
         if refine or alternatives:

@@ -20,6 +20,7 @@ from dresspack_gym.io.loading import load_station  # noqa: E402
 from dresspack_gym.stations.station import Station  # noqa: E402
 
 POLICY = "goal_conditioned"
+SIMULATED = {"policy": POLICY, "cost_to_go": "none"}  # the search that simulates each proposal's continuation
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +57,7 @@ def test_registered():
 def test_one_proposal_is_the_most_probable_rollout(station, tasks):
     task = _task(tasks, 1)
     ppo = PolicyPlanner(station, 0, policy=POLICY, deterministic=True).plan(task)
-    search = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=0, alternatives=0).plan(task)
+    search = PolicySearchPlanner(station, 0, **SIMULATED, proposals=1, refine=0, alternatives=0).plan(task)
     assert search.info["mode"] == "search" and search.info["actions"] == ppo.info["actions"]
     np.testing.assert_array_equal(search.trajectory.waypoints, ppo.trajectory.waypoints)
     assert search.trajectory.stops == ppo.trajectory.stops
@@ -69,7 +70,7 @@ def test_search_finds_a_cheaper_path_than_the_policys_and_reports_its_true_cost(
     mujoco-core 4.0.1, numpy 2.4.6, torch 2.13.0; ~40 % with the libraries of an earlier install: how much differs
     between installs). The reported objectives are those of the actions taken, stepped again in a separate env."""
     task = _task(tasks, 19)
-    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=2, refine=0, alternatives=0)
+    planner = PolicySearchPlanner(station, 0, **SIMULATED, proposals=2, refine=0, alternatives=0)
     result = planner.plan(task)
     info = result.info
     assert info["mode"] == "search" and info["objective"] < info["policy_objective"]
@@ -84,7 +85,7 @@ def test_search_finds_a_cheaper_path_than_the_policys_and_reports_its_true_cost(
 
 def test_same_plan_whatever_was_planned_before(station, tasks):
     """The search and its refinement alike (the refiner's random perturbations restart from the seed each plan)."""
-    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=2, refine=4, seed=3)
+    planner = PolicySearchPlanner(station, 0, **SIMULATED, proposals=2, refine=4, seed=3)
     first = planner.plan(_task(tasks, 1))
     planner.plan(_task(tasks, 6))
     again = planner.plan(_task(tasks, 1))
@@ -112,8 +113,8 @@ def test_refinement_moves_the_vias_to_a_cheaper_route_and_reports_its_cost(stati
     from dresspack_gym.physics.trajectory import replay
 
     task = _task(tasks, 1)
-    found = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=0, alternatives=0).plan(task)
-    refined = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=10, alternatives=0).plan(task)
+    found = PolicySearchPlanner(station, 0, **SIMULATED, proposals=1, refine=0, alternatives=0).plan(task)
+    refined = PolicySearchPlanner(station, 0, **SIMULATED, proposals=1, refine=10, alternatives=0).plan(task)
     info = refined.info
     assert info["actions"] == found.info["actions"] and info["refine_queries"] == 10
     assert info["waypoints_unrefined"] == len(found.trajectory.waypoints)
@@ -149,7 +150,7 @@ def test_refined_plan_names_the_goals_whose_settle_missed_the_residual(settle_ti
     if settle_time is not None:
         config = replace(config, simulation=replace(config.simulation, settle_time=settle_time))
     station = Station(config)
-    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=2, alternatives=0)
+    planner = PolicySearchPlanner(station, 0, **SIMULATED, proposals=1, refine=2, alternatives=0)
     task = make_task(station, 0, planner.validity.checker.collides, ["sill_front"])
     assert planner.plan(task).info["unconverged_settles"] == flagged
 
@@ -173,7 +174,7 @@ def test_alternative_routes_compete_with_the_found_legs_reproducibly(station, ta
     from dresspack.agents.planners.leg_cost import TENSION_PEAK_TIME, LegCost
     from dresspack.agents.planners.refine import route_cost
 
-    planner = PolicySearchPlanner(station, 0, policy=POLICY, proposals=1, refine=0, alternatives=2)
+    planner = PolicySearchPlanner(station, 0, **SIMULATED, proposals=1, refine=0, alternatives=2)
     first = planner.plan(_task(tasks, 4))
     planner.plan(_task(tasks, 3))
     again = planner.plan(_task(tasks, 4))
@@ -197,7 +198,7 @@ def test_a_task_the_policy_cannot_finish_is_planned_from_ompl_routes(station, ta
 
     monkeypatch.setattr(PolicyPlanner, "_plan", fails)
     task = _task(tasks, 1)
-    planner = PolicySearchPlanner(station, 0, policy=POLICY, refine=2, alternatives=1)
+    planner = PolicySearchPlanner(station, 0, **SIMULATED, refine=2, alternatives=1)
     first, again = planner.plan(task), planner.plan(task)
     assert first.info["mode"] == "ompl routes" and "made to fail" in first.info["policy_failure"]
     np.testing.assert_array_equal(first.trajectory.waypoints, again.trajectory.waypoints)
@@ -205,7 +206,7 @@ def test_a_task_the_policy_cannot_finish_is_planned_from_ompl_routes(station, ta
     np.testing.assert_allclose([legs[0][0], legs[0][-1], legs[1][-1]], task.waypoints(), atol=1e-9)
     assert first.info["leg_cost"] <= first.info["leg_cost_unrefined"]
     with pytest.raises(PlanningError, match="made to fail"):
-        PolicySearchPlanner(station, 0, policy=POLICY, refine=2, alternatives=0).plan(task)
+        PolicySearchPlanner(station, 0, **SIMULATED, refine=2, alternatives=0).plan(task)
 
 
 def test_the_policy_never_takes_a_move_to_where_it_stands(station):
@@ -287,13 +288,26 @@ def test_a_cost_to_go_model_ranks_the_proposals_and_the_cheaper_of_its_rollout_a
     assert (ranked["actions"] == ppo["actions"]) == (prefer == "none")
 
 
+def _same_model(a, b) -> bool:
+    return all(np.array_equal(x, y) for x, y in zip(a.net.state_dict().values(), b.net.state_dict().values()))
+
+
 def test_cost_to_go_model_checked(station, tmp_path):
     from dresspack.agents.learned.cost_model import CostModel
 
-    with pytest.raises(ConfigError, match=r"^cost_to_go: .*missing.pt is neither a file .*\(\['cost_to_go'\]\)"):
+    with pytest.raises(ConfigError, match=r"^cost_to_go: .*missing.pt is neither auto, none, a file .*"
+                                          r"\(\['cost_to_go'\]\)"):
         PolicySearchPlanner(station, 0, policy=POLICY, cost_to_go=str(tmp_path / "missing.pt"))
     shipped = PolicySearchPlanner(station, 0, policy=POLICY, refine=0, alternatives=0, cost_to_go="cost_to_go")
     assert shipped.cost_to_go.label == "to_go"  # the model shipped beside the policy, by name
+    default = PolicySearchPlanner(station, 0, policy=POLICY, refine=0, alternatives=0)  # auto: the shipped one
+    assert default.cost_to_go.label == "to_go" and _same_model(default.cost_to_go, shipped.cost_to_go)
+    assert PolicySearchPlanner(station, 0, **SIMULATED, refine=0, alternatives=0).cost_to_go is None
+    alone = tmp_path / "alone"  # a policy whose folder ships no model: auto simulates the continuations
+    alone.mkdir()
+    (alone / "model.zip").write_bytes((shipped.policy_path.parent / "model.zip").read_bytes())
+    (alone / "config.yaml").write_bytes((shipped.policy_path.parent / "config.yaml").read_bytes())
+    assert PolicySearchPlanner(station, 0, policy=str(alone), refine=0, alternatives=0).cost_to_go is None
     (tmp_path / "junk.pt").write_text("not a model")
     with pytest.raises(ConfigError, match="^cost_to_go: .*not a cost model"):
         PolicySearchPlanner(station, 0, policy=POLICY, cost_to_go=str(tmp_path / "junk.pt"))

@@ -286,13 +286,18 @@ def test_search_settings_are_checked_stored_and_reach_the_search(monkeypatch, tm
 def test_a_cost_to_go_model_is_checked_stored_and_reaches_the_search(monkeypatch, tmp_path):
     from dresspack.eval.runs import _extends
 
-    with pytest.raises(ConfigError, match="^cost_to_go: .*missing.pt is neither a file"):
+    with pytest.raises(ConfigError, match="^cost_to_go: .*missing.pt is neither auto, none, a file"):
         EvalSpec(methods=("ppo-search",), cost_to_go=str(tmp_path / "missing.pt"))
     (tmp_path / "ctg.pt").write_bytes(b"")
     spec = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,),
                     cost_to_go=str(tmp_path / "ctg.pt"))
     plain = {k: v for k, v in spec.to_dict().items() if k != "cost_to_go"}  # a folder written before the setting
     assert _extends(plain, plain | {"cost_to_go": None}) and not _extends(plain, spec.to_dict())
+    # the default ranks by the model shipped with the policy: not the simulated search of those older folders
+    default = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,))
+    assert default.cost_to_go == "auto" and not _extends(plain, default.to_dict())
+    simulated = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), cost_to_go="none")
+    assert simulated.cost_to_go is None and _extends(plain, simulated.to_dict())
     assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, "cost_to_go") == {
         "ppo-search": str(tmp_path / "ctg.pt")}
 
