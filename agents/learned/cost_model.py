@@ -11,9 +11,18 @@ from dresspack_gym.errors import ConfigError
 
 OUTPUTS = ("total", "time", "wear")  # the heads with parts; without, the total alone
 HUBER_DELTA = 1.0  # in standard deviations of the normalised target
-STD_FLOOR = 1e-6  # constant features (e.g. an always-masked action's mask entry) are left unscaled
+STD_FLOOR = 1e-6  # a feature that varies less in the fit is constant there (e.g. an action never proposed)
 # log(1 + cost) is read back at most this large (cost ~1e6): a far extrapolation stays finite and still ranks last
 LOG_COST_MAX = 14.0
+
+
+def _scale(std: np.ndarray) -> np.ndarray:
+    """Each feature's scale: its spread in the fit, or 1 where it did not vary (a constant feature is left unscaled:
+    a value it never took in the fit, such as an action never proposed there, moves the network's input by the
+    change alone, where dividing by the floor moved it a millionfold and the prediction with it). Models saved with
+    the floor as their scale are read with 1 instead: the same predictions where the feature is at its fit value."""
+    std = np.asarray(std, np.float32)
+    return np.where(std > STD_FLOOR, std, np.float32(1.0)).astype(np.float32)
 
 
 def features(obs: np.ndarray, action: np.ndarray, target: np.ndarray, q: np.ndarray, n_actions: int) -> np.ndarray:
@@ -90,13 +99,13 @@ class CostModel:
             width = h
         self.net = torch.nn.Sequential(*layers, torch.nn.Linear(width, n_out))
         self.x_mean = np.zeros(n_features, np.float32) if x_mean is None else x_mean.astype(np.float32)
-        self.x_std = np.ones(n_features, np.float32) if x_std is None else x_std.astype(np.float32)
+        self.x_std = np.ones(n_features, np.float32) if x_std is None else _scale(x_std)
         self.y_mean = np.zeros(n_out, np.float32) if y_mean is None else y_mean.astype(np.float32)
-        self.y_std = np.ones(n_out, np.float32) if y_std is None else y_std.astype(np.float32)
+        self.y_std = np.ones(n_out, np.float32) if y_std is None else _scale(y_std)
 
     def fit_normalisers(self, x: np.ndarray, y: np.ndarray) -> None:
-        self.x_mean, self.x_std = x.mean(0), np.maximum(x.std(0), STD_FLOOR)
-        self.y_mean, self.y_std = y.mean(0), np.maximum(y.std(0), STD_FLOOR)
+        self.x_mean, self.x_std = x.mean(0), _scale(x.std(0))
+        self.y_mean, self.y_std = y.mean(0), _scale(y.std(0))
 
     def encode_y(self, cost: np.ndarray) -> np.ndarray:
         y = np.log1p(np.maximum(cost, 0.0)) if self.target == "log" else cost

@@ -273,6 +273,31 @@ def test_the_cost_model_fits_a_tiny_dataset_and_ranks_held_out_actions(tmp_path)
     assert flat["spearman_global"] is None and flat["spearman_per_state_mean"] is None  # undefined, not NaN
 
 
+def test_a_feature_constant_in_the_fit_is_left_unscaled(tmp_path):
+    """An action never proposed in the fit (its one-hot column constant) moves the network's input by 1, not by the
+    millionfold of dividing by the floor: its prediction stays in the range of the others'. A model saved with the
+    floor as a scale reads with 1 there, predicting the same on the rows it was fit on."""
+    import torch
+    from dresspack.agents.learned.cost_model import STD_FLOOR, CostModel, features, fit
+
+    data, n_actions = _synthetic(episodes=16)
+    fit_rows = {k: v[data["action"] != 5] for k, v in data.items()}
+    model, _ = fit(fit_rows, n_actions, hidden=(32,), target="log", loss="huber", parts=False, epochs=30,
+                   batch_size=32, learning_rate=3e-3, weight_decay=0.0, held_out=0.25, seed=0)
+    column = data["obs"].shape[1] + 5  # action 5's one-hot
+    assert model.x_std[column] == 1.0 and model.x_mean[column] == 0.0
+    unseen = data["action"] == 5
+    p = model.predict(data["obs"], data["action"], data["target"], data["q"])
+    assert np.isfinite(p).all() and p[unseen].max() < 10 * p[~unseen].max()
+    model.save(tmp_path / "m.pt")
+    saved = torch.load(tmp_path / "m.pt", weights_only=False)
+    saved["x_std"] = np.where(saved["x_std"] == 1.0, np.float32(STD_FLOOR), saved["x_std"])  # as the floor was kept
+    torch.save(saved, tmp_path / "floor.pt")
+    again = CostModel.load(tmp_path / "floor.pt")
+    x = features(fit_rows["obs"], fit_rows["action"], fit_rows["target"], fit_rows["q"], n_actions)
+    assert again.x_std[column] == 1.0 and np.array_equal(again.predict_all(x), model.predict_all(x))
+
+
 @pytest.mark.parametrize("data, field", [
     ({"model": {"loss": "l1"}}, "model.loss"),
     ({"model": {"hidden": [0]}}, "model.hidden"),
