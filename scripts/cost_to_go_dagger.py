@@ -22,7 +22,6 @@ import numpy as np
 from dresspack.agents.learned.cost_model import (
     CostModel,
     features,
-    fit,
     labelled,
     labels,
     most_probable,
@@ -32,7 +31,7 @@ from dresspack.agents.learned.cost_model import (
 from dresspack.agents.learned.policy import resolve_policy
 from dresspack.training.cost_config import MAX_EPISODES, load_cost_config
 from dresspack.training.counterfactuals import load_label_folders
-from dresspack.training.train_cost_model import policy_actions
+from dresspack.training.train_cost_model import out_of_fold_predictions, policy_actions
 
 
 def main() -> None:
@@ -55,12 +54,7 @@ def main() -> None:
     model_file = args.model or resolve_policy(None)[0].parent / "cost_to_go.pt"
     shipped = CostModel.load(model_file).predict_all(x)[:, 0]
     cfg = asdict(load_cost_config(args.config).model)
-    predicted = np.full(len(true), np.nan)
-    ids = np.unique(data["episode"][dagger])
-    for fold in np.array_split(np.random.default_rng(cfg["seed"]).permutation(ids), args.folds):
-        model, _ = fit(data, n_actions, **{**cfg, "held_out_episodes": fold})
-        rows = np.isin(data["episode"], fold)
-        predicted[rows] = model.predict_all(x[rows])[:, 0]
+    predicted = out_of_fold_predictions(data, x, n_actions, cfg, np.unique(data["episode"][dagger]), args.folds)
     out = {"first": args.first, "dagger": args.dagger, "model": str(model_file), "folds": args.folds,
            "dagger_states": int(len(np.unique(states[dagger]))), "dagger_rows": int(dagger.sum()),
            "model_on_dagger_states": rank_metrics(shipped[dagger], true[dagger], states[dagger], chosen[dagger]),

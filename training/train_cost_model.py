@@ -84,11 +84,7 @@ def train_cost_model(cfg: CostStudyConfig, data_dir, out: str | Path, *, episode
         episode_ids = np.unique(data["episode"])
         if folds > len(episode_ids):
             raise ConfigError("--folds", f"{folds} folds need as many episodes; the data have {len(episode_ids)}")
-        out_of_fold = np.empty_like(predicted)
-        for fold in np.array_split(np.random.default_rng(cfg.model.seed).permutation(episode_ids), folds):
-            other, _ = fit(data, n_actions, **{**asdict(cfg.model), "held_out_episodes": fold})
-            rows = np.isin(data["episode"], fold)
-            out_of_fold[rows] = other.predict_all(x[rows])[:, 0]
+        out_of_fold = out_of_fold_predictions(data, x, n_actions, asdict(cfg.model), episode_ids, folds)
     metrics = {"held_out": rank_metrics(predicted[held], true[held], states[held], chosen[held]),
                "held_out_moves_only": rank_metrics(predicted[moving], true[moving], states[moving]),
                "train": rank_metrics(predicted[~held], true[~held], states[~held], chosen[~held]),
@@ -103,6 +99,20 @@ def train_cost_model(cfg: CostStudyConfig, data_dir, out: str | Path, *, episode
     model.save(out / "model.pt", extra={"policy_file": spec["policy_file"]})
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     return metrics
+
+
+def out_of_fold_predictions(data: dict, x: np.ndarray, n_actions: int, model_cfg: dict, episodes, folds: int
+                            ) -> np.ndarray:
+    """The predicted cost of every row of ``episodes``, each fold of them (drawn by the model's seed) predicted by a
+    model fit on all other rows; NaN on the rows of other episodes (always fit on)."""
+    from dresspack.agents.learned.cost_model import fit
+
+    predicted = np.full(len(x), np.nan)
+    for fold in np.array_split(np.random.default_rng(model_cfg["seed"]).permutation(episodes), folds):
+        model, _ = fit(data, n_actions, **{**model_cfg, "held_out_episodes": fold})
+        rows = np.isin(data["episode"], fold)
+        predicted[rows] = model.predict_all(x[rows])[:, 0]
+    return predicted
 
 
 def _ranges(ids) -> str:
