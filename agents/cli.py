@@ -68,10 +68,10 @@ def add_plan_command(sub) -> None:
                         "by cable simulation against the found route's leg before the refinement starts from the "
                         f"cheapest (default {ALTERNATIVES}; 0: the found route's legs only)")
     p.add_argument("--cost-to-go", default=None, metavar="MODEL",
-                   help="ppo-search only: what ranks the proposals: auto (default: the cost-to-go model shipped "
-                        "with the policy, if it ships one), none (simulate each one's continuation by the policy), a "
-                        "model.pt of dresspack train-cost-model --config cost_to_go, or the name of a model shipped "
-                        "with the policy")
+                   help="ppo-search only: what ranks the proposals: none (default: simulate each one's "
+                        "continuation by the policy), auto (the cost-to-go model shipped with the policy, if it ships "
+                        "one), a model.pt of dresspack train-cost-model --config cost_to_go, or the name of a model "
+                        "shipped with the policy")
     p.add_argument("--plot", type=output_file, default=None,
                    help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3; missing folders are made)")
     p.add_argument("--out", type=output_file, default=None,

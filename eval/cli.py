@@ -13,8 +13,7 @@ DEMO = EvalSpec(methods=("ppo-search", "ppo", "ompl", "thesis-local", "ompl-wear
 
 def add_demo_command(sub) -> None:
     p = sub.add_parser("demo", help="the learned planner vs the OMPL baselines on the default station: a report",
-                       description="Runs ppo-search (the shipped goal-conditioned policy, its proposals ranked by "
-                                   "its shipped cost-to-go model, then other routes and refined vias), "
+                       description="Runs ppo-search (the shipped goal-conditioned policy with a rollout search), "
                                    "ppo (the policy alone), ompl, thesis-local, ompl-wear and a random masked "
                                    "floor on three tasks x two seeds, replays everything in the same "
                                    "simulator and writes report.html / report.md (about 14 min of CPU, its runs "

@@ -85,7 +85,7 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
                    help="ppo-search: what ranks the proposals: auto (the cost-to-go model shipped with the policy, "
                         "if it ships one), none (simulate each one's continuation by the policy), a model.pt of "
                         "dresspack train-cost-model --config cost_to_go, or the name of a model shipped with the "
-                        f"policy (default: {defaults.cost_to_go})")
+                        f"policy (default: {defaults.cost_to_go or 'none'})")
     p.add_argument("--robustness-map", default=None,
                    help="robustness map folder to include in the report (default: none)")
     p.add_argument("--jobs", type=number(1, MAX_JOBS, integer=True), default=ALL_CORES,

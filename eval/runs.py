@@ -78,9 +78,9 @@ class EvalSpec:
     proposals: int = PROPOSALS  # ppo-search: the policy's moves tried at every step
     refine: int = REFINE  # ppo-search: leg-cost queries moving the found route's vias
     alternatives: int = ALTERNATIVES  # ppo-search: OMPL via routes per leg scored against the found route's leg
-    # ppo-search: what ranks the proposals (search.resolve_cost_to_go): auto (the model shipped with the policy),
-    # a model.pt or shipped name, or None (stored for "none"): simulated continuations
-    cost_to_go: str | None = AUTO
+    # ppo-search: what ranks the proposals (search.resolve_cost_to_go): None (stored for "none"): simulated
+    # continuations; auto (the model shipped with the policy), a model.pt or a shipped name
+    cost_to_go: str | None = None
     policy: str | None = None  # run folder / model / shipped name for ppo (and the random floor's env)
     robot: int = 0
     # > 0: the tasks are this many single welds drawn on the station's parts (weld_sampling), weld k from

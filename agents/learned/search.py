@@ -46,10 +46,10 @@ def ranked_proposals(probs: np.ndarray, moving: np.ndarray, stay_action: int, k:
     return [int(a) for a in allowed[np.lexsort((allowed, -probs[allowed]))][:k]]
 
 
-# what ranks ppo-search's proposals by default: the cost-to-go model shipped beside the policy (its folder's
-# cost_to_go.pt) where it ships one, else the simulated continuations. On 30 drawn welds x 3 seeds of the default
-# station and its variant the shipped model gives the simulated search's T + ∫C dt in about two thirds of its
-# planning time (docs/results_learned.md)
+# what ranks ppo-search's proposals: by default their continuations, simulated (``none``); ``auto``: the cost-to-go
+# model shipped beside the policy (its folder's cost_to_go.pt) where it ships one. On 30 drawn welds x 3 seeds of
+# the station the policy never trained on, the shipped model's ranking ends 8 % above the simulated search's T + ∫C
+# dt (1.000x against 0.926x ompl-wear's) in about two thirds of its planning time (docs/results_learned.md)
 AUTO = "auto"
 NONE = "none"  # simulate every proposal's continuation
 SHIPPED_COST_TO_GO = "cost_to_go"  # the file name (cost_to_go.pt) a policy folder ships its model under
@@ -178,21 +178,21 @@ class _Continuation:
 class PolicySearchPlanner(PolicyPlanner):
     """``ppo-search``: a rollout search (policy iteration: a learned cost to go, or simulation) on top of the policy.
 
-    With ``cost_to_go`` (default ``auto``: the model shipped beside the policy, where it ships one; or a model fit
-    by ``dresspack train-cost-model --config cost_to_go``, or the name of one shipped beside the policy) no
+    With ``cost_to_go`` (``auto``: the model shipped beside the policy, where it ships one; a model fit by
+    ``dresspack train-cost-model --config cost_to_go``; or the name of one shipped beside the policy) no
     continuation is simulated: each step takes the proposal of least predicted cost to go (:class:`RankedChooser`),
     and the route is the cheaper, in the env's simulation, of that ranked rollout and the policy's most probable one
     (info ``mode``: ``ranked`` or ``argmax``), so never dearer than ``ppo``'s.
 
-    With ``cost_to_go="none"`` (or where the policy ships no model), at every step the policy's ``proposals`` most
-    probable allowed moves are each simulated from an env snapshot and continued by the policy's most probable
-    actions to the episode's end; each is scored by its finished continuation's cycle time + ∫C dt (the planners'
-    objective at time weight 1), and the step of the cheapest is taken. The best continuation found so far (the
-    incumbent) is kept and reused, so only new proposals are simulated, and a continuation is abandoned as soon as
-    its cost so far passes the incumbent's (every step's cost is positive). The incumbent at the start is the
-    policy's own most probable rollout, and each step keeps a continuation at most as dear as the one before, so the
-    result never costs more than that rollout (in the env's own simulation: the same physics profile the policy
-    trained on).
+    With ``cost_to_go="none"`` (the default; also ``auto`` where the policy ships no model), at every step the
+    policy's ``proposals`` most probable allowed moves are each simulated from an env snapshot and continued by the
+    policy's most probable actions to the episode's end; each is scored by its finished continuation's cycle time +
+    ∫C dt (the planners' objective at time weight 1), and the step of the cheapest is taken. The best continuation
+    found so far (the incumbent) is kept and reused, so only new proposals are simulated, and a continuation is
+    abandoned as soon as its cost so far passes the incumbent's (every step's cost is positive). The incumbent at
+    the start is the policy's own most probable rollout, and each step keeps a continuation at most as dear as the
+    one before, so the result never costs more than that rollout (in the env's own simulation: the same physics
+    profile the policy trained on).
 
     ``proposals=1`` is the ``ppo`` planner's most probable rollout, either way. If the search does not finish the
     task, the ``ppo`` planner's sampled rollouts follow; if none finishes and other routes are asked for
@@ -215,7 +215,7 @@ class PolicySearchPlanner(PolicyPlanner):
     color = "#0b6e4f"
 
     def __init__(self, station: Station, robot: int = 0, *, proposals: int = PROPOSALS, refine: int = REFINE,
-                 alternatives: int = ALTERNATIVES, cost_to_go: str | Path | None = AUTO, cost_variant: str = "thesis",
+                 alternatives: int = ALTERNATIVES, cost_to_go: str | Path | None = NONE, cost_variant: str = "thesis",
                  time_weight: float = 1.0, **kwargs):
         proposals, refine = check_proposals(proposals), check_refine(refine)
         alternatives = check_alternatives(alternatives)

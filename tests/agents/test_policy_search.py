@@ -300,14 +300,16 @@ def test_cost_to_go_model_checked(station, tmp_path):
         PolicySearchPlanner(station, 0, policy=POLICY, cost_to_go=str(tmp_path / "missing.pt"))
     shipped = PolicySearchPlanner(station, 0, policy=POLICY, refine=0, alternatives=0, cost_to_go="cost_to_go")
     assert shipped.cost_to_go.label == "to_go"  # the model shipped beside the policy, by name
-    default = PolicySearchPlanner(station, 0, policy=POLICY, refine=0, alternatives=0)  # auto: the shipped one
-    assert default.cost_to_go.label == "to_go" and _same_model(default.cost_to_go, shipped.cost_to_go)
+    auto = PolicySearchPlanner(station, 0, policy=POLICY, refine=0, alternatives=0, cost_to_go="auto")
+    assert auto.cost_to_go.label == "to_go" and _same_model(auto.cost_to_go, shipped.cost_to_go)  # the shipped one
     assert PolicySearchPlanner(station, 0, **SIMULATED, refine=0, alternatives=0).cost_to_go is None
+    assert PolicySearchPlanner(station, 0, policy=POLICY, refine=0, alternatives=0).cost_to_go is None  # default
     alone = tmp_path / "alone"  # a policy whose folder ships no model: auto simulates the continuations
     alone.mkdir()
     (alone / "model.zip").write_bytes((shipped.policy_path.parent / "model.zip").read_bytes())
     (alone / "config.yaml").write_bytes((shipped.policy_path.parent / "config.yaml").read_bytes())
-    assert PolicySearchPlanner(station, 0, policy=str(alone), refine=0, alternatives=0).cost_to_go is None
+    assert PolicySearchPlanner(station, 0, policy=str(alone), refine=0, alternatives=0,
+                               cost_to_go="auto").cost_to_go is None
     (tmp_path / "junk.pt").write_text("not a model")
     with pytest.raises(ConfigError, match="^cost_to_go: .*not a cost model"):
         PolicySearchPlanner(station, 0, policy=POLICY, cost_to_go=str(tmp_path / "junk.pt"))

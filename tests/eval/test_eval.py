@@ -293,11 +293,14 @@ def test_a_cost_to_go_model_is_checked_stored_and_reaches_the_search(monkeypatch
                     cost_to_go=str(tmp_path / "ctg.pt"))
     plain = {k: v for k, v in spec.to_dict().items() if k != "cost_to_go"}  # a folder written before the setting
     assert _extends(plain, plain | {"cost_to_go": None}) and not _extends(plain, spec.to_dict())
-    # the default ranks by the model shipped with the policy: not the simulated search of those older folders
+    # the default simulates the continuations, as those older folders did; "none" says so; "auto" ranks by the
+    # model shipped with the policy: not those folders' settings
     default = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,))
-    assert default.cost_to_go == "auto" and not _extends(plain, default.to_dict())
+    assert default.cost_to_go is None and _extends(plain, default.to_dict())
     simulated = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), cost_to_go="none")
     assert simulated.cost_to_go is None and _extends(plain, simulated.to_dict())
+    auto = EvalSpec(methods=("ppo-search",), tasks=(("roof_rail_top",),), seeds=(0,), cost_to_go="auto")
+    assert not _extends(plain, auto.to_dict())
     assert _argument_reaching_the_planner(monkeypatch, tmp_path, spec, "cost_to_go") == {
         "ppo-search": str(tmp_path / "ctg.pt")}
 
