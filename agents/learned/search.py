@@ -178,13 +178,7 @@ class _Continuation:
 class PolicySearchPlanner(PolicyPlanner):
     """``ppo-search``: a rollout search (policy iteration: a learned cost to go, or simulation) on top of the policy.
 
-    With ``cost_to_go`` (``auto``: the model shipped beside the policy, where it ships one; a model fit by
-    ``dresspack train-cost-model --config cost_to_go``; or the name of one shipped beside the policy) no
-    continuation is simulated: each step takes the proposal of least predicted cost to go (:class:`RankedChooser`),
-    and the route is the cheaper, in the env's simulation, of that ranked rollout and the policy's most probable one
-    (info ``mode``: ``ranked`` or ``argmax``), so never dearer than ``ppo``'s.
-
-    With ``cost_to_go="none"`` (the default; also ``auto`` where the policy ships no model), at every step the
+    By default (``cost_to_go="none"``; also ``auto`` where the policy ships no model), at every step the
     policy's ``proposals`` most probable allowed moves are each simulated from an env snapshot and continued by the
     policy's most probable actions to the episode's end; each is scored by its finished continuation's cycle time +
     ∫C dt (the planners' objective at time weight 1), and the step of the cheapest is taken. The best continuation
@@ -193,6 +187,12 @@ class PolicySearchPlanner(PolicyPlanner):
     the start is the policy's own most probable rollout, and each step keeps a continuation at most as dear as the
     one before, so the result never costs more than that rollout (in the env's own simulation: the same physics
     profile the policy trained on).
+
+    With a ``cost_to_go`` model (``auto``: the one shipped beside the policy, where it ships one; a model fit by
+    ``dresspack train-cost-model --config cost_to_go``; or the name of one shipped beside the policy) no
+    continuation is simulated: each step takes the proposal of least predicted cost to go (:class:`RankedChooser`),
+    and the route is the cheaper, in the env's simulation, of that ranked rollout and the policy's most probable one
+    (info ``mode``: ``ranked`` or ``argmax``), so never dearer than ``ppo``'s.
 
     ``proposals=1`` is the ``ppo`` planner's most probable rollout, either way. If the search does not finish the
     task, the ``ppo`` planner's sampled rollouts follow; if none finishes and other routes are asked for
