@@ -44,10 +44,12 @@ def train_cost_model(cfg: CostStudyConfig, data_dir, out: str | Path, *, episode
     torch.set_num_threads(1)  # a small MLP; the cores are the data generation's
     folders = [str(d) for d in ([data_dir] if isinstance(data_dir, (str, Path)) else data_dir)]
     data, specs = load_label_folders(folders, episodes)
-    per_folder = [{"folder": f, "episodes": _ranges(np.unique(data["episode"][data["episode"] // MAX_EPISODES == k]
-                                                               % MAX_EPISODES)),
-                   **{k2: s.get(k2) for k2 in ("rollout", "seed", "cost_to_go", "code", "libraries")}}
-                  for k, (f, s) in enumerate(zip(folders, specs))]
+    folder_of_row = data["episode"] // MAX_EPISODES  # load_label_folders offsets folder k's ids by k * MAX_EPISODES
+    per_folder = []
+    for k, (folder, folder_spec) in enumerate(zip(folders, specs)):
+        ids = np.unique(data["episode"][folder_of_row == k]) - k * MAX_EPISODES
+        per_folder.append({"folder": folder, "episodes": _ranges(ids),
+                           **{f: folder_spec.get(f) for f in ("rollout", "seed", "cost_to_go", "code", "libraries")}})
     data = labelled(data, cfg.model.label)
     spec = specs[0]
     n_actions = policy_actions(spec["policy_file"])
