@@ -269,7 +269,7 @@ class PolicySearchPlanner(PolicyPlanner):
         goals = (*task.weld_names, "home")
         return Trajectory.from_legs(route.legs), {
             **info, "refine_queries": self.refine, "alternatives": self.alternatives,
-            "cable_evaluations": cost.evaluations,
+            "cable_evaluations": cost.evaluations, "cable_simulations_given_up": cost.given_up,
             # the returned route's settles, in the accurate simulation the refinement ranked its legs by
             "unconverged_settles": [g for g, s in zip(goals, route.summaries) if s["unconverged_stops"]],
             "rerouted_legs": [goals[k] for k in route.rerouted],  # legs that start from an OMPL route, by goal

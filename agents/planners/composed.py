@@ -3,6 +3,8 @@ two planners of direct routes: the wear-unaware OMPL baseline and the thesis's l
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from dresspack_gym.physics.trajectory import Trajectory
@@ -49,8 +51,10 @@ class ComposedPlanner(Planner):
             if cost is None:
                 legs.append(cands[0])
                 continue
-            scores = [cost.cost(state, c)[0] for c in cands]
-            route_scores.append([float(x) for x in scores])
+            scores = []  # a candidate dearer than the cheapest before it scores inf: its simulation stopped there
+            for c in cands:
+                scores.append(cost.cost(state, c, min(scores, default=math.inf))[0])
+            route_scores.append([float(x) if math.isfinite(x) else None for x in scores])
             best = cands[int(np.argmin(scores))]
             if self.refiner is not None:
                 share = leg_share(self.budget.evaluations, self._refine_queries, n - k)
@@ -68,7 +72,8 @@ class ComposedPlanner(Planner):
                 "wall_cap_reached": self.allowance.out_of_time()}
         if cost is not None:
             info.update(objective_nominal=before, objective=after, cable_evaluations=cost.evaluations,
-                        route_scores=route_scores)  # per leg, each candidate route's leg cost before refinement
+                        # per leg, each candidate route's leg cost before refinement (None: dearer than one before it)
+                        route_scores=route_scores, cable_simulations_given_up=cost.given_up)
         return traj, info
 
 

@@ -3,12 +3,15 @@ along the leg in path order from the cable state the previous legs left (thesis 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.physics.simulation import CableSimulator
 from dresspack_gym.physics.trajectory import Trajectory, replay
-from dresspack_gym.physics.wear_cost import cost_function
+from dresspack_gym.physics.wear_cost import WearCost, cost_function
+from dresspack_gym.robots.time_law import SegmentMotion
 from dresspack_gym.stations.station import Station
 
 # Largest cost of one second of cycle time against one unit of ∫C dt: a second then outweighs a leg's whole
@@ -20,6 +23,9 @@ MAX_TIME_WEIGHT = 1000.0
 # no shorter cycle times (README "Finding the low route every time").
 TENSION_PEAK_TIME = 0.25
 MAX_TENSION_PEAK_TIME = 60.0  # [s] a peak charged as if it lasted a minute outweighs any leg's motion time
+# A leg is given up only when its lower bound passes the bound by more than this (relative, and absolute near 0):
+# the bound is summed sample by sample, the leg's J by numpy's trapezoid, and the two roundings may differ.
+BOUND_SLACK = 1e-9
 
 
 def check_time_weight(value) -> float:
@@ -59,12 +65,13 @@ class LegCost:
         self.cost_variant = cost_variant
         self.record_every = record_every
         self.evaluations = 0  # cable simulations run
+        self.given_up = 0  # of them, simulations ended once the leg certainly cost more than its query's bound
         self.queries = 0  # cost() calls, cached or not: the refiners' work unit (independent of the cache)
         self._cache: dict[bytes, tuple[float, np.ndarray, dict]] = {}
 
     def reset(self) -> None:
         """Forget the cache and the counters (once per plan, so a plan never depends on an earlier one)."""
-        self.evaluations = self.queries = 0
+        self.evaluations = self.queries = self.given_up = 0
         self._cache.clear()
 
     def start_state(self, q_start: np.ndarray) -> np.ndarray:
@@ -73,20 +80,72 @@ class LegCost:
         self.sim.reset(q)
         return self.sim.get_state()
 
-    def cost(self, start_state: np.ndarray, waypoints: np.ndarray) -> tuple[float, np.ndarray, dict]:
+    def cost(self, start_state: np.ndarray, waypoints: np.ndarray,
+             bound: float = math.inf) -> tuple[float, np.ndarray | None, dict | None]:
+        """``(J, end_state, summary)`` of the leg from ``start_state``; with a ``bound``, ``(inf, None, None)``
+        where J certainly exceeds it, the simulation ended as soon as that was certain (a caller that keeps a leg
+        only if it costs at most the bound learns the same, sooner). So J itself is returned where J <= bound."""
         self.queries += 1
         key = start_state.tobytes() + np.round(np.asarray(waypoints), 9).tobytes()
         hit = self._cache.get(key)
         if hit is not None:
             return hit
         traj = Trajectory(np.asarray(waypoints), (len(waypoints) - 1,))
+        above = self._above(traj, bound)
         rep = replay(self.sim, traj, robot=self.robot, record_every=self.record_every,
-                     cost_variant=self.cost_variant, start_state=start_state,
+                     cost_variant=self.cost_variant, start_state=start_state, give_up=above,
                      record_states=False)  # a leg is no station cycle: no fatigue count (C carries the damage rate)
         self.evaluations += 1
+        if rep.given_up:
+            self.given_up += 1
+            return math.inf, None, None
         s = rep.summary()
         peak = float(np.max(rep.cost_terms["tension"])) if self.tension_peak_time else 0.0
         j = self.time_weight * rep.cycle_time + self.wear_weight * (s["cost"] + self.tension_peak_time * peak)
         out = (j, self.sim.get_state(), s)
         self._cache[key] = out
         return out
+
+    def _above(self, traj: Trajectory, bound: float):
+        """The replay's ``give_up`` for ``bound`` (None: no bound, or weights under which J's lower bound does not
+        grow with the samples)."""
+        if not math.isfinite(bound) or self.wear_weight < 0:
+            return None
+        # the replay's motion time: each segment's steps cover its duration (SegmentMotion.on_steps, which may
+        # fall short of it by 1e-9 steps); no robot but this one moves
+        limits = self.sim.motion_limits()
+        delta = np.zeros(self.sim.q.shape)
+        motion = 0.0
+        for a, b in zip(traj.waypoints[:-1], traj.waypoints[1:]):
+            delta[self.robot] = b - a
+            motion += SegmentMotion(delta, limits).duration
+        floor = self.time_weight * max(0.0, motion - 1e-6 * len(traj.waypoints))
+        return _LowerBound(floor, self.wear_weight, self.tension_peak_time, bound)
+
+
+class _LowerBound:
+    """A replay's ``give_up``: whether the leg's J = time_weight T + wear_weight (∫C dt + tension_peak_time max C_F)
+    certainly exceeds ``bound``, given its samples so far. Its motion time is known before it runs (``floor``:
+    time_weight T), and the trapezoid of C over the samples so far and their highest C_F only grow with more samples
+    while C >= 0 (every wear term is); a sample with C < 0 ends the bound (never gives up)."""
+
+    def __init__(self, floor: float, wear_weight: float, peak_time: float, bound: float):
+        self.floor, self.wear_weight, self.peak_time = floor, wear_weight, peak_time
+        self.limit = bound + BOUND_SLACK * max(1.0, abs(bound))
+        self.t = self.c = None
+        self.area = self.peak = 0.0
+        self.lower = floor  # J's lower bound given the samples so far
+        self.valid = True
+
+    def __call__(self, t: float, cost: WearCost) -> bool:
+        c = cost.total
+        self.valid = self.valid and c >= 0.0 and cost.tension >= 0.0
+        if not self.valid:
+            return False
+        if self.t is not None:
+            self.area += (t - self.t) * (c + self.c) / 2.0
+        self.t, self.c = t, c
+        self.peak = max(self.peak, cost.tension)
+        peak = self.peak_time * self.peak if self.peak_time else 0.0
+        self.lower = self.floor + self.wear_weight * (self.area + peak)
+        return self.lower > self.limit

@@ -99,7 +99,7 @@ class LocalRefiner:
                 if spent():
                     break
                 trial = straighten(best, int(joint))
-                if self.leg_valid(trial) and (j := self.cost.cost(state, trial)[0]) < j_best:
+                if self.leg_valid(trial) and (j := self.cost.cost(state, trial, j_best)[0]) < j_best:
                     best, j_best = trial, j
         while not spent() and step > np.radians(1.0):
             improved = False
@@ -112,7 +112,7 @@ class LocalRefiner:
                     trial[i] = keep_turns(best[i - 1], best[i], best[i + 1], trial[i])
                 if not self.leg_valid(trial, around=i):
                     continue
-                j = self.cost.cost(state, trial)[0]
+                j = self.cost.cost(state, trial, j_best)[0]  # inf where it certainly costs more
                 if j < j_best:
                     best, j_best, improved = trial, j, True
             if not improved:
@@ -124,7 +124,7 @@ class LocalRefiner:
         i = 1
         while i < len(leg) - 1:
             trial = np.delete(leg, i, axis=0)
-            if self.leg_valid(trial, around=i - 1) and self.cost.cost(state, trial)[0] <= j_best:
+            if self.leg_valid(trial, around=i - 1) and self.cost.cost(state, trial, j_best)[0] <= j_best:
                 leg, j_best = trial, self.cost.cost(state, trial)[0]
             else:
                 i += 1
@@ -190,7 +190,7 @@ def refine_legs(refiner: LocalRefiner, state: np.ndarray, legs: list[np.ndarray]
             j_given = cost.cost(state, leg)[0]
             for cand in _candidates_or_none(routes, leg, rng, allowance):
                 # only a candidate cheaper than the found leg on its own is worth simulating the legs after it
-                if cost.cost(state, cand)[0] < j_given and (v := with_rest(cand, k)) < v_start:
+                if cost.cost(state, cand, j_given)[0] < j_given and (v := with_rest(cand, k)) < v_start:
                     start, v_start = cand, v
         q0 = cost.queries
         best = refiner.improve(state, start, leg_share(queries, used, len(legs) - k), rng, allowance) if queries \

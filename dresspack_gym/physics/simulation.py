@@ -70,6 +70,7 @@ class MotionTrace:
     # over SETTLE_CHECK_EVERY steps (the net force on a vertex in units of its weight; the averaging removes
     # the integrator's stiff jitter).
     max_acceleration_ratio: float = 0.0
+    stopped: bool = False  # ended mid-motion by move_to's ``stop_if``
 
     def extend(self, other: "MotionTrace") -> None:
         self.time += other.time
@@ -174,14 +175,15 @@ class CableSimulator:
 
     def move_to(self, q_target, *, speed_fraction: float | None = None, settle: bool = True,
                 record_every: float | None = None, until: float | None = None,
-                record_states: bool = False, on_sample=None, quasi_static: bool = False) -> MotionTrace:
+                record_states: bool = False, on_sample=None, stop_if=None, quasi_static: bool = False) -> MotionTrace:
         """Move all robots along a straight joint-space segment to ``q_target`` and (optionally) settle.
 
         Timing: the time law (:mod:`time_law`), every joint of every robot within its velocity, acceleration and
         jerk limits, velocities at ``speed_fraction`` of the rated speeds (a program's speed data), or with
         ``quasi_static`` the full-speed motion slowed down in time by that fraction (for probing the cable's
         static response: accelerations shrink with the square). Returns samples every ``record_every`` s.
-        With ``until`` (a motion time) the motion stops there, mid-segment, without settling.
+        With ``until`` (a motion time) the motion stops there, mid-segment, without settling; so it does at the
+        first recorded sample for which ``stop_if(time, measures)`` is true (the trace's ``stopped`` set).
         The settle's outcome is kept in ``last_settle``.
         """
         target = self._as_q(q_target, "q_target")
@@ -211,7 +213,9 @@ class CableSimulator:
                 self._record(trace, self.motion_time + k * dt, path[k - 1].reshape(start.shape), record_states)
                 if on_sample is not None:
                     on_sample(self.motion_time + k * dt)
-            if until is not None and self.motion_time + k * dt >= until:  # frozen mid-motion (e.g. to render)
+                if stop_if is not None and stop_if(self.motion_time + k * dt, trace.measures[-1]):
+                    trace.stopped = True
+            if trace.stopped or until is not None and self.motion_time + k * dt >= until:  # frozen mid-motion
                 self.q = path[k - 1].reshape(start.shape).copy()
                 self.motion_time += k * dt
                 return trace
@@ -223,6 +227,7 @@ class CableSimulator:
             self.settle()
         if stride and steps == 0:
             self._record(trace, self.motion_time, self.q, record_states)
+            trace.stopped = stop_if is not None and bool(stop_if(self.motion_time, trace.measures[-1]))
         return trace
 
     def follow(self, schedule_at, duration: float, *, record_every: float, on_sample=None) -> tuple[list, list]:

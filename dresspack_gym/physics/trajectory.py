@@ -147,6 +147,7 @@ class Replay:
     damage: SegmentDamage | None = None  # per-segment damage of the cycle (recorded with states)
     fatigue: FatigueLife | None = None  # per-segment fatigue life, the cycle repeated
     qpos: np.ndarray | None = None  # (N, nq) the simulator's positions at each sample: renders without re-simulating
+    given_up: bool = False  # ended by replay's ``give_up`` before the trajectory's end
 
     def integrated_cost(self) -> float:
         """Integral of C over the cycle [cost x s] (trapezoid over the samples)."""
@@ -176,15 +177,21 @@ class Replay:
 def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_every: float = 0.05,
            speed_fraction: float | None = None, cost_variant: str = "thesis", start_state=None,
            until: float | None = None, record_states: bool = True, record_qpos: bool = False,
-           on_sample=None) -> Replay:
+           on_sample=None, give_up=None) -> Replay:
     """Run ``traj`` in the simulator from a settled start (``start_state`` or a fresh reset at its first
     waypoint) and record the measures every ``record_every`` s and after settling at every stop.
     With ``until`` the replay stops at that motion time and leaves ``sim`` in that state (to render it).
     With ``record_states`` every sample also records each segment's state, from which the replay's per-segment
     damage and fatigue life are computed (the trajectory taken as one period of a repeated station cycle).
-    With ``record_qpos`` every sample also keeps the simulator's positions (``Replay.qpos``), enough to draw it."""
+    With ``record_qpos`` every sample also keeps the simulator's positions (``Replay.qpos``), enough to draw it.
+    With ``give_up`` (``give_up(time, wear_cost) -> bool``, called with every sample in order: the start's, each
+    motion sample's and each stop's after its settle) the replay ends at the first sample it answers true: the
+    Replay then holds the samples up to that one, ``given_up`` set (a caller that only needs to know whether the
+    cycle costs more than some bound stops simulating once that is certain)."""
     cost_fn = cost_function(cost_variant)
     station = sim.station
+    cfg = station.config.wear_cost
+    stop_if = None if give_up is None else (lambda t, m: give_up(t, cost_fn(m, cfg)))
     q_all = station.home.copy()
 
     def full(q):
@@ -214,9 +221,12 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     stops = set(traj.stops)
     stop_times = []
     unconverged = 0
+    given_up = stop_if is not None and stop_if(0.0, measures0)
     for i, q in enumerate(traj.waypoints[1:], start=1):
+        if given_up:
+            break
         trace = sim.move_to(full(q), speed_fraction=speed_fraction, settle=i in stops, record_every=record_every,
-                            until=until, record_states=record_states,
+                            until=until, record_states=record_states, stop_if=stop_if,
                             on_sample=sampled if record_qpos or on_sample is not None else None)
         samples_t += trace.time
         if record_qpos:  # a move of no length records one sample without calling back
@@ -224,7 +234,8 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
         samples_q += [x[robot] for x in trace.q]
         samples_m += trace.measures
         samples_s += [x[robot] for x in trace.states]
-        if until is not None and sim.motion_time >= until:
+        given_up = trace.stopped
+        if given_up or until is not None and sim.motion_time >= until:
             break
         if i in stops:
             unconverged += int(sim.last_settle is not None and not sim.last_settle.converged)
@@ -237,7 +248,7 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
                 samples_x.append(sim.data.qpos.copy())
             if record_states:
                 samples_s.append(stop_states[robot])
-    cfg = station.config.wear_cost
+            given_up = stop_if is not None and stop_if(sim.motion_time, stop_measures)
     costs = [cost_fn(m, cfg) for m in samples_m]
     measures = {
         "curvature": np.array([m.max_curvature for m in samples_m]),
@@ -257,7 +268,7 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     return Replay(np.array(samples_t), np.array(samples_q), measures, np.array([c.total for c in costs]), terms,
                   stop_times, sim.motion_time,
                   {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance}, unconverged, damage, life,
-                  np.array(samples_x) if record_qpos else None)
+                  np.array(samples_x) if record_qpos else None, given_up)
 
 
 # [rad] joint changes below this do not count as a direction (numerical noise of a planner's waypoints)
