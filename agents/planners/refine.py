@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -144,11 +145,14 @@ def _candidates_or_none(routes, leg: np.ndarray, rng: np.random.Generator, allow
         return []
 
 
-def route_cost(cost: LegCost, state: np.ndarray, legs: list[np.ndarray]) -> float:
-    """The legs' total leg cost, each from the cable state the one before it left (``state``: the first's)."""
+def route_cost(cost: LegCost, state: np.ndarray, legs: list[np.ndarray], bound: float = math.inf) -> float:
+    """The legs' total leg cost, each from the cable state the one before it left (``state``: the first's); inf
+    where it certainly exceeds ``bound`` (each leg's query bounded by what the legs before it left of it)."""
     total = 0.0
     for leg in legs:
-        j, state, _ = cost.cost(state, leg)
+        j, state, _ = cost.cost(state, leg, bound - total)
+        if not math.isfinite(j):
+            return math.inf
         total += j
     return total
 
@@ -180,9 +184,9 @@ def refine_legs(refiner: LocalRefiner, state: np.ndarray, legs: list[np.ndarray]
     cost, out, summaries, used, after, rerouted = refiner.cost, [], [], 0, 0.0, []
     before = route_cost(cost, state, legs)
 
-    def with_rest(leg, k):  # the leg's cost and the given later legs' after it
-        j, end, _ = cost.cost(state, leg)
-        return j + route_cost(cost, end, legs[k + 1:])
+    def with_rest(leg, k, bound=math.inf):  # the leg's cost and the given later legs' after it (inf: above bound)
+        j, end, _ = cost.cost(state, leg, bound)
+        return j + route_cost(cost, end, legs[k + 1:], bound - j) if math.isfinite(j) else math.inf
 
     for k, leg in enumerate(legs):
         start, v_start = leg, with_rest(leg, k)
@@ -190,13 +194,13 @@ def refine_legs(refiner: LocalRefiner, state: np.ndarray, legs: list[np.ndarray]
             j_given = cost.cost(state, leg)[0]
             for cand in _candidates_or_none(routes, leg, rng, allowance):
                 # only a candidate cheaper than the found leg on its own is worth simulating the legs after it
-                if cost.cost(state, cand, j_given)[0] < j_given and (v := with_rest(cand, k)) < v_start:
+                if cost.cost(state, cand, j_given)[0] < j_given and (v := with_rest(cand, k, v_start)) < v_start:
                     start, v_start = cand, v
         q0 = cost.queries
         best = refiner.improve(state, start, leg_share(queries, used, len(legs) - k), rng, allowance) if queries \
             else start
         used += cost.queries - q0
-        if with_rest(best, k) > v_start:
+        if with_rest(best, k, v_start) > v_start:
             best = start
         j, state, summary = cost.cost(state, best)  # cached: no simulation
         out.append(best)

@@ -20,12 +20,17 @@ HOME_LEG = np.array([[1.0] + [0.0] * 5, [2.0] + [0.0] * 5])
 
 
 class FakeCost:
-    """A leg cost with the interface refine_legs uses: cost(state, leg) -> (J, end state, summary); counts queries."""
+    """A leg cost with the interface refine_legs uses: cost(state, leg, bound) -> (J, end state, summary), or
+    (inf, None, None) where J exceeds the bound; counts queries."""
 
     def __init__(self):
         self.queries = 0
 
-    def cost(self, state, leg):
+    def cost(self, state, leg, bound=float("inf")):
+        j, end, summary = self._cost(state, leg)
+        return (j, end, summary) if j <= bound else (float("inf"), None, None)
+
+    def _cost(self, state, leg):
         self.queries += 1
         s = float(state[0])
         if leg[-1][0] == 2.0:  # the leg home
@@ -126,7 +131,7 @@ class _DistanceCost:
     def __init__(self):
         self.queries = 0
 
-    def cost(self, state, leg):
+    def cost(self, state, leg, bound=None):  # J itself above the bound too: what a bound saves is only time
         self.queries += 1
         return -float(np.abs(np.diff(leg, axis=0)).sum()), state, {"unconverged_stops": 0}
 
@@ -172,7 +177,7 @@ class _TravelCost:
     def __init__(self, detours=False):
         self.queries, self.sign = 0, -1.0 if detours else 1.0
 
-    def cost(self, state, leg):
+    def cost(self, state, leg, bound=None):
         self.queries += 1
         return self.sign * float(np.abs(np.diff(leg, axis=0)).sum()), state, {"unconverged_stops": 0}
 
