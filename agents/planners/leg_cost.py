@@ -11,7 +11,6 @@ from dresspack_gym.errors import ConfigError
 from dresspack_gym.physics.simulation import CableSimulator
 from dresspack_gym.physics.trajectory import Trajectory, replay
 from dresspack_gym.physics.wear_cost import WearCost, cost_function
-from dresspack_gym.robots.time_law import SegmentMotion
 from dresspack_gym.stations.station import Station
 
 # Largest cost of one second of cycle time against one unit of ∫C dt: a second then outweighs a leg's whole
@@ -64,6 +63,9 @@ class LegCost:
         cost_function(cost_variant)  # a bad name fails here, naming the field, not in the first replay
         self.cost_variant = cost_variant
         self.record_every = record_every
+        # the time law the replay moves the robot by (the simulator's, at the station's programmed speed)
+        self._limits = station.config.robots[robot].robot.joint_motion_limits.at_speed(
+            station.config.simulation.speed_fraction)
         self.evaluations = 0  # cable simulations run
         self.given_up = 0  # of them, simulations ended once the leg certainly cost more than its query's bound
         self.queries = 0  # cost() calls, cached or not: the refiners' work unit (independent of the cache)
@@ -111,14 +113,9 @@ class LegCost:
         grow with the samples)."""
         if not math.isfinite(bound) or self.wear_weight < 0:
             return None
-        # the replay's motion time: each segment's steps cover its duration (SegmentMotion.on_steps, which may
-        # fall short of it by 1e-9 steps); no robot but this one moves
-        limits = self.sim.motion_limits()
-        delta = np.zeros(self.sim.q.shape)
-        motion = 0.0
-        for a, b in zip(traj.waypoints[:-1], traj.waypoints[1:]):
-            delta[self.robot] = b - a
-            motion += SegmentMotion(delta, limits).duration
+        # the replay's motion time: each segment's whole steps cover its duration (SegmentMotion.on_steps, which
+        # may fall short of it by 1e-9 steps; the batched durations match it to 1e-12)
+        motion = float(traj.segment_durations(self._limits).sum())
         floor = self.time_weight * max(0.0, motion - 1e-6 * len(traj.waypoints))
         return _LowerBound(floor, self.wear_weight, self.tension_peak_time, bound)
 
