@@ -1,0 +1,171 @@
+"""One implicit step of a rod (or its static equilibrium) by projected Newton on the incremental potential.
+
+The step minimises elastic + gravity energy + m/(2 h^2)|x - x0 - h v0|^2 (inertia) + c m/(2 h)|x - x0|^2 (drag):
+implicit Euler's update as an energy, so every accepted iterate lowers it and the step cannot blow up. A static
+solve drops both terms (h = inf). The Hessian is the exact one while it factors; where it is not positive definite
+(a compressed edge, a sharp bend, a span twisted past buckling) the iteration uses its Gauss-Newton part, which is.
+The reference frames are re-based on every iterate, so the gradient and Hessian of the twist are exact there.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .band import cholesky, pin, solve_low_rank
+from .elastic import KD, elastic
+from .frames import transport_frames, unit_tangents
+
+# Armijo's sufficient-decrease fraction and the energy's round-off allowance relative to its size.
+ARMIJO = 1e-4
+ROUNDOFF = 1e-13
+MAX_HALVINGS = 40
+# Below this decrease (relative to the energy) Newton's step is taken without the energy test.
+TRUST_MODEL = 1e-11
+
+
+@njit(cache=True)
+def _held_coords(held):
+    out = np.empty(3 * held.shape[0], dtype=np.int64)
+    for j in range(held.shape[0]):
+        for a in range(3):
+            out[3 * j + a] = 3 * held[j] + a
+    return out
+
+
+@njit(cache=True)
+def total_energy(x, ref_base, t_base, x_hat, x0, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag,
+                 span_edges, span_dirs, span_len):
+    """The incremental potential at ``x``, frames carried from the base iterate (line-search evaluations)."""
+    t, lengths = unit_tangents(x)
+    for e in range(lengths.shape[0]):
+        if not lengths[e] > 0.0:
+            return np.inf
+    ref = transport_frames(ref_base, t_base, t)
+    dummy_g = np.zeros((1, 3))
+    dummy_b = np.zeros((1, 1))
+    dummy_d = np.zeros((1, 1, 3))
+    energy, _ = elastic(x, ref, t, lengths, rest, voronoi, ea, ei, gj, span_edges, span_dirs, span_len,
+                        False, True, dummy_g, dummy_b, dummy_d)
+    for v in range(x.shape[0]):
+        for a in range(3):
+            energy -= mass[v] * gravity[a] * x[v, a]
+            energy += 0.5 * mass[v] * (inertia * (x[v, a] - x_hat[v, a]) ** 2 + drag * (x[v, a] - x0[v, a]) ** 2)
+    return energy
+
+
+@njit(cache=True)
+def assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag, x_hat, x0,
+             span_edges, span_dirs, span_len, exact):
+    """Energy, gradient (n+1, 3), lower band Hessian, span twists and the twist rank-one vectors at ``x``."""
+    n1 = x.shape[0]
+    t, lengths = unit_tangents(x)
+    grad = np.zeros((n1, 3))
+    band = np.zeros((KD + 1, 3 * n1))
+    dirs = np.zeros((span_edges.shape[0], n1, 3))
+    energy, tau = elastic(x, ref, t, lengths, rest, voronoi, ea, ei, gj, span_edges, span_dirs, span_len,
+                          True, exact, grad, band, dirs)
+    for v in range(n1):
+        diag = mass[v] * (inertia + drag)
+        for a in range(3):
+            energy -= mass[v] * gravity[a] * x[v, a]
+            energy += 0.5 * mass[v] * (inertia * (x[v, a] - x_hat[v, a]) ** 2 + drag * (x[v, a] - x0[v, a]) ** 2)
+            grad[v, a] += -mass[v] * gravity[a] + mass[v] * (inertia * (x[v, a] - x_hat[v, a])
+                                                               + drag * (x[v, a] - x0[v, a]))
+            band[0, 3 * v + a] += diag
+    return energy, grad, band, tau, dirs, t
+
+
+@njit(cache=True)
+def static_gradient(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, span_edges, span_dirs, span_len):
+    """Gradient of elastic + gravity energy alone: minus the net static force on every vertex."""
+    zero = np.zeros_like(x)
+    _, grad, _, _, _, _ = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, 0.0, 0.0, zero, zero,
+                                   span_edges, span_dirs, span_len, False)
+    return grad
+
+
+@njit(cache=True)
+def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass, ea, ei, gj, gravity, h, damping,
+                span_edges, span_dirs, span_len, force_scale, tolerance, max_iterations):
+    """Minimise the incremental potential from ``x_start`` (frames ``ref_start`` on its tangents).
+
+    ``held`` vertex indices sit at ``held_pos``; ``h`` the step [s] (inf: static equilibrium), ``damping`` the drag
+    rate [1/s]. Converged when every free vertex's net force (including inertia and drag) is below
+    ``tolerance`` times ``force_scale[v]`` (its weight). Returns (x, ref, iterations, residual, converged, tau).
+    """
+    n1 = x_start.shape[0]
+    inertia = 0.0 if math.isinf(h) else 1.0 / (h * h)
+    drag = 0.0 if math.isinf(h) else damping / h
+    x_hat = x0.copy() if math.isinf(h) else x0 + h * v0
+    x = x_start.copy()
+    for j in range(held.shape[0]):
+        x[held[j]] = held_pos[j]
+    t_now, _ = unit_tangents(x)
+    t_start, _ = unit_tangents(x_start)
+    ref = transport_frames(ref_start, t_start, t_now)
+    coords = _held_coords(held)
+    free = np.ones(n1, dtype=np.bool_)
+    for j in range(held.shape[0]):
+        free[held[j]] = False
+    residual = np.inf
+    tau = np.zeros(span_edges.shape[0])
+    iterations = 0
+    converged = False
+    for it in range(max_iterations + 1):
+        energy, grad, band, tau, dirs, t_now = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia,
+                                                        drag, x_hat, x0, span_edges, span_dirs, span_len, True)
+        residual = 0.0
+        for v in range(n1):
+            if free[v]:
+                f = math.sqrt(grad[v, 0] ** 2 + grad[v, 1] ** 2 + grad[v, 2] ** 2) / force_scale[v]
+                residual = max(residual, f)
+        if residual < tolerance:
+            converged = True
+            break
+        if it == max_iterations:
+            break
+        iterations += 1
+        g = grad.ravel().copy()
+        g[coords] = 0.0
+        weights = gj / span_len
+        vectors = dirs.reshape(span_edges.shape[0], 3 * n1).copy()
+        for s in range(span_edges.shape[0]):
+            vectors[s, coords] = 0.0
+        factor = band.copy()
+        pin(factor, coords)
+        if not cholesky(factor):
+            _, _, factor, _, _, _ = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag,
+                                             x_hat, x0, span_edges, span_dirs, span_len, False)
+            pin(factor, coords)
+            shift = 0.0
+            while not cholesky(factor):  # Gauss-Newton is PSD; a zero-gravity static rod may still be singular
+                shift = 1e-9 if shift == 0.0 else shift * 10.0
+                _, _, factor, _, _, _ = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag,
+                                                 x_hat, x0, span_edges, span_dirs, span_len, False)
+                for c in range(3 * n1):
+                    factor[0, c] += shift * max(1.0, abs(factor[0, c]))
+                pin(factor, coords)
+        step = -solve_low_rank(factor, weights, vectors, g)
+        dx = step.reshape(n1, 3)
+        slope = g @ step
+        alpha = 1.0
+        # a decrease the energy's round-off cannot resolve: the quadratic model is exact enough there, take the step
+        accepted = -slope <= TRUST_MODEL * abs(energy)
+        trial = x + dx
+        for _ in range(0 if accepted else MAX_HALVINGS):
+            trial = x + alpha * dx
+            e_trial = total_energy(trial, ref, t_now, x_hat, x0, rest, voronoi, mass, ea, ei, gj, gravity, inertia,
+                                   drag, span_edges, span_dirs, span_len)
+            if e_trial <= energy + ARMIJO * alpha * slope + ROUNDOFF * abs(energy):
+                accepted = True
+                break
+            alpha *= 0.5
+        if not accepted:
+            break
+        t_trial, _ = unit_tangents(trial)
+        ref = transport_frames(ref, t_now, t_trial)
+        x = trial
+    return x, ref, iterations, residual, converged, tau

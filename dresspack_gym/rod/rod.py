@@ -1,0 +1,139 @@
+"""A rod's state (positions, velocities, reference frames) advanced by implicit steps or solved for rest."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ConfigError
+from .elastic import span_twists
+from .frames import transport, transport_frames, unit_tangents
+from .model import RodModel
+from .newton import newton_step, static_gradient
+
+# Newton iterations allowed per solve before it is reported unconverged (a warm-started step takes 2-5).
+MAX_ITERATIONS = 100
+# Residual scale: a vertex's weight at g, or at 1 m/s^2 when g is smaller (a weightless rod still needs a scale).
+MIN_GRAVITY = 1.0
+
+
+@dataclass(frozen=True)
+class SolveResult:
+    """How a solve ended: Newton ``iterations``, the largest net force on a free vertex over its weight
+    (``residual``, including inertia and drag in a motion step) and whether it is below the tolerance."""
+
+    iterations: int
+    residual: float
+    converged: bool
+
+
+def initial_frames(points: np.ndarray, first_director: np.ndarray | None = None) -> np.ndarray:
+    """Reference directors on every edge of ``points``: ``first_director`` (or any normal) on the first edge,
+    transported in space along the cable, so the frames carry no twist of their own."""
+    t, _ = unit_tangents(np.ascontiguousarray(points, dtype=float))
+    d = np.cross(t[0], [0.0, 0.0, 1.0]) if first_director is None else np.asarray(first_director, dtype=float)
+    if np.linalg.norm(d - (d @ t[0]) * t[0]) < 1e-9:
+        d = np.cross(t[0], [0.0, 1.0, 0.0])
+    d = d - (d @ t[0]) * t[0]
+    frames = np.empty_like(t)
+    frames[0] = d / np.linalg.norm(d)
+    for e in range(1, len(t)):
+        frames[e] = transport(frames[e - 1], t[e - 1], t[e])
+    return frames
+
+
+class Rod:
+    """One rod: ``model`` plus its state; the held vertices follow what :meth:`step` / :meth:`solve_rest` are given."""
+
+    def __init__(self, model: RodModel, points, *, frames: np.ndarray | None = None,
+                 clamp_directors: np.ndarray | None = None):
+        x = np.ascontiguousarray(points, dtype=float)
+        if x.shape != (model.segments + 1, 3) or not np.isfinite(x).all():
+            raise ConfigError("points", f"expected finite positions of shape ({model.segments + 1}, 3), got {x.shape}")
+        self.model = model
+        self.x = x.copy()
+        self.v = np.zeros_like(x)
+        self.ref = initial_frames(x) if frames is None else np.ascontiguousarray(frames, dtype=float).copy()
+        n_spans = len(model.spans)
+        self.clamp_directors = (np.zeros((n_spans, 2, 3)) if clamp_directors is None
+                                else np.ascontiguousarray(clamp_directors, dtype=float).copy())
+        self._rest = model.rest_lengths
+        self._voronoi = model.voronoi_lengths
+        self._mass = model.masses
+        g = np.asarray(model.gravity, dtype=float)
+        self._gravity = g
+        self._force_scale = self._mass * max(float(np.linalg.norm(g)), MIN_GRAVITY)
+        self._held = model.held_array
+        self._span_edges = model.span_edges
+        self._span_len = model.span_lengths
+
+    # ------------------------------------------------------------------ solves
+    def step(self, held_pos, h: float, *, clamp_directors=None, tolerance: float = 1e-3) -> SolveResult:
+        """One implicit Euler step of ``h`` seconds with the held vertices moved to ``held_pos``."""
+        if not h > 0:
+            raise ConfigError("h", f"the step must be positive seconds, got {h}")
+        start = self.x + h * self.v  # the inertial prediction: where the cable would go with no force
+        x_new, ref, result = self._solve(start, held_pos, h, clamp_directors, tolerance)
+        self.v = (x_new - self.x) / h
+        self.x, self.ref = x_new, ref
+        return result
+
+    def solve_rest(self, held_pos=None, *, clamp_directors=None, tolerance: float = 1e-4) -> SolveResult:
+        """Static equilibrium from the current shape with the held vertices at ``held_pos`` (default: where they
+        are): the rod at rest, velocities zeroed."""
+        held_pos = self.x[self._held] if held_pos is None else held_pos
+        x_new, ref, result = self._solve(self.x, held_pos, math.inf, clamp_directors, tolerance)
+        self.x, self.ref = x_new, ref
+        self.v[:] = 0.0
+        return result
+
+    def _solve(self, start, held_pos, h, clamp_directors, tolerance):
+        held_pos = np.ascontiguousarray(held_pos, dtype=float).reshape(len(self._held), 3)
+        if clamp_directors is not None:
+            self.clamp_directors = np.ascontiguousarray(clamp_directors, dtype=float).reshape(-1, 2, 3)
+        m = self.model
+        start = np.ascontiguousarray(start)
+        # the frames live on the current shape's tangents; carry them to the start's before the solve
+        t_now, _ = unit_tangents(self.x)
+        t_start, _ = unit_tangents(start)
+        ref = transport_frames(self.ref, t_now, t_start)
+        x, ref, iterations, residual, converged, _ = newton_step(
+            start, ref, self.x, self.v, self._held, held_pos, self._rest, self._voronoi, self._mass,
+            m.tensile_stiffness, m.bending_stiffness, m.torsional_stiffness, self._gravity, h, m.damping,
+            self._span_edges, self.clamp_directors, self._span_len, self._force_scale, tolerance, MAX_ITERATIONS)
+        return x, ref, SolveResult(int(iterations), float(residual), bool(converged))
+
+    # ------------------------------------------------------------------ queries
+    def static_forces(self) -> np.ndarray:
+        """Net static force on every vertex (elastic + gravity), (n+1, 3) [N]: zero on a free vertex at rest; on
+        a held vertex, minus the force its holder applies."""
+        m = self.model
+        grad = static_gradient(self.x, self.ref, self._rest, self._voronoi, self._mass, m.tensile_stiffness,
+                               m.bending_stiffness, m.torsional_stiffness, self._gravity, self._span_edges,
+                               self.clamp_directors, self._span_len)
+        return -grad
+
+    def equilibrium_residual(self) -> float:
+        """The largest net static force on a free vertex over its weight."""
+        f = np.linalg.norm(self.static_forces(), axis=1) / self._force_scale
+        f[self._held] = 0.0
+        return float(f.max())
+
+    def tensions(self) -> np.ndarray:
+        """Axial force of every edge [N], EA times its strain (positive in tension)."""
+        lengths = np.linalg.norm(np.diff(self.x, axis=0), axis=1)
+        return self.model.tensile_stiffness * (lengths / self._rest - 1.0)
+
+    def twists(self) -> np.ndarray:
+        """Total twist [rad] of every clamped span."""
+        t, _ = unit_tangents(self.x)
+        return span_twists(self.x, self.ref, t, self._span_edges, self.clamp_directors)
+
+    def twist_rates(self) -> np.ndarray:
+        """Twist per unit length [rad/m] of every clamped span (uniform along it)."""
+        return self.twists() / self._span_len
+
+    def kinetic_energy(self) -> float:
+        return 0.5 * float(self._mass @ (self.v * self.v).sum(axis=1))
