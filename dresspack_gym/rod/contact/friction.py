@@ -1,0 +1,153 @@
+"""Smoothed Coulomb friction lagged as in IPC: the contact set at the solve's start, then a potential on the
+tangential displacement of each contact point relative to the primitive's material point."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .assembly import add_edge_block, add_edge_gradient
+from .barrier import barrier_d1
+from .primitives import bounding_radii
+from .segment import lower_bound, segment_gap
+
+
+@njit(cache=True)
+def f0(y, eps):
+    """IPC's mollifier: -y^3/(3 eps^2) + y^2/eps + eps/3 below eps, y beyond (C2 at eps; f0(0) = eps/3, a constant
+    that no force sees) [m]."""
+    if y >= eps:
+        return y
+    return -y * y * y / (3.0 * eps * eps) + y * y / eps + eps / 3.0
+
+
+@njit(cache=True)
+def f1(y, eps):
+    """f0' = 2 y/eps - (y/eps)^2 below eps, 1 beyond: the friction force over mu lam."""
+    if y >= eps:
+        return 1.0
+    s = y / eps
+    return 2.0 * s - s * s
+
+
+@njit(cache=True)
+def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat, kappa):
+    """The lagged contact set: the enabled pairs with 0 < d < dhat at x_prev against the primitives' previous poses.
+
+    Returns (edge (m,) int64, t (m,), normal (m, 3), lam (m,) [N], anchor (m, 3)): per pair the edge, its contact
+    parameter t*, the normal, the normal force lam = -kappa b'(d) and the anchor p(t*; x_prev) + (the displacement of
+    the primitive's material point at the contact from the previous pose to (pos, rot)), so that the tangential
+    relative displacement at x is u = (I - n n^T)(p(t*; x) - anchor).
+    """
+    n_e = x_prev.shape[0] - 1
+    k = kind.shape[0]
+    bound = bounding_radii(kind, size)
+    edge = np.empty(n_e * k, np.int64)
+    tpar = np.empty(n_e * k)
+    normal = np.empty((n_e * k, 3))
+    lam = np.empty(n_e * k)
+    anchor = np.empty((n_e * k, 3))
+    p = np.empty(3)
+    n = np.empty(3)
+    h = np.empty((3, 3))
+    s = np.empty(3)
+    local = np.empty(3)
+    m = 0
+    for i in range(n_e):
+        for j in range(k):
+            if not mask[i, j] or lower_bound(x_prev[i], x_prev[i + 1], r, pos_prev[j], bound[j]) >= dhat:
+                continue
+            d, t = segment_gap(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j], p, n, h)
+            if not 0.0 < d < dhat:
+                continue
+            # the primitive's surface point under the contact, carried rigidly to the current pose
+            for k in range(3):
+                s[k] = p[k] - (d + r) * n[k]
+            for k in range(3):
+                local[k] = 0.0
+                for l in range(3):
+                    local[k] += rot_prev[j, l, k] * (s[l] - pos_prev[j, l])
+            for k in range(3):
+                moved = pos[j, k] + rot[j, k, 0] * local[0] + rot[j, k, 1] * local[1] + rot[j, k, 2] * local[2]
+                anchor[m, k] = p[k] + moved - s[k]
+                normal[m, k] = n[k]
+            edge[m] = i
+            tpar[m] = t
+            lam[m] = -kappa * barrier_d1(d, dhat)
+            m += 1
+    return edge[:m].copy(), tpar[:m].copy(), normal[:m].copy(), lam[:m].copy(), anchor[:m].copy()
+
+
+@njit(cache=True)
+def _tangential(x, i, t, nrm, anchor, u):
+    """u = (I - n n^T)(p(t; x) - anchor); returns |u|."""
+    for k in range(3):
+        u[k] = (1.0 - t) * x[i, k] + t * x[i + 1, k] - anchor[k]
+    un = u[0] * nrm[0] + u[1] * nrm[1] + u[2] * nrm[2]
+    for k in range(3):
+        u[k] -= un * nrm[k]
+    return math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+
+
+@njit(cache=True)
+def _f1_over_y(y, eps):
+    return 2.0 / eps - y / (eps * eps) if y < eps else 1.0 / y
+
+
+@njit(cache=True)
+def friction_accumulate(x, edge, t, normal, lam, anchor, mu, eps, g, band):
+    """Friction potential sum mu lam f0(|u|) [J] over the lagged set (see :func:`friction_lag`); adds its gradient to
+    g and its Hessian blocks to the lower band matrix (as barrier_accumulate). eps [m]: the tangential displacement
+    below which friction is smoothed (IPC's eps_v h).
+
+    The blocks are PSD without projection: in the point, H = mu lam (f1/y P_T + (f1' - f1/y) u u^T / y^2) has the
+    eigenvalues mu lam f1/y (tangent, across u), mu lam f1' (along u) and 0 (normal), all >= 0 for this f0.
+    """
+    u = np.empty(3)
+    gp = np.empty(3)
+    hp = np.empty((3, 3))
+    energy = 0.0
+    for c in range(edge.shape[0]):
+        i = edge[c]
+        y = _tangential(x, i, t[c], normal[c], anchor[c], u)
+        s = mu * lam[c]
+        energy += s * f0(y, eps)
+        a = s * _f1_over_y(y, eps)
+        # (f1' - f1/y)/y^2: -1/(eps^2 y) below eps, -1/y^3 beyond; times u u^T it stays bounded as y -> 0
+        b = -s / (eps * eps * y) if y < eps else -s / (y * y * y)
+        if y == 0.0:
+            b = 0.0
+        nrm = normal[c]
+        for k in range(3):
+            gp[k] = a * u[k]
+        for k in range(3):
+            for l in range(3):
+                delta = 1.0 if k == l else 0.0
+                hp[k, l] = a * (delta - nrm[k] * nrm[l]) + b * u[k] * u[l]
+        add_edge_gradient(g, i, t[c], gp)
+        add_edge_block(band, i, t[c], hp)
+    return energy
+
+
+@njit(cache=True)
+def friction_energy(x, edge, t, normal, lam, anchor, mu, eps):
+    """The energy of :func:`friction_accumulate` alone (for the line search)."""
+    u = np.empty(3)
+    energy = 0.0
+    for c in range(edge.shape[0]):
+        y = _tangential(x, edge[c], t[c], normal[c], anchor[c], u)
+        energy += mu * lam[c] * f0(y, eps)
+    return energy
+
+
+@njit(cache=True)
+def friction_force(x, edge, t, normal, lam, anchor, mu, eps):
+    """Per lagged pair the friction force magnitude mu lam f1(|u|) [N] at x."""
+    u = np.empty(3)
+    out = np.empty(edge.shape[0])
+    for c in range(edge.shape[0]):
+        y = _tangential(x, edge[c], t[c], normal[c], anchor[c], u)
+        out[c] = mu * lam[c] * f1(y, eps)
+    return out

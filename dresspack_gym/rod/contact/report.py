@@ -1,0 +1,50 @@
+"""Contact forces per vertex and clearances per edge, for the cable's measures and damage model."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .barrier import barrier_d1
+from .friction import friction_force, friction_lag
+from .primitives import bounding_radii
+from .segment import lower_bound, segment_gap
+
+
+@njit(cache=True)
+def contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev, mask, dhat, kappa, mu, eps, cap=10.0):
+    """Per vertex the normal and friction force magnitudes [N], per edge the smallest gap [m] and nearest primitive.
+
+    The normal force of a pair, -kappa b'(d) at x, and its friction force mu lam f1(|u|) (the contact set lagged
+    from x_prev and the primitives' previous poses, as in the solve) go to the edge's vertices by weights 1 - t*
+    and t*; a vertex sums the magnitudes of its pairs. Gaps are exact below cap; an edge with no enabled primitive
+    nearer than cap reports gap cap and index -1. A penetrating pair reports an infinite normal force.
+    Returns (normal (n+1,), friction (n+1,), gap (n,), nearest (n,) int64).
+    """
+    n_v = x.shape[0]
+    bound = bounding_radii(kind, size)
+    normal = np.zeros(n_v)
+    fric = np.zeros(n_v)
+    gap = np.full(n_v - 1, cap)
+    nearest = np.full(n_v - 1, -1, np.int64)
+    p = np.empty(3)
+    n = np.empty(3)
+    h = np.empty((3, 3))
+    for i in range(n_v - 1):
+        for j in range(kind.shape[0]):
+            if not mask[i, j] or lower_bound(x[i], x[i + 1], r, pos[j], bound[j]) >= max(gap[i], dhat):
+                continue  # neither nearer than the best so far (nor cap) nor pushing
+            d, t = segment_gap(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], p, n, h)
+            if d < gap[i]:
+                gap[i] = d
+                nearest[i] = j
+            if d < dhat:
+                f = -kappa * barrier_d1(d, dhat) if d > 0.0 else np.inf
+                normal[i] += (1.0 - t) * f
+                normal[i + 1] += t * f
+    edge, tpar, nrm, lam, anchor = friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat, kappa)
+    force = friction_force(x, edge, tpar, nrm, lam, anchor, mu, eps)
+    for c in range(edge.shape[0]):
+        fric[edge[c]] += (1.0 - tpar[c]) * force[c]
+        fric[edge[c] + 1] += tpar[c] * force[c]
+    return normal, fric, gap, nearest

@@ -1,0 +1,130 @@
+"""Gap between a capsule edge of the cable and a primitive: the closest parameter t* on the edge, then the point."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .primitives import CAPSULE, PLANE, SPHERE, dot3, point_distance
+
+LINE_ITERS = 64  # bound on the 1-D search (each halves the bracket at worst: 2^-64 of the edge, far below rounding)
+
+
+@njit(cache=True)
+def _clamp01(v):
+    return min(max(v, 0.0), 1.0)
+
+
+@njit(cache=True)
+def _segment_segment(a, b, c0, c1):
+    """Parameter on [a, b] of a closest pair between segments [a, b] and [c0, c1] (Ericson, RTCD 5.1.9)."""
+    d1 = b - a
+    d2 = c1 - c0
+    rr = a - c0
+    aa = dot3(d1, d1)
+    ee = dot3(d2, d2)
+    ff = dot3(d2, rr)
+    if aa <= 1e-300:
+        return 0.0
+    c = dot3(d1, rr)
+    if ee <= 1e-300:
+        return _clamp01(-c / aa)
+    bb = dot3(d1, d2)
+    denom = aa * ee - bb * bb
+    s = _clamp01((bb * ff - c * ee) / denom) if denom > 0.0 else 0.0  # parallel: any s is a closest one
+    t = (bb * s + ff) / ee
+    if t < 0.0:
+        s = _clamp01(-c / aa)
+    elif t > 1.0:
+        s = _clamp01((bb - c) / aa)
+    return s
+
+
+@njit(cache=True)
+def _convex_line_min(a, e, kind, pos, rot, size, p, n, h):
+    """Minimiser on [0, 1] of f(t) = dist(a + t e): f is convex (a convex set's signed distance is convex along a
+    line), so a bracket on the sign of f' = n.e with safeguarded Newton steps (f'' = e^T H e) converges."""
+
+    def slope(t):
+        for k in range(3):
+            p[k] = a[k] + t * e[k]
+        point_distance(kind, pos, rot, size, p, n, h)
+        curv = 0.0
+        for k in range(3):
+            curv += e[k] * (h[k, 0] * e[0] + h[k, 1] * e[1] + h[k, 2] * e[2])
+        return dot3(n, e), curv
+
+    g0, _ = slope(0.0)
+    if g0 >= 0.0:
+        return 0.0
+    g1, _ = slope(1.0)
+    if g1 <= 0.0:
+        return 1.0
+    lo, hi = 0.0, 1.0
+    t = g0 / (g0 - g1)  # the zero of f' interpolated linearly
+    for _ in range(LINE_ITERS):
+        g, curv = slope(t)
+        if g > 0.0:
+            hi = t
+        elif g < 0.0:
+            lo = t
+        else:
+            return t
+        if hi - lo <= 1e-13:
+            break
+        step = -g / curv if curv > 0.0 else np.inf
+        if abs(step) <= 1e-13:
+            return min(max(t + step, lo), hi)
+        t_new = t + step
+        t = t_new if lo < t_new < hi else 0.5 * (lo + hi)
+    return 0.5 * (lo + hi)
+
+
+@njit(cache=True)
+def segment_closest(a, b, kind, pos, rot, size, p, n, h):
+    """Parameter t* in [0, 1] of the point of edge [a, b] nearest to the primitive (p, n, h: scratch (3,), (3,),
+    (3, 3)). Closed forms for plane, sphere and capsule; a convex 1-D search for box and cylinder."""
+    if kind == PLANE:
+        nz0, nz1, nz2 = rot[0, 2], rot[1, 2], rot[2, 2]
+        da = (a[0] - pos[0]) * nz0 + (a[1] - pos[1]) * nz1 + (a[2] - pos[2]) * nz2
+        db = (b[0] - pos[0]) * nz0 + (b[1] - pos[1]) * nz1 + (b[2] - pos[2]) * nz2
+        return 0.0 if da <= db else 1.0  # linear along the edge: an end (the first one on a tie)
+    e = b - a
+    if kind == SPHERE:
+        ee = dot3(e, e)
+        return _clamp01(dot3(pos - a, e) / ee) if ee > 1e-300 else 0.0
+    if kind == CAPSULE:
+        axis = np.empty(3)
+        for k in range(3):
+            axis[k] = rot[k, 2] * size[1]
+        return _segment_segment(a, b, pos - axis, pos + axis)
+    return _convex_line_min(a, e, kind, pos, rot, size, p, n, h)
+
+
+@njit(cache=True)
+def segment_gap(a, b, r, kind, pos, rot, size, p, n, h):
+    """Gap d between the capsule edge [a, b] of radius r and the primitive (< 0: penetration), and t*.
+
+    On return p = (1 - t*) a + t* b, n = the distance's gradient at p (the contact normal, out of the primitive) and
+    h its Hessian at p, so that with t* held fixed dd/dx_i = (1 - t*) n, dd/dx_{i+1} = t* n (exact, by the envelope
+    theorem) and d2d/dx2 = w w^T (x) h with w = (1 - t*, t*) (t* held fixed: the true Hessian of the minimum over t
+    is smaller by a rank-one term when 0 < t* < 1).
+    """
+    t = segment_closest(a, b, kind, pos, rot, size, p, n, h)
+    for k in range(3):
+        p[k] = (1.0 - t) * a[k] + t * b[k]
+    d = point_distance(kind, pos, rot, size, p, n, h) - r
+    return d, t
+
+
+@njit(cache=True)
+def lower_bound(a, b, r, pos, bound):
+    """A lower bound of the gap from bounding balls (the edge's about its middle, the primitive's about pos)."""
+    m0 = 0.5 * (a[0] + b[0]) - pos[0]
+    m1 = 0.5 * (a[1] + b[1]) - pos[1]
+    m2 = 0.5 * (a[2] + b[2]) - pos[2]
+    e0, e1, e2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    half = 0.5 * math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    return math.sqrt(m0 * m0 + m1 * m1 + m2 * m2) - half - bound - r
