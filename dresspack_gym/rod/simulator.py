@@ -1,0 +1,163 @@
+"""The station's cables on the rod engine: robots moved by the time law, one implicit rod step per sample."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..physics.measures import ClearanceProbe, WearMeasures, vertex_curvatures
+from ..physics.simulation import Equilibrium, MotionTrace, SettleResult
+from ..robots.joint_limits import check_within_limits
+from ..robots.time_law import JointLimits, SegmentMotion
+from ..stations.station import Station
+from .rod import Rod, initial_frames
+from .station_cable import StationCable, station_cable
+
+# One implicit step per sample of this many seconds when a motion records none (the measures' sampling).
+DEFAULT_SAMPLE = 0.05
+# A motion step is solved to this fraction of a vertex's weight (inertia and drag included in the balance).
+STEP_TOLERANCE = 1e-3
+
+
+class RodSimulator:
+    """The fast engine's counterpart of :class:`~dresspack_gym.physics.simulation.CableSimulator`: the same
+    station, Home, time law and measures, each cable a :class:`Rod` stepped once per sample."""
+
+    def __init__(self, station: Station):
+        self.station = station
+        self.config = station.config.simulation
+        self.cables: list[StationCable] = [station_cable(station, i) for i in range(station.n_robots)]
+        self.probe = ClearanceProbe(station)
+        self._obstacle_data = station.data_at_home()  # the obstacles never move: their poses are read once
+        self.q = station.home.copy()
+        self.motion_time = 0.0
+        self.last_settle: SettleResult | None = None
+        self.rods: list[Rod] = []
+        self.reset()
+
+    # ------------------------------------------------------------------ state
+    def reset(self, q=None, *, settle: bool = True) -> None:
+        q = self._as_q(self.station.home if q is None else q, "q")
+        self.q = q.copy()
+        at_home = np.array_equal(q, self.station.home)
+        shapes = self.station.home_cable_shapes if at_home else self.station.initial_cable_shapes(q)
+        self.rods = []
+        for cable, shape in zip(self.cables, shapes):
+            pos, dirs = self._targets(cable, q[cable.robot])
+            rod = Rod(cable.model, shape, clamp_directors=dirs)
+            rod.ref[:] = initial_frames(shape, dirs[0, 0] if len(dirs) else None)
+            self.rods.append(rod)
+        self.motion_time = 0.0
+        self.last_settle = None
+        if settle:
+            self.settle()
+
+    def _targets(self, cable: StationCable, q_robot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return cable.targets(self.station.robots[cable.robot].kinematics.link_frames(q_robot))
+
+    # ------------------------------------------------------------------ motion
+    def motion_limits(self, speed_fraction: float | None = None) -> JointLimits:
+        frac = self.config.speed_fraction if speed_fraction is None else float(speed_fraction)
+        return JointLimits.stack(r.robot.joint_motion_limits for r in self.station.config.robots).at_speed(frac)
+
+    def move_to(self, q_target, *, speed_fraction: float | None = None, settle: bool = True,
+                record_every: float | None = None) -> MotionTrace:
+        """Move all robots along a straight joint-space segment under the time law; one implicit step of every
+        cable per sample (``record_every`` s, default 0.05 s), measures recorded at each when asked."""
+        target = self._as_q(q_target, "q_target")
+        frac = self.config.speed_fraction if speed_fraction is None else float(speed_fraction)
+        if not 0.0 < frac <= 1.0:
+            raise ConfigError("speed_fraction", f"must be in (0, 1], got {frac}")
+        sample = DEFAULT_SAMPLE if record_every is None else float(record_every)
+        start = self.q.copy()
+        delta = target - start
+        fractions, _ = SegmentMotion(delta, self.motion_limits(frac)).on_steps(sample)
+        trace = MotionTrace()
+        for k, f in enumerate(fractions, start=1):
+            q = start + f * delta
+            for cable, rod in zip(self.cables, self.rods):
+                pos, dirs = self._targets(cable, q[cable.robot])
+                rod.step(pos, sample, clamp_directors=dirs, tolerance=STEP_TOLERANCE)
+            self.q = q
+            if record_every:
+                trace.time.append(self.motion_time + k * sample)
+                trace.q.append(q.copy())
+                trace.measures.append(self.measures())
+        self.q = target.copy()
+        self.motion_time += len(fractions) * sample
+        if settle:
+            self.settle()
+        return trace
+
+    def settle(self) -> SettleResult:
+        """Every cable at rest where its robot stands: a converged static Newton solve (or flagged as not)."""
+        worst = 0.0
+        converged = True
+        for cable, rod in zip(self.cables, self.rods):
+            pos, dirs = self._targets(cable, self.q[cable.robot])
+            result = rod.solve_rest(pos, clamp_directors=dirs, tolerance=self.config.equilibrium_tolerance)
+            worst = max(worst, result.residual)
+            converged &= result.converged
+        self.last_settle = SettleResult(0.0, Equilibrium(worst, 0.0, 0.0, converged))
+        return self.last_settle
+
+    # ------------------------------------------------------------------ measures
+    def cable_points(self, robot: int = 0) -> np.ndarray:
+        return self.rods[robot].x.copy()
+
+    def cable_measures(self) -> list[WearMeasures]:
+        return [self._measure(cable, rod) for cable, rod in zip(self.cables, self.rods)]
+
+    def measures(self) -> WearMeasures:
+        return WearMeasures.worst(self.cable_measures())
+
+    def _measure(self, cable: StationCable, rod: Rod) -> WearMeasures:
+        x = rod.x
+        h = cable.model.segment_length
+        kappa = vertex_curvatures(x)
+        tension = np.concatenate([rod.tensions(), self._node_tensions(cable, rod)])
+        index = self.station.cables[cable.robot]
+        dist, edge, obstacle = self.probe.min_distance(self._obstacle_data, index, x)
+        twist = np.abs(rod.twist_rates()) if len(cable.model.spans) else np.zeros(1)
+        ik, it = int(np.argmax(kappa)), int(np.argmax(tension))
+        n_edges = cable.model.segments
+        return WearMeasures(float(kappa[ik]), float(max(tension.max(), 0.0)), float(dist), float(twist.max()),
+                            curvature_at=(ik + 1) * h, tension_at=(it + 0.5) * h if it < n_edges else 0.0,
+                            clearance_at=(edge + 0.5) * h if edge >= 0 else 0.0, nearest_obstacle=obstacle,
+                            total_twist=float(np.abs(rod.twists()).max()) if len(cable.model.spans) else 0.0,
+                            max_compression=float(max(0.0, -rod.tensions().min())))
+
+    @staticmethod
+    def _node_tensions(cable: StationCable, rod: Rod) -> np.ndarray:
+        """Tension where the cable enters each node: the node's load (the static force on the vertices it holds,
+        their weight included) along the way the cable leaves it, on each side where it continues."""
+        forces = rod.static_forces()
+        held = {hp.vertex: hp.node for hp in cable.held}
+        n = cable.model.segments
+        out = []
+        for node in sorted(set(held.values())):
+            verts = [v for v, k in held.items() if k == node]
+            load = forces[verts].sum(axis=0)
+            for v in verts:
+                for w in (v - 1, v + 1):
+                    if 0 <= w <= n and w not in held:
+                        u = rod.x[w] - rod.x[v]
+                        out.append(float(load @ u) / float(np.linalg.norm(u)))
+        return np.array(out)
+
+    def equilibrium(self) -> Equilibrium:
+        worst = max(rod.equilibrium_residual() for rod in self.rods)
+        return Equilibrium(worst, 0.0, 0.0, worst < self.config.equilibrium_tolerance)
+
+    def _as_q(self, q, field: str) -> np.ndarray:
+        q = np.asarray(q, dtype=float)
+        n = self.station.n_robots
+        if q.shape == (6,) and n == 1:
+            q = q[None, :]
+        if q.shape != (n, 6) or not np.isfinite(q).all():
+            raise ConfigError(field, f"expected finite joint angles of shape (6,) or ({n}, 6) in radians, "
+                                     f"got {q.shape}")
+        for i, r in enumerate(self.station.config.robots):
+            check_within_limits(q[i], r.robot.joint_limits, field if n == 1 else f"{field}[{i}]", digits=2,
+                                owner=f" of robot {r.name!r}")
+        return q
