@@ -1,0 +1,139 @@
+"""Lagged smoothed Coulomb friction: mollifier, sliding force, relative motion, derivatives."""
+
+import ipctk
+import numpy as np
+import pytest
+
+from dresspack_gym.rod.contact.barrier import barrier_d1
+from dresspack_gym.rod.contact.friction import (f0, f1, friction_accumulate, friction_energy, friction_force,
+                                                friction_lag)
+from dresspack_gym.rod.contact.primitives import BOX, CAPSULE, CYLINDER, PLANE, SPHERE
+
+KINDS = [PLANE, SPHERE, CAPSULE, BOX, CYLINDER]
+SIZES = {PLANE: (0.0, 0.0, 0.0), SPHERE: (0.3, 0.0, 0.0), CAPSULE: (0.2, 0.5, 0.0), BOX: (0.4, 0.1, 0.25),
+         CYLINDER: (0.3, 0.4, 0.0)}
+R, DHAT, KAPPA, MU, EPS = 0.01, 0.2, 10.0, 0.4, 1e-3
+
+
+def rotation(rng):
+    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    q = q * np.sign(np.diag(r))
+    return np.ascontiguousarray(q if np.linalg.det(q) > 0 else -q)
+
+
+def rot_z(angle):
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def prims_of(kind, pos, rot):
+    return np.array([kind], np.int64), np.array([pos], float), np.array([rot], float), np.array([SIZES[kind]], float)
+
+
+def lag(x_prev, prims_prev, prims_now):
+    kind, pos_prev, rot_prev, size = prims_prev
+    _, pos, rot, _ = prims_now
+    mask = np.ones((len(x_prev) - 1, 1), bool)
+    return friction_lag(x_prev, R, kind, pos_prev, rot_prev, size, pos, rot, mask, DHAT, KAPPA)
+
+
+def accumulate(x, lagged, kd=5):
+    g = np.zeros_like(x)
+    band = np.zeros((kd + 1, x.size))
+    e = friction_accumulate(x, *lagged, MU, EPS, g, band)
+    return e, g, band
+
+
+def dense(band):
+    n = band.shape[1]
+    h = np.zeros((n, n))
+    for d in range(band.shape[0]):
+        for c in range(n - d):
+            h[c + d, c] = h[c, c + d] = band[d, c]
+    return h
+
+
+def test_mollifier_against_ipctk():
+    for y in np.linspace(0.0, 3.0, 31) * EPS:
+        assert f0(y, EPS) == pytest.approx(ipctk.smooth_friction_f0(y, EPS), rel=1e-12)
+        assert f1(y, EPS) == pytest.approx(ipctk.smooth_friction_f1(y, EPS), rel=1e-12, abs=1e-15)
+        step = 1e-9
+        if y > step and abs(y - EPS) > step:
+            assert (f0(y + step, EPS) - f0(y - step, EPS)) / (2 * step) == pytest.approx(f1(y, EPS), abs=1e-6)
+
+
+def test_sliding_on_a_plane_feels_mu_lam_beyond_eps_and_the_ramp_inside():
+    x_prev = np.array([[0.0, 0.0, 0.05], [0.3, 0.0, 0.08]])
+    lam = 2.0
+    lagged = (np.array([0]), np.array([0.0]), np.array([[0.0, 0.0, 1.0]]), np.array([lam]), x_prev[:1].copy())
+    for slide in np.array([0.1, 0.5, 0.9, 1.5, 10.0]) * EPS:
+        x = x_prev.copy()
+        x[:, 0] += slide
+        x[:, 2] -= 0.01  # normal motion is not friction's business
+        _, g, _ = accumulate(x, lagged)
+        force = -g[0]
+        expected = MU * lam * (1.0 if slide >= EPS else 2 * slide / EPS - (slide / EPS) ** 2)
+        np.testing.assert_allclose(force, [-expected, 0.0, 0.0], atol=1e-12)
+        assert not g[1].any()  # t* = 0: all on the first vertex
+        assert friction_force(x, *lagged, MU, EPS)[0] == pytest.approx(expected)
+
+
+def test_relative_motion_a_moving_plane_drags_a_still_cable():
+    x_prev = np.array([[0.0, 0.0, 0.05], [0.3, 0.0, 0.07]])
+    still = prims_of(PLANE, np.zeros(3), np.eye(3))
+    moved = prims_of(PLANE, np.array([0.01, 0.0, 0.0]), np.eye(3))
+    lagged = lag(x_prev, still, moved)
+    assert lagged[0].tolist() == [0] and lagged[1][0] == 0.0
+    assert lagged[3][0] == pytest.approx(-KAPPA * barrier_d1(0.05 - R, DHAT))
+    _, g_plane, _ = accumulate(x_prev, lagged)  # the cable still, the plane moved +x
+    x = x_prev.copy()
+    x[:, 0] += 0.01
+    _, g_cable, _ = accumulate(x, lag(x_prev, still, still))  # the cable moved +x, the plane still
+    assert -g_plane[0, 0] == pytest.approx(MU * lagged[3][0])  # dragged along +x
+    np.testing.assert_allclose(g_plane, -g_cable, atol=1e-14)
+
+
+def test_a_spinning_drum_drags_a_still_vertex_along_its_surface():
+    x_prev = np.array([[0.3 + R + 0.05, 0.0, 0.0], [0.3 + R + 0.05, 0.0, 0.3]])  # along the drum's side
+    angle = 0.01
+    lagged = lag(x_prev, prims_of(CYLINDER, np.zeros(3), np.eye(3)), prims_of(CYLINDER, np.zeros(3), rot_z(angle)))
+    edge, t, normal, lam, anchor = lagged
+    assert len(edge) == 1
+    u = (1 - t[0]) * x_prev[0] + t[0] * x_prev[1] - anchor[0]
+    u -= (u @ normal[0]) * normal[0]
+    np.testing.assert_allclose(u, [0.0, -0.3 * np.sin(angle), 0.0], atol=1e-12)
+    _, g, _ = accumulate(x_prev, lagged)
+    assert -(g[0, 1] + g[1, 1]) == pytest.approx(MU * lam[0])  # the surface moves to +y and drags the cable
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_gradient_and_hessian_match_finite_differences(kind):
+    rng = np.random.default_rng(60 + kind)
+    checked = 0
+    step = 1e-8
+    while checked < 4:
+        pos_prev, rot_prev = rng.normal(size=3), rotation(rng)
+        x_prev = np.empty((4, 3))
+        x_prev[0] = pos_prev + rng.normal(scale=0.6, size=3)
+        for i in range(1, 4):
+            x_prev[i] = x_prev[i - 1] + rng.normal(scale=0.12, size=3)
+        pos, rot = pos_prev + rng.normal(scale=EPS, size=3), rot_prev @ rot_z(rng.normal(scale=0.002))
+        lagged = lag(x_prev, prims_of(kind, pos_prev, rot_prev), prims_of(kind, pos, rot))
+        if len(lagged[0]) < 2:
+            continue
+        x = x_prev + rng.normal(scale=EPS, size=x_prev.shape)
+        e, g, band = accumulate(x, lagged, kd=7)
+        assert e == pytest.approx(friction_energy(x, *lagged, MU, EPS), rel=1e-14)
+        h = dense(band)
+        assert np.linalg.eigvalsh(h).min() > -1e-10 * np.abs(h).max()
+        fd_g = np.empty(x.size)
+        fd_h = np.empty((x.size, x.size))
+        for c in range(x.size):
+            xp, xm = x.copy(), x.copy()
+            xp.flat[c] += step
+            xm.flat[c] -= step
+            fd_g[c] = (friction_energy(xp, *lagged, MU, EPS) - friction_energy(xm, *lagged, MU, EPS)) / (2 * step)
+            fd_h[:, c] = (accumulate(xp, lagged, kd=7)[1] - accumulate(xm, lagged, kd=7)[1]).ravel() / (2 * step)
+        np.testing.assert_allclose(g.ravel(), fd_g, rtol=1e-5, atol=1e-6 * np.abs(g).max())
+        np.testing.assert_allclose(h, fd_h, rtol=1e-4, atol=1e-5 * np.abs(h).max())
+        checked += 1
