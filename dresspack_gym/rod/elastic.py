@@ -98,6 +98,16 @@ def curvature_binormal(e, f):
 
 
 @njit(cache=True)
+def _skew(v, a, b) -> float:
+    """Entry (a, b) of the cross-product matrix [v]x (so that [v]x w = v x w)."""
+    if a == b:
+        return 0.0
+    c = 3 - a - b
+    sign = 1.0 if (b - a) % 3 == 1 else -1.0  # (0,1), (1,2), (2,0): -v_c ; the others +v_c
+    return -sign * v[c]
+
+
+@njit(cache=True)
 def curvature_binormal_jacobian(e, f):
     """d kb / d(e, f), shape (3, 6): kb = 2 c / D with c = e x f, D = |e||f| + e.f."""
     le, lf = norm3(e), norm3(f)
@@ -106,13 +116,11 @@ def curvature_binormal_jacobian(e, f):
     dd_e = lf * e / le + f
     dd_f = le * f / lf + e
     jac = np.empty((3, 6))
-    # d(e x f)/de = -[f]x, d(e x f)/df = [e]x
-    fx = np.array([[0.0, -f[2], f[1]], [f[2], 0.0, -f[0]], [-f[1], f[0], 0.0]])
-    ex = np.array([[0.0, -e[2], e[1]], [e[2], 0.0, -e[0]], [-e[1], e[0], 0.0]])
+    # d(e x f)/de = -[f]x, d(e x f)/df = [e]x, written entry by entry ([v]x[a, b] = -eps_abc v_c)
     for a in range(3):
         for b in range(3):
-            jac[a, b] = (-2.0 * fx[a, b] - kb[a] * dd_e[b]) / d
-            jac[a, 3 + b] = (2.0 * ex[a, b] - kb[a] * dd_f[b]) / d
+            jac[a, b] = (-2.0 * _skew(f, a, b) - kb[a] * dd_e[b]) / d
+            jac[a, 3 + b] = (2.0 * _skew(e, a, b) - kb[a] * dd_f[b]) / d
     return jac
 
 
@@ -134,10 +142,9 @@ def twist_vertex(e, f):
         for b in range(3):
             hess[a, b] = -0.25 / (le * le) * (kb[a] * (te[b] + tt[b]) + (te[a] + tt[a]) * kb[b])
             hess[3 + a, 3 + b] = -0.25 / (lf * lf) * (kb[a] * (tf[b] + tt[b]) + (tf[a] + tt[a]) * kb[b])
-    tex = np.array([[0.0, -te[2], te[1]], [te[2], 0.0, -te[0]], [-te[1], te[0], 0.0]])
     for a in range(3):
         for b in range(3):
-            v = 0.5 / (le * lf) * (2.0 / chi * tex[a, b] - kb[a] * tt[b])
+            v = 0.5 / (le * lf) * (2.0 / chi * _skew(te, a, b) - kb[a] * tt[b])
             hess[a, 3 + b] = v
             hess[3 + b, a] = v
     return grad, hess
@@ -154,16 +161,30 @@ def edges_to_vertices_grad(g6):
     return out
 
 
+# d(e, f) / d(x_{i-1}, x_i, x_{i+1}) per edge (rows) and vertex (columns): e = x_i - x_{i-1}, f = x_{i+1} - x_i
+_EDGE_OF_VERTEX = np.array([[-1.0, 1.0, 0.0], [0.0, -1.0, 1.0]])
+
+
 @njit(cache=True)
 def edges_to_vertices_hess(h6):
-    """(e, f) Hessian -> Hessian over (x_{i-1}, x_i, x_{i+1})."""
-    jac = np.zeros((6, 9))
-    for a in range(3):
-        jac[a, a] = -1.0
-        jac[a, 3 + a] = 1.0
-        jac[3 + a, 3 + a] = -1.0
-        jac[3 + a, 6 + a] = 1.0
-    return jac.T @ h6 @ jac
+    """(e, f) Hessian -> Hessian over (x_{i-1}, x_i, x_{i+1}): J^T H J with J = _EDGE_OF_VERTEX (x) I3, written
+    out (a BLAS call per vertex costs more than the arithmetic)."""
+    jac = _EDGE_OF_VERTEX
+    out = np.zeros((9, 9))
+    for va in range(3):
+        for vb in range(3):
+            for p in range(2):
+                ja = jac[p, va]
+                if ja == 0.0:
+                    continue
+                for q in range(2):
+                    w = ja * jac[q, vb]
+                    if w == 0.0:
+                        continue
+                    for i in range(3):
+                        for j in range(3):
+                            out[3 * va + i, 3 * vb + j] += w * h6[3 * p + i, 3 * q + j]
+    return out
 
 
 @njit(cache=True)
@@ -224,12 +245,11 @@ def elastic(x, ref, t, lengths, rest, voronoi, ea, ei, gj, span_edges, span_dirs
             add_block(band, 3 * e, blk)
     k = span_edges.shape[0]
     tau = span_twists(x, ref, t, span_edges, span_dirs)
-    # each interior vertex's share of the twist energy's local Hessian: GJ tau / L per span it lies in
-    twist_weight = np.zeros(n + 1)
+    span_of = np.full(n + 1, -1)  # the span whose twist each interior vertex carries (clamps bound the spans)
     for s in range(k):
         energy += 0.5 * gj * tau[s] ** 2 / span_len[s]
         for i in range(span_edges[s, 0] + 1, span_edges[s, 1] + 1):
-            twist_weight[i] += gj * tau[s] / span_len[s]
+            span_of[i] = s
     for i in range(1, n):
         e_vec = x[i] - x[i - 1]
         f_vec = x[i + 1] - x[i]
@@ -237,21 +257,20 @@ def elastic(x, ref, t, lengths, rest, voronoi, ea, ei, gj, span_edges, span_dirs
         energy += en
         if not want_derivatives:
             continue
+        s = span_of[i]
+        if s >= 0:
+            weight = gj * tau[s] / span_len[s]
+            tg6, th6 = twist_vertex(e_vec, f_vec)
+            for a in range(6):
+                g6[a] += weight * tg6[a]
+                if exact:
+                    for b in range(6):
+                        h6[a, b] += weight * th6[a, b]
+            tv = edges_to_vertices_grad(tg6)
+            for a in range(9):
+                twist_dirs[s, i - 1 + a // 3, a % 3] += tv[a]
         gv = edges_to_vertices_grad(g6)
         for a in range(9):
             grad[i - 1 + a // 3, a % 3] += gv[a]
-        if exact and twist_weight[i] != 0.0:
-            tg6, th6 = twist_vertex(e_vec, f_vec)
-            h6 = h6 + twist_weight[i] * th6
         add_block(band, 3 * (i - 1), edges_to_vertices_hess(h6))
-    if want_derivatives and k > 0:
-        for s in range(k):
-            for i in range(span_edges[s, 0] + 1, span_edges[s, 1] + 1):
-                tg6, th6 = twist_vertex(x[i] - x[i - 1], x[i + 1] - x[i])
-                tv = edges_to_vertices_grad(tg6)
-                for a in range(9):
-                    twist_dirs[s, i - 1 + a // 3, a % 3] += tv[a]
-            for v in range(n + 1):
-                for a in range(3):
-                    grad[v, a] += gj * tau[s] / span_len[s] * twist_dirs[s, v, a]
     return energy, tau
