@@ -15,6 +15,9 @@ import numpy as np
 from numba import njit
 
 from .band import cholesky, pin, solve_low_rank
+from .contact.barrier import barrier_accumulate, barrier_energy
+from .contact.ccd import max_step
+from .contact.friction import friction_accumulate, friction_energy
 from .elastic import KD, elastic
 from .frames import transport_frames, unit_tangents
 
@@ -37,7 +40,7 @@ def _held_coords(held):
 
 @njit(cache=True)
 def total_energy(x, ref_base, t_base, x_hat, x0, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag,
-                 span_edges, span_dirs, span_len):
+                 span_edges, span_dirs, span_len, contact):
     """The incremental potential at ``x``, frames carried from the base iterate (line-search evaluations)."""
     t, lengths = unit_tangents(x)
     for e in range(lengths.shape[0]):
@@ -53,12 +56,22 @@ def total_energy(x, ref_base, t_base, x_hat, x0, rest, voronoi, mass, ea, ei, gj
         for a in range(3):
             energy -= mass[v] * gravity[a] * x[v, a]
             energy += 0.5 * mass[v] * (inertia * (x[v, a] - x_hat[v, a]) ** 2 + drag * (x[v, a] - x0[v, a]) ** 2)
-    return energy
+    return energy + contact_energy(x, contact)
+
+
+@njit(cache=True)
+def contact_energy(x, contact):
+    """Barrier + lagged friction energy of ``contact`` (see :func:`newton_step`); inf on any penetration."""
+    r, kind, pos, rot, size, mask, dhat, kappa, edge, t, normal, lam, anchor, mu, eps = contact
+    if kind.shape[0] == 0:
+        return 0.0
+    return barrier_energy(x, r, kind, pos, rot, size, mask, dhat, kappa) + friction_energy(
+        x, edge, t, normal, lam, anchor, mu, eps)
 
 
 @njit(cache=True)
 def assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag, x_hat, x0,
-             span_edges, span_dirs, span_len, exact):
+             span_edges, span_dirs, span_len, exact, contact):
     """Energy, gradient (n+1, 3), lower band Hessian, span twists and the twist rank-one vectors at ``x``."""
     n1 = x.shape[0]
     t, lengths = unit_tangents(x)
@@ -75,26 +88,33 @@ def assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag, x_
             grad[v, a] += -mass[v] * gravity[a] + mass[v] * (inertia * (x[v, a] - x_hat[v, a])
                                                                + drag * (x[v, a] - x0[v, a]))
             band[0, 3 * v + a] += diag
+    r, kind, pos, rot, size, mask, dhat, kappa, edge, tc, normal, lam, anchor, mu, eps = contact
+    if kind.shape[0] > 0:
+        energy += barrier_accumulate(x, r, kind, pos, rot, size, mask, dhat, kappa, grad, band, True)
+        energy += friction_accumulate(x, edge, tc, normal, lam, anchor, mu, eps, grad, band)
     return energy, grad, band, tau, dirs, t
 
 
 @njit(cache=True)
-def static_gradient(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, span_edges, span_dirs, span_len):
-    """Gradient of elastic + gravity energy alone: minus the net static force on every vertex."""
+def static_gradient(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, span_edges, span_dirs, span_len, contact):
+    """Gradient of elastic + gravity + contact energy: minus the net static force on every vertex."""
     zero = np.zeros_like(x)
     _, grad, _, _, _, _ = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, 0.0, 0.0, zero, zero,
-                                   span_edges, span_dirs, span_len, False)
+                                   span_edges, span_dirs, span_len, False, contact)
     return grad
 
 
 @njit(cache=True)
 def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass, ea, ei, gj, gravity, h, damping,
-                span_edges, span_dirs, span_len, force_scale, tolerance, max_iterations):
+                span_edges, span_dirs, span_len, force_scale, tolerance, max_iterations, contact):
     """Minimise the incremental potential from ``x_start`` (frames ``ref_start`` on its tangents).
 
     ``held`` vertex indices sit at ``held_pos``; ``h`` the step [s] (inf: static equilibrium), ``damping`` the drag
     rate [1/s]. Converged when every free vertex's net force (including inertia and drag) is below
-    ``tolerance`` times ``force_scale[v]`` (its weight). Returns (x, ref, iterations, residual, converged, tau).
+    ``tolerance`` times ``force_scale[v]`` (its weight). ``contact``: (radius, kind, pos, rot, size, mask, dhat,
+    kappa, the lagged friction set (edge, t, normal, lam, anchor), mu, eps) as :mod:`.contact` takes them, the
+    primitives static during the solve; every step is cut by continuous collision detection, so an iterate never
+    passes through a primitive. Returns (x, ref, iterations, residual, converged, tau).
     """
     n1 = x_start.shape[0]
     inertia = 0.0 if math.isinf(h) else 1.0 / (h * h)
@@ -116,7 +136,7 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
     converged = False
     for it in range(max_iterations + 1):
         energy, grad, band, tau, dirs, t_now = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia,
-                                                        drag, x_hat, x0, span_edges, span_dirs, span_len, True)
+                                                        drag, x_hat, x0, span_edges, span_dirs, span_len, True, contact)
         residual = 0.0
         for v in range(n1):
             if free[v]:
@@ -138,13 +158,13 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
         pin(factor, coords)
         if not cholesky(factor):
             _, _, factor, _, _, _ = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag,
-                                             x_hat, x0, span_edges, span_dirs, span_len, False)
+                                             x_hat, x0, span_edges, span_dirs, span_len, False, contact)
             pin(factor, coords)
             shift = 0.0
             while not cholesky(factor):  # Gauss-Newton is PSD; a zero-gravity static rod may still be singular
                 shift = 1e-9 if shift == 0.0 else shift * 10.0
                 _, _, factor, _, _, _ = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag,
-                                                 x_hat, x0, span_edges, span_dirs, span_len, False)
+                                                 x_hat, x0, span_edges, span_dirs, span_len, False, contact)
                 for c in range(3 * n1):
                     factor[0, c] += shift * max(1.0, abs(factor[0, c]))
                 pin(factor, coords)
@@ -152,13 +172,16 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
         dx = step.reshape(n1, 3)
         slope = g @ step
         alpha = 1.0
+        r, kind, pos, rot, size, mask = contact[0], contact[1], contact[2], contact[3], contact[4], contact[5]
+        if kind.shape[0] > 0:
+            alpha = max_step(x, dx, r, kind, pos, rot, size, mask, 0.1, 64)
         # a decrease the energy's round-off cannot resolve: the quadratic model is exact enough there, take the step
-        accepted = -slope <= TRUST_MODEL * abs(energy)
-        trial = x + dx
+        accepted = alpha == 1.0 and -slope <= TRUST_MODEL * abs(energy)
+        trial = x + alpha * dx
         for _ in range(0 if accepted else MAX_HALVINGS):
             trial = x + alpha * dx
             e_trial = total_energy(trial, ref, t_now, x_hat, x0, rest, voronoi, mass, ea, ei, gj, gravity, inertia,
-                                   drag, span_edges, span_dirs, span_len)
+                                   drag, span_edges, span_dirs, span_len, contact)
             if e_trial <= energy + ARMIJO * alpha * slope + ROUNDOFF * abs(energy):
                 accepted = True
                 break

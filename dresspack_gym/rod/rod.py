@@ -11,7 +11,9 @@ from ..errors import ConfigError
 from .elastic import span_twists
 from .frames import transport, transport_frames, unit_tangents
 from .model import RodModel
+from .contact.friction import friction_lag
 from .newton import newton_step, static_gradient
+from .scene import ContactSettings, Primitives
 
 # Newton iterations allowed per solve before it is reported unconverged (a warm-started step takes 2-5).
 MAX_ITERATIONS = 100
@@ -48,7 +50,8 @@ class Rod:
     """One rod: ``model`` plus its state; the held vertices follow what :meth:`step` / :meth:`solve_rest` are given."""
 
     def __init__(self, model: RodModel, points, *, frames: np.ndarray | None = None,
-                 clamp_directors: np.ndarray | None = None):
+                 clamp_directors: np.ndarray | None = None, radius: float = 0.0,
+                 contact: ContactSettings | None = None):
         x = np.ascontiguousarray(points, dtype=float)
         if x.shape != (model.segments + 1, 3) or not np.isfinite(x).all():
             raise ConfigError("points", f"expected finite positions of shape ({model.segments + 1}, 3), got {x.shape}")
@@ -68,28 +71,47 @@ class Rod:
         self._held = model.held_array
         self._span_edges = model.span_edges
         self._span_len = model.span_lengths
+        self.radius = float(radius)
+        self.contact = ContactSettings() if contact is None else contact
+        self.primitives = Primitives.none(model.segments)  # where the primitives were at the last solve
 
     # ------------------------------------------------------------------ solves
-    def step(self, held_pos, h: float, *, clamp_directors=None, tolerance: float = 1e-3) -> SolveResult:
-        """One implicit Euler step of ``h`` seconds with the held vertices moved to ``held_pos``."""
+    def step(self, held_pos, h: float, *, clamp_directors=None, tolerance: float = 1e-3,
+             primitives: Primitives | None = None) -> SolveResult:
+        """One implicit Euler step of ``h`` seconds with the held vertices moved to ``held_pos`` and the
+        ``primitives`` (default: as at the last solve) at their new poses."""
         if not h > 0:
             raise ConfigError("h", f"the step must be positive seconds, got {h}")
         start = self.x + h * self.v  # the inertial prediction: where the cable would go with no force
-        x_new, ref, result = self._solve(start, held_pos, h, clamp_directors, tolerance)
+        x_new, ref, result = self._solve(start, held_pos, h, clamp_directors, tolerance, primitives)
         self.v = (x_new - self.x) / h
         self.x, self.ref = x_new, ref
         return result
 
-    def solve_rest(self, held_pos=None, *, clamp_directors=None, tolerance: float = 1e-4) -> SolveResult:
+    def solve_rest(self, held_pos=None, *, clamp_directors=None, tolerance: float = 1e-4,
+                   primitives: Primitives | None = None) -> SolveResult:
         """Static equilibrium from the current shape with the held vertices at ``held_pos`` (default: where they
         are): the rod at rest, velocities zeroed."""
         held_pos = self.x[self._held] if held_pos is None else held_pos
-        x_new, ref, result = self._solve(self.x, held_pos, math.inf, clamp_directors, tolerance)
+        x_new, ref, result = self._solve(self.x, held_pos, math.inf, clamp_directors, tolerance, primitives)
         self.x, self.ref = x_new, ref
         self.v[:] = 0.0
         return result
 
-    def _solve(self, start, held_pos, h, clamp_directors, tolerance):
+    def _contact(self, primitives: Primitives | None, previous: Primitives) -> tuple:
+        """The contact argument of newton_step: primitives now, and friction lagged from the rod's current shape
+        against where the primitives were (``previous``)."""
+        p = previous if primitives is None else primitives
+        c = self.contact
+        if len(p) and len(previous) == len(p):
+            lag = friction_lag(self.x, self.radius, p.kind, previous.pos, previous.rot, p.size, p.pos, p.rot, p.mask,
+                               c.activation, c.stiffness)
+        else:  # nothing touched before: no friction to lag
+            lag = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
+        return (self.radius, p.kind, p.pos, p.rot, p.size, p.mask, c.activation, c.stiffness, *lag,
+                c.friction, c.slip)
+
+    def _solve(self, start, held_pos, h, clamp_directors, tolerance, primitives=None):
         held_pos = np.ascontiguousarray(held_pos, dtype=float).reshape(len(self._held), 3)
         if clamp_directors is not None:
             self.clamp_directors = np.ascontiguousarray(clamp_directors, dtype=float).reshape(-1, 2, 3)
@@ -99,20 +121,26 @@ class Rod:
         t_now, _ = unit_tangents(self.x)
         t_start, _ = unit_tangents(start)
         ref = transport_frames(self.ref, t_now, t_start)
+        contact = self._contact(primitives, self.primitives)
+        if primitives is not None:
+            self.primitives = primitives
+        if len(self.primitives) and math.isinf(h):  # rest: no motion to lag friction from
+            contact = contact[:8] + self._contact(None, Primitives.none(m.segments))[8:]
         x, ref, iterations, residual, converged, _ = newton_step(
             start, ref, self.x, self.v, self._held, held_pos, self._rest, self._voronoi, self._mass,
             m.tensile_stiffness, m.bending_stiffness, m.torsional_stiffness, self._gravity, h, m.damping,
-            self._span_edges, self.clamp_directors, self._span_len, self._force_scale, tolerance, MAX_ITERATIONS)
+            self._span_edges, self.clamp_directors, self._span_len, self._force_scale, tolerance, MAX_ITERATIONS,
+            contact)
         return x, ref, SolveResult(int(iterations), float(residual), bool(converged))
 
     # ------------------------------------------------------------------ queries
     def static_forces(self) -> np.ndarray:
-        """Net static force on every vertex (elastic + gravity), (n+1, 3) [N]: zero on a free vertex at rest; on
-        a held vertex, minus the force its holder applies."""
+        """Net static force on every vertex (elastic + gravity + contact normal forces), (n+1, 3) [N]: zero on a
+        free vertex at rest; on a held vertex, minus the force its holder applies."""
         m = self.model
         grad = static_gradient(self.x, self.ref, self._rest, self._voronoi, self._mass, m.tensile_stiffness,
                                m.bending_stiffness, m.torsional_stiffness, self._gravity, self._span_edges,
-                               self.clamp_directors, self._span_len)
+                               self.clamp_directors, self._span_len, self._contact(self.primitives, Primitives.none(m.segments)))
         return -grad
 
     def equilibrium_residual(self) -> float:

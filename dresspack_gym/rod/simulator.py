@@ -12,11 +12,14 @@ from ..robots.time_law import JointLimits, SegmentMotion
 from ..stations.station import Station
 from .rod import Rod, initial_frames
 from .station_cable import StationCable, station_cable
+from .station_scene import StationScene
 
 # One implicit step per sample of this many seconds when a motion records none (the measures' sampling).
 DEFAULT_SAMPLE = 0.05
 # A motion step is solved to this fraction of a vertex's weight (inertia and drag included in the balance).
 STEP_TOLERANCE = 1e-3
+# At most this many sub-steps per sample when a link closes in on a cable (each an implicit step of its share).
+MAX_SUBSTEPS = 64
 
 
 class RodSimulator:
@@ -27,6 +30,8 @@ class RodSimulator:
         self.station = station
         self.config = station.config.simulation
         self.cables: list[StationCable] = [station_cable(station, i) for i in range(station.n_robots)]
+        self.scenes = [StationScene(station, c) for c in self.cables]
+        self.unconverged_steps = 0  # motion steps whose Newton solve missed its tolerance (flagged, never dropped)
         self.probe = ClearanceProbe(station)
         self._obstacle_data = station.data_at_home()  # the obstacles never move: their poses are read once
         self.q = station.home.copy()
@@ -44,8 +49,9 @@ class RodSimulator:
         self.rods = []
         for cable, shape in zip(self.cables, shapes):
             pos, dirs = self._targets(cable, q[cable.robot])
-            rod = Rod(cable.model, shape, clamp_directors=dirs)
+            rod = Rod(cable.model, shape, clamp_directors=dirs, radius=cable.radius)
             rod.ref[:] = initial_frames(shape, dirs[0, 0] if len(dirs) else None)
+            rod.primitives = self.scenes[cable.robot].at(q)
             self.rods.append(rod)
         self.motion_time = 0.0
         self.last_settle = None
@@ -75,9 +81,8 @@ class RodSimulator:
         trace = MotionTrace()
         for k, f in enumerate(fractions, start=1):
             q = start + f * delta
-            for cable, rod in zip(self.cables, self.rods):
-                pos, dirs = self._targets(cable, q[cable.robot])
-                rod.step(pos, sample, clamp_directors=dirs, tolerance=STEP_TOLERANCE)
+            for cable, rod, scene in zip(self.cables, self.rods, self.scenes):
+                self._advance(cable, rod, scene, self.q, q, sample)
             self.q = q
             if record_every:
                 trace.time.append(self.motion_time + k * sample)
@@ -89,13 +94,26 @@ class RodSimulator:
             self.settle()
         return trace
 
+    def _advance(self, cable: StationCable, rod: Rod, scene: StationScene, q0: np.ndarray, q1: np.ndarray,
+                 h: float) -> None:
+        """One sample of ``h`` s from joints q0 to q1: sub-stepped where a link closes in on the cable."""
+        after = scene.at(q1)
+        n = scene.substeps(rod.x, rod.radius, rod.primitives, after, MAX_SUBSTEPS) if len(after) else 1
+        for j in range(1, n + 1):
+            q = q0 + (q1 - q0) * (j / n)
+            prims = after if j == n else scene.at(q)
+            pos, dirs = self._targets(cable, q[cable.robot])
+            result = rod.step(pos, h / n, clamp_directors=dirs, tolerance=STEP_TOLERANCE, primitives=prims)
+            self.unconverged_steps += int(not result.converged)
+
     def settle(self) -> SettleResult:
         """Every cable at rest where its robot stands: a converged static Newton solve (or flagged as not)."""
         worst = 0.0
         converged = True
-        for cable, rod in zip(self.cables, self.rods):
+        for cable, rod, scene in zip(self.cables, self.rods, self.scenes):
             pos, dirs = self._targets(cable, self.q[cable.robot])
-            result = rod.solve_rest(pos, clamp_directors=dirs, tolerance=self.config.equilibrium_tolerance)
+            result = rod.solve_rest(pos, clamp_directors=dirs, tolerance=self.config.equilibrium_tolerance,
+                                    primitives=scene.at(self.q))
             worst = max(worst, result.residual)
             converged &= result.converged
         self.last_settle = SettleResult(0.0, Equilibrium(worst, 0.0, 0.0, converged))

@@ -1,0 +1,91 @@
+"""A station's obstacles and robot links as contact primitives for one cable, posed at the robots' joints."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+from numba import njit
+
+from ..stations.station import Station
+from .contact.motion import pose_displacements
+from .contact.primitives import bounding_radii
+from .contact.segment import lower_bound, segment_gap
+from .scene import BOX, CAPSULE, CYLINDER, PLANE, SPHERE, Primitives
+from .station_cable import StationCable
+
+KINDS = {mujoco.mjtGeom.mjGEOM_PLANE: PLANE, mujoco.mjtGeom.mjGEOM_SPHERE: SPHERE,
+         mujoco.mjtGeom.mjGEOM_CAPSULE: CAPSULE, mujoco.mjtGeom.mjGEOM_BOX: BOX,
+         mujoco.mjtGeom.mjGEOM_CYLINDER: CYLINDER}
+# A moving primitive may close at most this fraction of its gap to the cable in one sub-step, so every sub-step's
+# solve starts strictly outside it.
+CLOSING_FRACTION = 0.5
+# Gap [m] beyond which a moving primitive cannot limit a sub-step (nothing in a station moves this far in a sample).
+FAR = 1.0
+
+
+class StationScene:
+    """The primitives one cable may touch: the station's obstacles and floor, the other robots' links, and its own
+    robot's links when the dresspack collides with them (as in the MuJoCo model's contact bits); meshes are not
+    primitives and are left out (``skipped`` names them)."""
+
+    def __init__(self, station: Station, cable: StationCable):
+        m = station.model
+        self.station = station
+        self.data = mujoco.MjData(m)
+        self.data.qpos[:] = m.qpos0
+        self.data.qpos[station.load_qpos] = station.load_values
+        own = station.config.robots[cable.robot].dresspack.collide_with_robot
+        geoms = list(station.obstacle_geoms)
+        for j, r in enumerate(station.robots):
+            if j != cable.robot or own:
+                geoms += [g for g in r.geom_ids if m.geom_contype[g] != 0]
+        self.skipped = [m.geom(g).name for g in geoms if m.geom_type[g] not in KINDS]
+        self.geoms = np.array([g for g in geoms if m.geom_type[g] in KINDS], dtype=int)
+        self.kind = np.array([KINDS[m.geom_type[g]] for g in self.geoms], dtype=np.int64)
+        self.size = m.geom_size[self.geoms].copy()
+        self.bound = bounding_radii(self.kind, self.size)
+        held = set(cable.model.held)
+        self.mask = np.ones((cable.model.segments, len(self.geoms)), dtype=np.bool_)
+        for e in range(cable.model.segments):
+            if e in held and e + 1 in held:  # a clamp's own edge is part of the node
+                self.mask[e] = False
+
+    def at(self, q: np.ndarray) -> Primitives:
+        """The primitives with the robots at ``q`` (n_robots, 6)."""
+        d = self.data
+        d.qpos[self.station.robot_qpos] = q.ravel()
+        mujoco.mj_kinematics(self.station.model, d)
+        return Primitives(self.kind, d.geom_xpos[self.geoms].copy(), d.geom_xmat[self.geoms].reshape(-1, 3, 3).copy(),
+                          self.size, self.mask)
+
+    def substeps(self, x: np.ndarray, radius: float, before: Primitives, after: Primitives, limit: int) -> int:
+        """Sub-steps that keep every moving primitive from closing more than CLOSING_FRACTION of its gap to the
+        cable ``x`` in one of them (at most ``limit``)."""
+        moved = pose_displacements(before.pos, before.rot, after.pos, after.rot, self.bound)
+        if not (moved > 1e-12).any():
+            return 1
+        gaps = primitive_gaps(x, radius, before.kind, before.pos, before.rot, before.size, before.mask, moved, FAR)
+        need = moved / np.maximum(CLOSING_FRACTION * gaps, 1e-9)
+        return int(min(limit, max(1, math.ceil(float(need.max())))))
+
+
+@njit(cache=True)
+def primitive_gaps(x, r, kind, pos, rot, size, mask, moved, far):
+    """The smallest gap of the cable to each primitive that moved (``far`` for those beyond it or still)."""
+    k = kind.shape[0]
+    bound = bounding_radii(kind, size)
+    out = np.full(k, far)
+    p = np.empty(3)
+    n = np.empty(3)
+    h = np.empty((3, 3))
+    for j in range(k):
+        if moved[j] <= 1e-12:
+            continue
+        for i in range(x.shape[0] - 1):
+            if not mask[i, j] or lower_bound(x[i], x[i + 1], r, pos[j], bound[j]) >= out[j]:
+                continue
+            d, _ = segment_gap(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], p, n, h)
+            out[j] = min(out[j], d)
+    return out
