@@ -107,7 +107,8 @@ def static_gradient(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, span_edges
 @njit(cache=True)
 def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass, ea, ei, gj, gravity, h, damping,
                 span_edges, span_dirs, span_len, force_scale, tolerance, max_iterations, contact):
-    """Minimise the incremental potential from ``x_start`` (frames ``ref_start`` on its tangents).
+    """Minimise the incremental potential from ``x_start`` (frames ``ref_start`` on the tangents of ``x0``, the last
+    state).
 
     ``held`` vertex indices sit at ``held_pos``; ``h`` the step [s] (inf: static equilibrium), ``damping`` the drag
     rate [1/s]. Converged when every free vertex's net force (including inertia and drag) is below
@@ -120,12 +121,18 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
     inertia = 0.0 if math.isinf(h) else 1.0 / (h * h)
     drag = 0.0 if math.isinf(h) else damping / h
     x_hat = x0.copy() if math.isinf(h) else x0 + h * v0
+    # the start: ``x_start`` (the inertial prediction) unless it lies inside a primitive, then the last state; the
+    # frames arrive on x0's tangents and are carried to the start's
     x = x_start.copy()
     for j in range(held.shape[0]):
         x[held[j]] = held_pos[j]
+    if math.isinf(contact_energy(x, contact)):
+        x = x0.copy()
+        for j in range(held.shape[0]):
+            x[held[j]] = held_pos[j]
     t_now, _ = unit_tangents(x)
-    t_start, _ = unit_tangents(x_start)
-    ref = transport_frames(ref_start, t_start, t_now)
+    t_base, _ = unit_tangents(x0)
+    ref = transport_frames(ref_start, t_base, t_now)
     coords = _held_coords(held)
     free = np.ones(n1, dtype=np.bool_)
     for j in range(held.shape[0]):
@@ -137,6 +144,9 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
     for it in range(max_iterations + 1):
         energy, grad, band, tau, dirs, t_now = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia,
                                                         drag, x_hat, x0, span_edges, span_dirs, span_len, True, contact)
+        if not math.isfinite(energy):  # even the last state is inside a primitive that moved: nothing to descend
+            residual = np.inf
+            break
         residual = 0.0
         for v in range(n1):
             if free[v]:

@@ -117,17 +117,14 @@ class Rod:
             self.clamp_directors = np.ascontiguousarray(clamp_directors, dtype=float).reshape(-1, 2, 3)
         m = self.model
         start = np.ascontiguousarray(start)
-        # the frames live on the current shape's tangents; carry them to the start's before the solve
-        t_now, _ = unit_tangents(self.x)
-        t_start, _ = unit_tangents(start)
-        ref = transport_frames(self.ref, t_now, t_start)
+        start = np.ascontiguousarray(start)
         contact = self._contact(primitives, self.primitives)
         if primitives is not None:
             self.primitives = primitives
         if len(self.primitives) and math.isinf(h):  # rest: no motion to lag friction from
             contact = contact[:8] + self._contact(None, Primitives.none(m.segments))[8:]
         x, ref, iterations, residual, converged, _ = newton_step(
-            start, ref, self.x, self.v, self._held, held_pos, self._rest, self._voronoi, self._mass,
+            start, self.ref, self.x, self.v, self._held, held_pos, self._rest, self._voronoi, self._mass,
             m.tensile_stiffness, m.bending_stiffness, m.torsional_stiffness, self._gravity, h, m.damping,
             self._span_edges, self.clamp_directors, self._span_len, self._force_scale, tolerance, MAX_ITERATIONS,
             contact)

@@ -19,7 +19,7 @@ DEFAULT_SAMPLE = 0.05
 # A motion step is solved to this fraction of a vertex's weight (inertia and drag included in the balance).
 STEP_TOLERANCE = 1e-3
 # At most this many sub-steps per sample when a link closes in on a cable (each an implicit step of its share).
-MAX_SUBSTEPS = 64
+MAX_SUBSTEPS = 256
 
 
 class RodSimulator:
@@ -32,6 +32,7 @@ class RodSimulator:
         self.cables: list[StationCable] = [station_cable(station, i) for i in range(station.n_robots)]
         self.scenes = [StationScene(station, c) for c in self.cables]
         self.unconverged_steps = 0  # motion steps whose Newton solve missed its tolerance (flagged, never dropped)
+        self.jammed_samples = 0  # samples whose links needed more than MAX_SUBSTEPS sub-steps (flagged)
         self.probe = ClearanceProbe(station)
         self._obstacle_data = station.data_at_home()  # the obstacles never move: their poses are read once
         self.q = station.home.copy()
@@ -96,15 +97,28 @@ class RodSimulator:
 
     def _advance(self, cable: StationCable, rod: Rod, scene: StationScene, q0: np.ndarray, q1: np.ndarray,
                  h: float) -> None:
-        """One sample of ``h`` s from joints q0 to q1: sub-stepped where a link closes in on the cable."""
-        after = scene.at(q1)
-        n = scene.substeps(rod.x, rod.radius, rod.primitives, after, MAX_SUBSTEPS) if len(after) else 1
-        for j in range(1, n + 1):
-            q = q0 + (q1 - q0) * (j / n)
-            prims = after if j == n else scene.at(q)
+        """One sample of ``h`` s from joints q0 to q1, in sub-steps where a link closes in on the cable: each lets
+        the links close at most half their gap, so every solve starts outside every primitive."""
+        end = scene.at(q1)
+        done = 0.0
+        for _ in range(MAX_SUBSTEPS):
+            step = 1.0 - done if not len(end) else (1.0 - done) * scene.advance_fraction(
+                rod.x, rod.radius, rod.primitives, end)
+            if step <= 1e-9:
+                break
+            done = 1.0 if done + step >= 1.0 - 1e-12 else done + step
+            q = q0 + (q1 - q0) * done
+            prims = end if done == 1.0 else scene.at(q)
             pos, dirs = self._targets(cable, q[cable.robot])
-            result = rod.step(pos, h / n, clamp_directors=dirs, tolerance=STEP_TOLERANCE, primitives=prims)
+            result = rod.step(pos, h * step, clamp_directors=dirs, tolerance=STEP_TOLERANCE, primitives=prims)
             self.unconverged_steps += int(not result.converged)
+            if done == 1.0:
+                return
+        # the links did not get through in MAX_SUBSTEPS: they are jammed against the cable; say so, and jump
+        pos, dirs = self._targets(cable, q1[cable.robot])
+        result = rod.step(pos, h * (1.0 - done), clamp_directors=dirs, tolerance=STEP_TOLERANCE, primitives=end)
+        self.unconverged_steps += int(not result.converged)
+        self.jammed_samples += 1
 
     def settle(self) -> SettleResult:
         """Every cable at rest where its robot stands: a converged static Newton solve (or flagged as not)."""

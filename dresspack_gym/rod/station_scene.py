@@ -60,15 +60,19 @@ class StationScene:
         return Primitives(self.kind, d.geom_xpos[self.geoms].copy(), d.geom_xmat[self.geoms].reshape(-1, 3, 3).copy(),
                           self.size, self.mask)
 
-    def substeps(self, x: np.ndarray, radius: float, before: Primitives, after: Primitives, limit: int) -> int:
-        """Sub-steps that keep every moving primitive from closing more than CLOSING_FRACTION of its gap to the
-        cable ``x`` in one of them (at most ``limit``)."""
-        moved = pose_displacements(before.pos, before.rot, after.pos, after.rot, self.bound)
-        if not (moved > 1e-12).any():
-            return 1
-        gaps = primitive_gaps(x, radius, before.kind, before.pos, before.rot, before.size, before.mask, moved, FAR)
-        need = moved / np.maximum(CLOSING_FRACTION * gaps, 1e-9)
-        return int(min(limit, max(1, math.ceil(float(need.max())))))
+    def advance_fraction(self, x: np.ndarray, radius: float, now: Primitives, end: Primitives) -> float:
+        """The fraction (0, 1] of the way from ``now`` to ``end`` the primitives may move in one sub-step: no
+        moving primitive closes more than CLOSING_FRACTION of its gap to the cable ``x``."""
+        return closing_fraction(x, radius, now, end, self.bound)
+
+
+def closing_fraction(x: np.ndarray, radius: float, now: Primitives, end: Primitives, bound: np.ndarray) -> float:
+    """See :meth:`StationScene.advance_fraction` (``bound``: the primitives' bounding radii)."""
+    moved = pose_displacements(now.pos, now.rot, end.pos, end.rot, bound)
+    if not (moved > 1e-12).any():
+        return 1.0
+    gaps = primitive_gaps(x, radius, now.kind, now.pos, now.rot, now.size, now.mask, moved, FAR)
+    return float(min(1.0, (CLOSING_FRACTION * np.maximum(gaps, 0.0) / np.maximum(moved, 1e-300)).min()))
 
 
 @njit(cache=True)
