@@ -7,8 +7,11 @@ from dresspack_gym.rod.contact.ccd import max_step
 from dresspack_gym.rod.contact.mask import pair_mask
 from dresspack_gym.rod.contact.primitives import BOX, CAPSULE, CYLINDER, PLANE, SPHERE
 from dresspack_gym.rod.contact.report import contact_report
+from dresspack_gym.rod.contact.warm import compile_kernels
 
 R = 0.005
+
+compile_kernels()  # one worker compiles, the others load numba's cache
 
 
 def rotation(rng):

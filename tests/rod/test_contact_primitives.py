@@ -6,9 +6,12 @@ import pytest
 
 from dresspack_gym.rod.contact.primitives import BOX, CAPSULE, CYLINDER, PLANE, SPHERE, point_distance
 from dresspack_gym.rod.contact.segment import segment_gap
+from dresspack_gym.rod.contact.warm import compile_kernels
 
 SIZES = {PLANE: (0.0, 0.0, 0.0), SPHERE: (0.3, 0.0, 0.0), CAPSULE: (0.2, 0.5, 0.0), BOX: (0.4, 0.1, 0.25),
          CYLINDER: (0.3, 0.4, 0.0)}
+
+compile_kernels()  # one worker compiles, the others load numba's cache
 
 
 def rotation(rng):

@@ -7,8 +7,11 @@ from dresspack_gym.rod.contact.barrier import barrier_accumulate, barrier_d1
 from dresspack_gym.rod.contact.motion import pose_displacement, pose_displacements, rotation_angle
 from dresspack_gym.rod.contact.primitives import BOX, PLANE, SPHERE, bounding_radii
 from dresspack_gym.rod.contact.report import contact_report
+from dresspack_gym.rod.contact.warm import compile_kernels
 
 R, DHAT, KAPPA, MU, EPS = 0.01, 0.05, 100.0, 0.3, 1e-4
+
+compile_kernels()  # one worker compiles, the others load numba's cache
 
 
 def scene():

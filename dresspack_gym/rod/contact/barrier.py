@@ -7,7 +7,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .assembly import add_edge_block, add_edge_gradient, psd_project3
+from .assembly import add_edge_block, add_edge_gradient
 from .primitives import bounding_radii
 from .segment import lower_bound, segment_gap
 
@@ -38,9 +38,14 @@ def barrier_d2(d, dhat):
 
 
 @njit(cache=True)
-def point_hessian(d, n, h, dhat, kappa, out):
-    """Hessian of kappa b(d) in the contact point: kappa (b'' n n^T + b' h) (unprojected)."""
-    d1 = kappa * barrier_d1(d, dhat)
+def point_hessian(d, n, h, dhat, kappa, project, out):
+    """Hessian of kappa b(d) in the contact point, kappa (b'' n n^T + b' h), or its PSD part if project.
+
+    Every kind's distance Hessian h is PSD with h n = 0 (primitives._curved), so n is an eigenvector with eigenvalue
+    kappa b'' >= 0 and the others are kappa b' (<= 0) times h's: clamping the negative eigenvalues to 0 leaves
+    exactly kappa b'' n n^T, with no eigen-decomposition.
+    """
+    d1 = 0.0 if project else kappa * barrier_d1(d, dhat)
     d2 = kappa * barrier_d2(d, dhat)
     for a in range(3):
         for b in range(3):
@@ -61,7 +66,6 @@ def barrier_accumulate(x, r, kind, pos, rot, size, mask, dhat, kappa, g, band, p
     n = np.empty(3)
     h = np.empty((3, 3))
     hp = np.empty((3, 3))
-    hq = np.empty((3, 3))
     gp = np.empty(3)
     energy = 0.0
     for i in range(x.shape[0] - 1):
@@ -78,12 +82,8 @@ def barrier_accumulate(x, r, kind, pos, rot, size, mask, dhat, kappa, g, band, p
             for k in range(3):
                 gp[k] = d1 * n[k]
             add_edge_gradient(g, i, t, gp)
-            point_hessian(d, n, h, dhat, kappa, hq)
-            if project:
-                psd_project3(hq, hp)
-                add_edge_block(band, i, t, hp)
-            else:
-                add_edge_block(band, i, t, hq)
+            point_hessian(d, n, h, dhat, kappa, project, hp)
+            add_edge_block(band, i, t, hp)
     return energy
 
 

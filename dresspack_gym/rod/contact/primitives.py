@@ -24,6 +24,14 @@ def dot3(u, v):
 
 
 @njit(cache=True)
+def zero33(h):
+    """h[:, :] = 0 (as a loop: numba compiles slice assignment slowly)."""
+    for a in range(3):
+        for b in range(3):
+            h[a, b] = 0.0
+
+
+@njit(cache=True)
 def bounding_radius(kind, size):
     """Radius about the primitive's origin of a ball holding all of it (inf for a plane)."""
     if kind == PLANE:
@@ -46,7 +54,7 @@ def _curved(v0, v1, v2, jac, n, h):
     dc = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
     if dc < TINY:
         n[0], n[1], n[2] = 0.0, 0.0, 1.0
-        h[:, :] = 0.0
+        zero33(h)
         return dc
     n[0], n[1], n[2] = v0 / dc, v1 / dc, v2 / dc
     for a in range(3):
@@ -74,9 +82,9 @@ def _box(q, hs, n, h, jac):
         if dk > best:
             best = dk
             axis = k
-    n[:] = 0.0
+    n[0], n[1], n[2] = 0.0, 0.0, 0.0
     n[axis] = 1.0 if q[axis] >= 0.0 else -1.0
-    h[:, :] = 0.0
+    zero33(h)
     return best
 
 
@@ -98,7 +106,7 @@ def _cylinder(q, radius, half, n, h, jac):
         jac[0, 1] = jac[1, 0] = k * u0 * u1
         jac[2, 2] = 1.0
         return _curved(dr * u0, dr * u1, dz * sz, jac, n, h)
-    h[:, :] = 0.0
+    zero33(h)
     if dr > dz:  # the side (outside when dr > 0, else the nearer surface from inside)
         n[0], n[1], n[2] = u0, u1, 0.0
         if dr > 0.0:
@@ -116,7 +124,7 @@ def _local(kind, size, q, n, h):
     jac = np.zeros((3, 3))
     if kind == PLANE:
         n[0], n[1], n[2] = 0.0, 0.0, 1.0
-        h[:, :] = 0.0
+        zero33(h)
         return q[2]
     if kind == SPHERE:
         jac[0, 0] = jac[1, 1] = jac[2, 2] = 1.0

@@ -25,8 +25,11 @@ def contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev, mask,
     bound = bounding_radii(kind, size)
     normal = np.zeros(n_v)
     fric = np.zeros(n_v)
-    gap = np.full(n_v - 1, cap)
-    nearest = np.full(n_v - 1, -1, np.int64)
+    gap = np.empty(n_v - 1)
+    nearest = np.empty(n_v - 1, np.int64)
+    for i in range(n_v - 1):
+        gap[i] = cap
+        nearest[i] = -1
     p = np.empty(3)
     n = np.empty(3)
     h = np.empty((3, 3))

@@ -20,18 +20,20 @@ def _clamp01(v):
 @njit(cache=True)
 def _segment_segment(a, b, c0, c1):
     """Parameter on [a, b] of a closest pair between segments [a, b] and [c0, c1] (Ericson, RTCD 5.1.9)."""
-    d1 = b - a
-    d2 = c1 - c0
-    rr = a - c0
-    aa = dot3(d1, d1)
-    ee = dot3(d2, d2)
-    ff = dot3(d2, rr)
+    aa = ee = ff = c = bb = 0.0
+    for k in range(3):
+        d1 = b[k] - a[k]
+        d2 = c1[k] - c0[k]
+        rr = a[k] - c0[k]
+        aa += d1 * d1
+        ee += d2 * d2
+        ff += d2 * rr
+        c += d1 * rr
+        bb += d1 * d2
     if aa <= 1e-300:
         return 0.0
-    c = dot3(d1, rr)
     if ee <= 1e-300:
         return _clamp01(-c / aa)
-    bb = dot3(d1, d2)
     denom = aa * ee - bb * bb
     s = _clamp01((bb * ff - c * ee) / denom) if denom > 0.0 else 0.0  # parallel: any s is a closest one
     t = (bb * s + ff) / ee
@@ -43,29 +45,31 @@ def _segment_segment(a, b, c0, c1):
 
 
 @njit(cache=True)
+def _slope(a, e, t, kind, pos, rot, size, p, n, h):
+    """f'(t) = n . e and f''(t) = e^T H e of f(t) = dist(a + t e)."""
+    for k in range(3):
+        p[k] = a[k] + t * e[k]
+    point_distance(kind, pos, rot, size, p, n, h)
+    curv = 0.0
+    for k in range(3):
+        curv += e[k] * (h[k, 0] * e[0] + h[k, 1] * e[1] + h[k, 2] * e[2])
+    return dot3(n, e), curv
+
+
+@njit(cache=True)
 def _convex_line_min(a, e, kind, pos, rot, size, p, n, h):
     """Minimiser on [0, 1] of f(t) = dist(a + t e): f is convex (a convex set's signed distance is convex along a
-    line), so a bracket on the sign of f' = n.e with safeguarded Newton steps (f'' = e^T H e) converges."""
-
-    def slope(t):
-        for k in range(3):
-            p[k] = a[k] + t * e[k]
-        point_distance(kind, pos, rot, size, p, n, h)
-        curv = 0.0
-        for k in range(3):
-            curv += e[k] * (h[k, 0] * e[0] + h[k, 1] * e[1] + h[k, 2] * e[2])
-        return dot3(n, e), curv
-
-    g0, _ = slope(0.0)
+    line), so a bracket on the sign of f' with safeguarded Newton steps converges."""
+    g0, _ = _slope(a, e, 0.0, kind, pos, rot, size, p, n, h)
     if g0 >= 0.0:
         return 0.0
-    g1, _ = slope(1.0)
+    g1, _ = _slope(a, e, 1.0, kind, pos, rot, size, p, n, h)
     if g1 <= 0.0:
         return 1.0
     lo, hi = 0.0, 1.0
     t = g0 / (g0 - g1)  # the zero of f' interpolated linearly
     for _ in range(LINE_ITERS):
-        g, curv = slope(t)
+        g, curv = _slope(a, e, t, kind, pos, rot, size, p, n, h)
         if g > 0.0:
             hi = t
         elif g < 0.0:
@@ -91,15 +95,21 @@ def segment_closest(a, b, kind, pos, rot, size, p, n, h):
         da = (a[0] - pos[0]) * nz0 + (a[1] - pos[1]) * nz1 + (a[2] - pos[2]) * nz2
         db = (b[0] - pos[0]) * nz0 + (b[1] - pos[1]) * nz1 + (b[2] - pos[2]) * nz2
         return 0.0 if da <= db else 1.0  # linear along the edge: an end (the first one on a tie)
-    e = b - a
+    e = np.empty(3)
+    for k in range(3):
+        e[k] = b[k] - a[k]
     if kind == SPHERE:
         ee = dot3(e, e)
-        return _clamp01(dot3(pos - a, e) / ee) if ee > 1e-300 else 0.0
+        if ee <= 1e-300:
+            return 0.0
+        return _clamp01(((pos[0] - a[0]) * e[0] + (pos[1] - a[1]) * e[1] + (pos[2] - a[2]) * e[2]) / ee)
     if kind == CAPSULE:
-        axis = np.empty(3)
+        c0 = np.empty(3)
+        c1 = np.empty(3)
         for k in range(3):
-            axis[k] = rot[k, 2] * size[1]
-        return _segment_segment(a, b, pos - axis, pos + axis)
+            c0[k] = pos[k] - rot[k, 2] * size[1]
+            c1[k] = pos[k] + rot[k, 2] * size[1]
+        return _segment_segment(a, b, c0, c1)
     return _convex_line_min(a, e, kind, pos, rot, size, p, n, h)
 
 
