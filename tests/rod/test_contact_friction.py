@@ -81,6 +81,16 @@ def test_sliding_on_a_plane_feels_mu_lam_beyond_eps_and_the_ramp_inside():
         assert friction_force(x, *lagged, MU, EPS)[0] == pytest.approx(expected)
 
 
+def test_at_rest_friction_is_static_stiffness_without_force():
+    x = np.array([[0.0, 0.0, 0.05], [0.3, 0.0, 0.07]])
+    still = prims_of(PLANE, np.zeros(3), np.eye(3))
+    lagged = lag(x, still, still)
+    e, g, band = accumulate(x, lagged)
+    assert e == pytest.approx(MU * lagged[3][0] * EPS / 3) and not g.any()
+    # tangential stiffness mu lam f1'(0) = 2 mu lam / eps on the touching vertex, none along the normal
+    np.testing.assert_allclose(dense(band)[:3, :3], np.diag([2.0, 2.0, 0.0]) * MU * lagged[3][0] / EPS)
+
+
 def test_relative_motion_a_moving_plane_drags_a_still_cable():
     x_prev = np.array([[0.0, 0.0, 0.05], [0.3, 0.0, 0.07]])
     still = prims_of(PLANE, np.zeros(3), np.eye(3))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from numba import njit
 
+
 @njit(cache=True)
 def add_edge_gradient(g, i, t, gp):
     """g[i] += (1 - t) gp, g[i + 1] += t gp: a gradient gp in the contact point p = (1 - t) x_i + t x_{i+1}."""

@@ -116,9 +116,12 @@ def friction_accumulate(x, edge, t, normal, lam, anchor, mu, eps, g, band):
         energy += s * f0(y, eps)
         a = s * _f1_over_y(y, eps)
         # (f1' - f1/y)/y^2: -1/(eps^2 y) below eps, -1/y^3 beyond; times u u^T it stays bounded as y -> 0
-        b = -s / (eps * eps * y) if y < eps else -s / (y * y * y)
         if y == 0.0:
             b = 0.0
+        elif y < eps:
+            b = -s / (eps * eps * y)
+        else:
+            b = -s / (y * y * y)
         nrm = normal[c]
         for k in range(3):
             gp[k] = a * u[k]

@@ -46,10 +46,12 @@ def bounding_radius(kind, size):
 
 
 @njit(cache=True)
-def _curved(v0, v1, v2, jac, n, h):
-    """Distance |v| to a feature whose closest-point offset is v, dv/dq = jac: n = v/|v|, H = (jac - n n^T)/|v|.
+def _curved(v0, v1, v2, j00, j11, j22, j01, n, h):
+    """Distance |v| to a feature whose closest-point offset is v, dv/dq = jac = [[j00, j01, 0], [j01, j11, 0],
+    [0, 0, j22]]: n = v/|v|, H = (jac - n n^T)/|v|.
 
-    Every kind's Hessian has this form (n^T jac = n^T, so H n = 0: the distance is flat along its own normal).
+    Every kind's Hessian has this form with jac PSD and n^T jac = n^T, so H is PSD and H n = 0 (the barrier's
+    PSD projection relies on both).
     """
     dc = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
     if dc < TINY:
@@ -59,53 +61,56 @@ def _curved(v0, v1, v2, jac, n, h):
     n[0], n[1], n[2] = v0 / dc, v1 / dc, v2 / dc
     for a in range(3):
         for b in range(3):
-            h[a, b] = (jac[a, b] - n[a] * n[b]) / dc
+            h[a, b] = -n[a] * n[b] / dc
+    h[0, 0] += j00 / dc
+    h[1, 1] += j11 / dc
+    h[2, 2] += j22 / dc
+    h[0, 1] += j01 / dc
+    h[1, 0] += j01 / dc
     return dc
 
 
 @njit(cache=True)
-def _box(q, hs, n, h, jac):
-    outside = False
-    v = np.empty(3)
-    for k in range(3):
-        c = min(max(q[k], -hs[k]), hs[k])
-        v[k] = q[k] - c
-        jac[k, k] = 1.0 if q[k] != c else 0.0
-        outside = outside or q[k] != c
-    if outside:
-        return _curved(v[0], v[1], v[2], jac, n, h)
-    # inside: the nearest face's plane (the signed distance is a max of planes there)
-    best = -np.inf
-    axis = 0
-    for k in range(3):
-        dk = abs(q[k]) - hs[k]
-        if dk > best:
-            best = dk
-            axis = k
-    n[0], n[1], n[2] = 0.0, 0.0, 0.0
-    n[axis] = 1.0 if q[axis] >= 0.0 else -1.0
-    zero33(h)
-    return best
+def _flag(b):
+    return 1.0 if b else 0.0
 
 
 @njit(cache=True)
-def _cylinder(q, radius, half, n, h, jac):
-    rho = math.sqrt(q[0] * q[0] + q[1] * q[1])
+def _box(q0, q1, q2, hs, n, h):
+    c0 = min(max(q0, -hs[0]), hs[0])
+    c1 = min(max(q1, -hs[1]), hs[1])
+    c2 = min(max(q2, -hs[2]), hs[2])
+    if q0 != c0 or q1 != c1 or q2 != c2:  # outside: the offset to the clamped point, moving along clamped axes
+        return _curved(q0 - c0, q1 - c1, q2 - c2, _flag(q0 != c0), _flag(q1 != c1),
+                       _flag(q2 != c2), 0.0, n, h)
+    # inside: the nearest face's plane (the signed distance is a max of planes there)
+    d0, d1, d2 = abs(q0) - hs[0], abs(q1) - hs[1], abs(q2) - hs[2]
+    n[0], n[1], n[2] = 0.0, 0.0, 0.0
+    zero33(h)
+    if d0 >= d1 and d0 >= d2:
+        n[0] = 1.0 if q0 >= 0.0 else -1.0
+        return d0
+    if d1 >= d2:
+        n[1] = 1.0 if q1 >= 0.0 else -1.0
+        return d1
+    n[2] = 1.0 if q2 >= 0.0 else -1.0
+    return d2
+
+
+@njit(cache=True)
+def _cylinder(q0, q1, q2, radius, half, n, h):
+    rho = math.sqrt(q0 * q0 + q1 * q1)
     if rho > TINY:
-        u0, u1 = q[0] / rho, q[1] / rho
+        u0, u1 = q0 / rho, q1 / rho
     else:
         u0, u1 = 1.0, 0.0
     dr = rho - radius
-    az = abs(q[2])
-    dz = az - half
-    sz = 1.0 if q[2] >= 0.0 else -1.0
+    dz = abs(q2) - half
+    sz = 1.0 if q2 >= 0.0 else -1.0
     if dr > 0.0 and dz > 0.0:  # the rim circle: jac = I - (radius/rho)(I - u u^T) in the xy plane
         k = radius / rho
-        jac[0, 0] = 1.0 - k * (1.0 - u0 * u0)
-        jac[1, 1] = 1.0 - k * (1.0 - u1 * u1)
-        jac[0, 1] = jac[1, 0] = k * u0 * u1
-        jac[2, 2] = 1.0
-        return _curved(dr * u0, dr * u1, dz * sz, jac, n, h)
+        return _curved(dr * u0, dr * u1, dz * sz, 1.0 - k * (1.0 - u0 * u0), 1.0 - k * (1.0 - u1 * u1), 1.0,
+                       k * u0 * u1, n, h)
     zero33(h)
     if dr > dz:  # the side (outside when dr > 0, else the nearer surface from inside)
         n[0], n[1], n[2] = u0, u1, 0.0
@@ -119,24 +124,21 @@ def _cylinder(q, radius, half, n, h, jac):
 
 
 @njit(cache=True)
-def _local(kind, size, q, n, h):
+def _local(kind, size, q0, q1, q2, n, h):
     """Distance, normal and Hessian in the primitive's frame."""
-    jac = np.zeros((3, 3))
     if kind == PLANE:
         n[0], n[1], n[2] = 0.0, 0.0, 1.0
         zero33(h)
-        return q[2]
+        return q2
     if kind == SPHERE:
-        jac[0, 0] = jac[1, 1] = jac[2, 2] = 1.0
-        return _curved(q[0], q[1], q[2], jac, n, h) - size[0]
+        return _curved(q0, q1, q2, 1.0, 1.0, 1.0, 0.0, n, h) - size[0]
     if kind == CAPSULE:
-        z = min(max(q[2], -size[1]), size[1])
-        jac[0, 0] = jac[1, 1] = 1.0
-        jac[2, 2] = 1.0 if z != q[2] else 0.0  # on a cap the axis end is a point, along the side a line
-        return _curved(q[0], q[1], q[2] - z, jac, n, h) - size[0]
+        z = min(max(q2, -size[1]), size[1])
+        # on a cap the axis end is a point (jac = I), along the side a line (no motion along it)
+        return _curved(q0, q1, q2 - z, 1.0, 1.0, _flag(z != q2), 0.0, n, h) - size[0]
     if kind == BOX:
-        return _box(q, size, n, h, jac)
-    return _cylinder(q, size[0], size[1], n, h, jac)
+        return _box(q0, q1, q2, size, n, h)
+    return _cylinder(q0, q1, q2, size[0], size[1], n, h)
 
 
 @njit(cache=True)
@@ -146,21 +148,23 @@ def point_distance(kind, pos, rot, size, p, n, h):
     kind, size: one primitive's entries; pos (3,), rot (3, 3) (columns = local axes); n (3,), h (3, 3) are outputs.
     The Hessian is exact off feature boundaries (where the distance is only C1) and zero inside the solid.
     """
-    q = np.empty(3)
+    r0, r1, r2 = p[0] - pos[0], p[1] - pos[1], p[2] - pos[2]
+    q0 = rot[0, 0] * r0 + rot[1, 0] * r1 + rot[2, 0] * r2
+    q1 = rot[0, 1] * r0 + rot[1, 1] * r1 + rot[2, 1] * r2
+    q2 = rot[0, 2] * r0 + rot[1, 2] * r1 + rot[2, 2] * r2
+    d = _local(kind, size, q0, q1, q2, n, h)
+    n0, n1, n2 = n[0], n[1], n[2]
     for a in range(3):
-        q[a] = rot[0, a] * (p[0] - pos[0]) + rot[1, a] * (p[1] - pos[1]) + rot[2, a] * (p[2] - pos[2])
-    nl = np.empty(3)
-    hl = np.empty((3, 3))
-    d = _local(kind, size, q, nl, hl)
-    for a in range(3):
-        n[a] = rot[a, 0] * nl[0] + rot[a, 1] * nl[1] + rot[a, 2] * nl[2]
-    tmp = np.empty((3, 3))
-    for a in range(3):
-        for b in range(3):
-            tmp[a, b] = rot[a, 0] * hl[0, b] + rot[a, 1] * hl[1, b] + rot[a, 2] * hl[2, b]
+        n[a] = rot[a, 0] * n0 + rot[a, 1] * n1 + rot[a, 2] * n2
+    # h <- rot h rot^T in place, through snapshots of its 9 entries
+    hl = (h[0, 0], h[0, 1], h[0, 2], h[1, 0], h[1, 1], h[1, 2], h[2, 0], h[2, 1], h[2, 2])
     for a in range(3):
         for b in range(3):
-            h[a, b] = tmp[a, 0] * rot[b, 0] + tmp[a, 1] * rot[b, 1] + tmp[a, 2] * rot[b, 2]
+            h[a, b] = rot[a, 0] * hl[b] + rot[a, 1] * hl[3 + b] + rot[a, 2] * hl[6 + b]
+    hl = (h[0, 0], h[0, 1], h[0, 2], h[1, 0], h[1, 1], h[1, 2], h[2, 0], h[2, 1], h[2, 2])
+    for a in range(3):
+        for b in range(3):
+            h[a, b] = hl[3 * a] * rot[b, 0] + hl[3 * a + 1] * rot[b, 1] + hl[3 * a + 2] * rot[b, 2]
     return d
 
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .primitives import CAPSULE, PLANE, SPHERE, dot3, point_distance
+from .primitives import CAPSULE, PLANE, SPHERE, point_distance
 
 LINE_ITERS = 64  # bound on the 1-D search (each halves the bracket at worst: 2^-64 of the edge, far below rounding)
 
@@ -18,13 +18,14 @@ def _clamp01(v):
 
 
 @njit(cache=True)
-def _segment_segment(a, b, c0, c1):
-    """Parameter on [a, b] of a closest pair between segments [a, b] and [c0, c1] (Ericson, RTCD 5.1.9)."""
+def _segment_axis(a, b, pos, rot, half):
+    """Parameter on [a, b] of a closest pair between [a, b] and the axis pos +- half rot[:, 2] (Ericson, RTCD
+    5.1.9)."""
     aa = ee = ff = c = bb = 0.0
     for k in range(3):
         d1 = b[k] - a[k]
-        d2 = c1[k] - c0[k]
-        rr = a[k] - c0[k]
+        d2 = 2.0 * half * rot[k, 2]
+        rr = a[k] - pos[k] + half * rot[k, 2]
         aa += d1 * d1
         ee += d2 * d2
         ff += d2 * rr
@@ -45,31 +46,33 @@ def _segment_segment(a, b, c0, c1):
 
 
 @njit(cache=True)
-def _slope(a, e, t, kind, pos, rot, size, p, n, h):
-    """f'(t) = n . e and f''(t) = e^T H e of f(t) = dist(a + t e)."""
+def _slope(a, b, t, kind, pos, rot, size, p, n, h):
+    """f'(t) = n . e and f''(t) = e^T H e of f(t) = dist(a + t e), e = b - a."""
     for k in range(3):
-        p[k] = a[k] + t * e[k]
+        p[k] = a[k] + t * (b[k] - a[k])
     point_distance(kind, pos, rot, size, p, n, h)
-    curv = 0.0
+    slope = curv = 0.0
     for k in range(3):
-        curv += e[k] * (h[k, 0] * e[0] + h[k, 1] * e[1] + h[k, 2] * e[2])
-    return dot3(n, e), curv
+        ek = b[k] - a[k]
+        slope += n[k] * ek
+        curv += ek * (h[k, 0] * (b[0] - a[0]) + h[k, 1] * (b[1] - a[1]) + h[k, 2] * (b[2] - a[2]))
+    return slope, curv
 
 
 @njit(cache=True)
-def _convex_line_min(a, e, kind, pos, rot, size, p, n, h):
-    """Minimiser on [0, 1] of f(t) = dist(a + t e): f is convex (a convex set's signed distance is convex along a
-    line), so a bracket on the sign of f' with safeguarded Newton steps converges."""
-    g0, _ = _slope(a, e, 0.0, kind, pos, rot, size, p, n, h)
+def _convex_line_min(a, b, kind, pos, rot, size, p, n, h):
+    """Minimiser on [0, 1] of f(t) = dist(a + t (b - a)): f is convex (a convex set's signed distance is convex along
+    a line), so a bracket on the sign of f' with safeguarded Newton steps converges."""
+    g0, _ = _slope(a, b, 0.0, kind, pos, rot, size, p, n, h)
     if g0 >= 0.0:
         return 0.0
-    g1, _ = _slope(a, e, 1.0, kind, pos, rot, size, p, n, h)
+    g1, _ = _slope(a, b, 1.0, kind, pos, rot, size, p, n, h)
     if g1 <= 0.0:
         return 1.0
     lo, hi = 0.0, 1.0
     t = g0 / (g0 - g1)  # the zero of f' interpolated linearly
     for _ in range(LINE_ITERS):
-        g, curv = _slope(a, e, t, kind, pos, rot, size, p, n, h)
+        g, curv = _slope(a, b, t, kind, pos, rot, size, p, n, h)
         if g > 0.0:
             hi = t
         elif g < 0.0:
@@ -95,22 +98,15 @@ def segment_closest(a, b, kind, pos, rot, size, p, n, h):
         da = (a[0] - pos[0]) * nz0 + (a[1] - pos[1]) * nz1 + (a[2] - pos[2]) * nz2
         db = (b[0] - pos[0]) * nz0 + (b[1] - pos[1]) * nz1 + (b[2] - pos[2]) * nz2
         return 0.0 if da <= db else 1.0  # linear along the edge: an end (the first one on a tie)
-    e = np.empty(3)
-    for k in range(3):
-        e[k] = b[k] - a[k]
     if kind == SPHERE:
-        ee = dot3(e, e)
+        e0, e1, e2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+        ee = e0 * e0 + e1 * e1 + e2 * e2
         if ee <= 1e-300:
             return 0.0
-        return _clamp01(((pos[0] - a[0]) * e[0] + (pos[1] - a[1]) * e[1] + (pos[2] - a[2]) * e[2]) / ee)
+        return _clamp01(((pos[0] - a[0]) * e0 + (pos[1] - a[1]) * e1 + (pos[2] - a[2]) * e2) / ee)
     if kind == CAPSULE:
-        c0 = np.empty(3)
-        c1 = np.empty(3)
-        for k in range(3):
-            c0[k] = pos[k] - rot[k, 2] * size[1]
-            c1[k] = pos[k] + rot[k, 2] * size[1]
-        return _segment_segment(a, b, c0, c1)
-    return _convex_line_min(a, e, kind, pos, rot, size, p, n, h)
+        return _segment_axis(a, b, pos, rot, size[1])
+    return _convex_line_min(a, b, kind, pos, rot, size, p, n, h)
 
 
 @njit(cache=True)
