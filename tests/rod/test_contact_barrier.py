@@ -102,6 +102,17 @@ def test_energy_inf_on_penetration_and_zero_when_far(kind):
     assert e == 0.0 and energy(far, prims) == 0.0 and not g.any() and not band.any()
 
 
+def test_disabled_pairs_are_not_seen():
+    rng = np.random.default_rng(9)
+    kind, pos, rot, size = (np.concatenate(parts) for parts in zip(single(SPHERE, rng), single(BOX, rng)))
+    x = np.array([pos[0] - 2 * rot[0][:, 0], pos[0] + 2 * rot[0][:, 0]])  # through the sphere (held by its clamp)
+    mask = np.array([[False, True]])
+    g = np.zeros_like(x)
+    e = barrier_accumulate(x, R, kind, pos, rot, size, mask, DHAT, KAPPA, g, np.zeros((6, 6)), True)
+    assert np.isfinite(e) and np.isfinite(barrier_energy(x, R, kind, pos, rot, size, mask, DHAT, KAPPA))
+    assert barrier_energy(x, R, kind, pos, rot, size, np.ones((1, 2), bool), DHAT, KAPPA) == np.inf
+
+
 @pytest.mark.parametrize("kind", KINDS)
 def test_gradient_matches_finite_differences(kind):
     rng = np.random.default_rng(30 + kind)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dresspack_gym.rod.contact.ccd import max_step
+from dresspack_gym.rod.contact.ccd import KEEP, MAX_ITER, max_step
 from dresspack_gym.rod.contact.mask import pair_mask
 from dresspack_gym.rod.contact.primitives import BOX, CAPSULE, CYLINDER, PLANE, SPHERE
 from dresspack_gym.rod.contact.report import contact_report
@@ -42,7 +42,7 @@ def test_far_primitives_allow_the_full_step():
     prims = scene(rng)
     x = np.stack([np.linspace(0, 1, 12), np.zeros(12), np.full(12, 20.0)], axis=1)
     dx = rng.normal(scale=0.5, size=x.shape)
-    assert max_step(x, dx, R, *prims, pair_mask(11, len(prims[0]))) == 1.0
+    assert max_step(x, dx, R, *prims, pair_mask(11, len(prims[0])), KEEP, MAX_ITER) == 1.0
 
 
 def test_head_on_steps_stop_near_the_kept_fraction_of_the_gap():
@@ -53,7 +53,7 @@ def test_head_on_steps_stop_near_the_kept_fraction_of_the_gap():
         x = np.array([[0.0, 0.0, 0.5], [0.0, 0.0, 0.6]])
         dx = np.tile([0.0, 0.0, -2.0], (2, 1))
         g0 = 0.5 - top - R
-        alpha = max_step(x, dx, R, *prims, np.ones((1, 1), bool))
+        alpha = max_step(x, dx, R, *prims, np.ones((1, 1), bool), KEEP, MAX_ITER)
         assert 0.9 * g0 / 2.0 * 0.99 <= alpha <= 0.9 * g0 / 2.0 + 1e-12  # within the 5 % settling band of 0.1 g0
 
 
@@ -70,7 +70,7 @@ def test_random_fast_steps_never_pass_through():
                 break
         towards = prims[1][rng.integers(len(prims[0]) - 1)] - x.mean(axis=0)
         dx = 3.0 * towards + rng.normal(scale=0.3, size=x.shape)  # through a primitive, fast and distorting
-        alpha = max_step(x, dx, R, *prims, mask)
+        alpha = max_step(x, dx, R, *prims, mask, KEEP, MAX_ITER)
         assert 0.0 < alpha <= 1.0
         limited += alpha < 1.0
         for s in np.linspace(0.0, alpha, 120):
@@ -82,15 +82,15 @@ def test_thin_plate_between_the_ends_of_a_step():
     plate = (np.array([BOX], np.int64), np.zeros((1, 3)), np.eye(3)[None].copy(), np.array([[1.0, 1.0, 1e-4]]))
     x = np.array([[0.0, 0.0, 0.2], [0.1, 0.0, 0.2], [0.2, 0.0, 0.2]])
     dx = np.tile([0.0, 0.0, -0.4], (3, 1))  # start and end are both 0.2 from the plate, on either side
-    alpha = max_step(x, dx, R, *plate, np.ones((2, 1), bool))
+    alpha = max_step(x, dx, R, *plate, np.ones((2, 1), bool), KEEP, MAX_ITER)
     assert alpha == pytest.approx(0.9 * (0.2 - 1e-4 - R) / 0.4)
-    assert max_step(x, dx, R, *plate, np.zeros((2, 1), bool)) == 1.0  # the pair disabled
+    assert max_step(x, dx, R, *plate, np.zeros((2, 1), bool), KEEP, MAX_ITER) == 1.0  # the pair disabled
 
 
 def test_an_infeasible_start_gives_zero():
     plate = (np.array([SPHERE], np.int64), np.zeros((1, 3)), np.eye(3)[None].copy(), np.array([[0.1, 0, 0]]))
     x = np.array([[-0.2, 0.0, 0.0], [0.2, 0.0, 0.0]])
-    assert max_step(x, np.ones_like(x), R, *plate, np.ones((1, 1), bool)) == 0.0
+    assert max_step(x, np.ones_like(x), R, *plate, np.ones((1, 1), bool), KEEP, MAX_ITER) == 0.0
 
 
 def test_mask_helper_excludes_clamped_stretches():

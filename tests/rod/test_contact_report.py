@@ -37,7 +37,7 @@ def test_normal_force_goes_to_the_vertices_by_the_contact_parameter():
         assert not fric.any()  # nothing moved
         assert gap[0] == pytest.approx(clear, rel=1e-12) and nearest[0] == (0 if x is floor_edge else 1)
         g = np.zeros_like(x)
-        barrier_accumulate(x, R, *scene(), np.ones((1, 3), bool), DHAT, KAPPA, g, np.zeros((6, 6)))
+        barrier_accumulate(x, R, *scene(), np.ones((1, 3), bool), DHAT, KAPPA, g, np.zeros((6, 6)), True)
         np.testing.assert_allclose(np.linalg.norm(g, axis=1), normal, rtol=1e-12)  # one pair per vertex here
 
 

@@ -53,9 +53,10 @@ def point_hessian(d, n, h, dhat, kappa, project, out):
 
 
 @njit(cache=True)
-def barrier_accumulate(x, r, kind, pos, rot, size, mask, dhat, kappa, g, band, project=True):
+def barrier_accumulate(x, r, kind, pos, rot, size, mask, dhat, kappa, g, band, project):
     """Barrier energy sum kappa b(d) [J] over the enabled pairs with d < dhat; adds its gradient to g (n+1, 3) and its
-    Hessian to the lower band matrix band (kd+1, 3(n+1)), kd >= 5, edge blocks PSD-projected unless project=False.
+    Hessian to the lower band matrix band (kd+1, 3(n+1)), kd >= 5, the edge blocks PSD-projected if project (the
+    solve's choice; False gives the raw Hessian with t* held fixed).
 
     x (n+1, 3) cable vertices, r cable radius [m]; kind (k,), pos (k, 3), rot (k, 3, 3), size (k, 3) primitives;
     mask (n, k) bool, True where edge i may touch primitive j; dhat [m]; kappa [J/m^2]. Returns inf at the first

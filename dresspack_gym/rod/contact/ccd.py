@@ -11,6 +11,8 @@ from .primitives import PLANE, bounding_radii
 from .segment import lower_bound, segment_gap
 
 CONVERGED = 0.05  # a pair's advancement stops once its gap is within 5 % above its floor
+KEEP = 0.1  # the fraction of each gap that a step keeps
+MAX_ITER = 64  # advancements per pair
 
 
 @njit(cache=True)
@@ -41,9 +43,10 @@ def _plane_step(a, b, va, vb, r, pos, rot, keep, alpha):
 
 
 @njit(cache=True)
-def max_step(x, dx, r, kind, pos, rot, size, mask, keep=0.1, max_iter=64):
+def max_step(x, dx, r, kind, pos, rot, size, mask, keep, max_iter):
     """Largest alpha in [0, 1] such that along x + s dx, 0 <= s <= alpha, no enabled pair's gap falls below keep
     times its value at s = 0 (so never reaches 0): conservative advancement with the Lipschitz bound above.
+    keep in (0, 1), e.g. KEEP; max_iter e.g. MAX_ITER (every argument is passed: numba compiles apart per omission).
 
     Per pair at most max_iter advancements; a pair whose gap shrinks only slowly (grazing motion) and has not
     settled by then limits alpha to the fraction reached, which is proven safe, so the bound only costs step length.

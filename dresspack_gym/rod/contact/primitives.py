@@ -18,12 +18,6 @@ TINY = 1e-300  # a core distance below this has no defined normal (a point on a 
 
 
 @njit(cache=True)
-def dot3(u, v):
-    """u . v for 3-vectors (numba's @ goes through BLAS: slower to compile and to call at this size)."""
-    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-
-
-@njit(cache=True)
 def zero33(h):
     """h[:, :] = 0 (as a loop: numba compiles slice assignment slowly)."""
     for a in range(3):

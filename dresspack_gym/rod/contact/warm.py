@@ -17,11 +17,11 @@ LOCK = os.path.join(tempfile.gettempdir(), "dresspack_gym_rod_contact.lock")
 
 def _call_all():
     from .barrier import barrier_accumulate, barrier_energy
-    from .ccd import max_step
+    from .ccd import KEEP, MAX_ITER, max_step
     from .friction import friction_accumulate, friction_energy, friction_lag
     from .motion import pose_displacements
     from .primitives import bounding_radii
-    from .report import contact_report
+    from .report import CAP, contact_report
 
     kind = np.arange(5, dtype=np.int64)
     pos = np.zeros((5, 3))
@@ -32,13 +32,13 @@ def _call_all():
     mask = np.ones((1, 5), dtype=bool)
     g = np.zeros_like(x)
     band = np.zeros((6, 6))
-    barrier_accumulate(x, 0.01, kind, pos, rot, size, mask, 0.1, 1.0, g, band)
+    barrier_accumulate(x, 0.01, kind, pos, rot, size, mask, 0.1, 1.0, g, band, True)
     barrier_energy(x, 0.01, kind, pos, rot, size, mask, 0.1, 1.0)
-    max_step(x, g, 0.01, kind, pos, rot, size, mask)
+    max_step(x, g, 0.01, kind, pos, rot, size, mask, KEEP, MAX_ITER)
     lagged = friction_lag(x, 0.01, kind, pos, rot, size, pos, rot, mask, 0.1, 1.0)
     friction_accumulate(x, *lagged, 0.5, 1e-4, g, band)
     friction_energy(x, *lagged, 0.5, 1e-4)
-    contact_report(x, x, 0.01, kind, pos, rot, size, pos, rot, mask, 0.1, 1.0, 0.5, 1e-4)
+    contact_report(x, x, 0.01, kind, pos, rot, size, pos, rot, mask, 0.1, 1.0, 0.5, 1e-4, CAP)
     pose_displacements(pos, rot, pos, rot, bounding_radii(kind, size))
 
 
