@@ -14,13 +14,13 @@ CAP = 10.0  # [m] beyond which clearances are not resolved
 
 
 @njit(cache=True)
-def contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev, mask, dhat, kappa, mu, eps, cap):
+def contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev, mask, dhat, kappa, mu, eps, cap=CAP):
     """Per vertex the normal and friction force magnitudes [N], per edge the smallest gap [m] and nearest primitive.
 
     The normal force of a pair, -kappa b'(d) at x, and its friction force mu lam f1(|u|) (the contact set lagged
     from x_prev and the primitives' previous poses, as in the solve) go to the edge's vertices by weights 1 - t*
     and t*; a vertex sums the magnitudes of its pairs. Gaps are exact below cap; an edge with no enabled primitive
-    nearer than cap [m] (e.g. CAP) reports gap cap and index -1. A penetrating pair reports an infinite normal force.
+    nearer than cap [m] reports gap cap and index -1. A penetrating pair reports an infinite normal force.
     Returns (normal (n+1,), friction (n+1,), gap (n,), nearest (n,) int64).
     """
     n_v = x.shape[0]
