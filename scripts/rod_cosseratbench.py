@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 from importlib.metadata import version
 from pathlib import Path
@@ -80,6 +81,7 @@ def main() -> None:
             ["--experiments", *args.experiments, "--solvers", *args.solvers]),
         "cosseratbench": version("cosseratbench"),
         "machine": platform.processor() or platform.machine(),
+        "pythonpath": os.environ.get("PYTHONPATH"),  # backends installed beside the venv, if any
         "solvers": installed,
         "runs": rows,
     }, indent=1) + "\n")
