@@ -18,77 +18,87 @@ import math
 import numpy as np
 from numba import njit
 
-from .frames import cross3, dot3, norm3, signed_angle, transport
+from .frames import cross3, dot3, norm3, signed_angle
 
 # Half-bandwidth (lower) of the Hessian in coordinates: a bend couples three consecutive vertices (9 coordinates).
 KD = 8
 
 
 @njit(cache=True)
-def stretch_edge(e, l0, ea, exact):
-    """Energy, gradient (3,) and Hessian (3x3) of one edge vector ``e`` of rest length ``l0``."""
-    ln = norm3(e)
-    t = e / ln
+def stretch_into(e, l0, ea, exact, grad3, hess3):
+    """Energy of one edge vector ``e`` of rest length ``l0``; its gradient into ``grad3``, Hessian into ``hess3``."""
+    ln = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
     k = ea / l0
-    energy = 0.5 * k * (ln - l0) ** 2
-    grad = k * (ln - l0) * t
     lateral = 1.0 - l0 / ln
     if not exact and lateral < 0.0:  # a compressed edge's lateral term is negative: dropped where PD is needed
         lateral = 0.0
-    hess = np.empty((3, 3))
     for a in range(3):
+        ta = e[a] / ln
+        grad3[a] = k * (ln - l0) * ta
         for b in range(3):
-            tt = t[a] * t[b]
-            hess[a, b] = k * (tt + lateral * ((1.0 if a == b else 0.0) - tt))
+            tt = ta * e[b] / ln
+            hess3[a, b] = k * (tt + lateral * ((1.0 if a == b else 0.0) - tt))
+    return 0.5 * k * (ln - l0) ** 2
+
+
+@njit(cache=True)
+def stretch_edge(e, l0, ea, exact):
+    """Energy, gradient (3,) and Hessian (3x3) of one edge vector ``e`` of rest length ``l0``."""
+    grad, hess = np.empty(3), np.empty((3, 3))
+    energy = stretch_into(e, l0, ea, exact, grad, hess)
     return energy, grad, hess
 
 
 @njit(cache=True)
-def bend_vertex(e, f, coeff, exact):
-    """Energy, gradient (6,) over (e, f) and Hessian (6x6) of the bend between edges ``e`` and ``f``:
-    coeff (P - s)/(P + s) with coeff = 2 EI / lv. ``exact`` False gives the Gauss-Newton Hessian
-    coeff/2 J^T J of |kb|^2 (always positive semi-definite)."""
-    le, lf = norm3(e), norm3(f)
-    te, tf = e / le, f / lf
+def bend_into(e, f, coeff, exact, grad6, hess6, jac):
+    """Energy coeff (P - s)/(P + s) of the bend between edges ``e`` and ``f`` (coeff = 2 EI / lv); gradient over
+    (e, f) into ``grad6``, Hessian into ``hess6`` (``exact`` False: the Gauss-Newton Hessian coeff/2 J^T J of
+    |kb|^2, always positive semi-definite; ``jac`` (3, 6) scratch)."""
+    le = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+    lf = math.sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2])
     p = le * lf
-    s = dot3(e, f)
+    s = e[0] * f[0] + e[1] * f[1] + e[2] * f[2]
     q = p + s
-    energy = coeff * (p - s) / q
     g_p = 2.0 * coeff * s / (q * q)
     g_s = -2.0 * coeff * p / (q * q)
-    dp = np.empty(6)
-    ds = np.empty(6)
+    # dP/d(e, f) = (|f| e/|e|, |e| f/|f|), ds/d(e, f) = (f, e)
     for a in range(3):
-        dp[a], dp[3 + a] = lf * te[a], le * tf[a]
-        ds[a], ds[3 + a] = f[a], e[a]
-    grad = g_p * dp + g_s * ds
-    hess = np.zeros((6, 6))
+        grad6[a] = g_p * lf * e[a] / le + g_s * f[a]
+        grad6[3 + a] = g_p * le * f[a] / lf + g_s * e[a]
     if exact:
         q3 = q * q * q
         g_pp = -4.0 * coeff * s / q3
         g_ss = 4.0 * coeff * p / q3
         g_ps = 2.0 * coeff * (p - s) / q3
         for a in range(6):
+            dpa = lf * e[a] / le if a < 3 else le * f[a - 3] / lf
+            dsa = f[a] if a < 3 else e[a - 3]
             for b in range(6):
-                hess[a, b] = (g_pp * dp[a] * dp[b] + g_ss * ds[a] * ds[b]
-                              + g_ps * (dp[a] * ds[b] + ds[a] * dp[b]))
+                dpb = lf * e[b] / le if b < 3 else le * f[b - 3] / lf
+                dsb = f[b] if b < 3 else e[b - 3]
+                hess6[a, b] = g_pp * dpa * dpb + g_ss * dsa * dsb + g_ps * (dpa * dsb + dsa * dpb)
         for a in range(3):
             for b in range(3):
                 eye = 1.0 if a == b else 0.0
-                hess[a, b] += g_p * lf / le * (eye - te[a] * te[b])
-                hess[3 + a, 3 + b] += g_p * le / lf * (eye - tf[a] * tf[b])
-                cross_term = g_p * te[a] * tf[b] + g_s * eye
-                hess[a, 3 + b] += cross_term
-                hess[3 + b, a] += cross_term
+                hess6[a, b] += g_p * lf / le * (eye - e[a] * e[b] / (le * le))
+                hess6[3 + a, 3 + b] += g_p * le / lf * (eye - f[a] * f[b] / (lf * lf))
+                cross_term = g_p * e[a] * f[b] / (le * lf) + g_s * eye
+                hess6[a, 3 + b] += cross_term
+                hess6[3 + b, a] += cross_term
     else:
-        jac = curvature_binormal_jacobian(e, f)  # (3, 6)
+        binormal_jacobian_into(e, f, jac)
         half = 0.5 * coeff  # E = coeff/4 |kb|^2  ->  Gauss-Newton: coeff/2 J^T J
         for a in range(6):
             for b in range(6):
-                acc = 0.0
-                for c in range(3):
-                    acc += jac[c, a] * jac[c, b]
-                hess[a, b] = half * acc
+                hess6[a, b] = half * (jac[0, a] * jac[0, b] + jac[1, a] * jac[1, b] + jac[2, a] * jac[2, b])
+    return coeff * (p - s) / q
+
+
+@njit(cache=True)
+def bend_vertex(e, f, coeff, exact):
+    """Energy, gradient (6,) over (e, f) and Hessian (6x6) of :func:`bend_into`."""
+    grad, hess, jac = np.empty(6), np.empty((6, 6)), np.empty((3, 6))
+    energy = bend_into(e, f, coeff, exact, grad, hess, jac)
     return energy, grad, hess
 
 
@@ -108,45 +118,58 @@ def _skew(v, a, b) -> float:
 
 
 @njit(cache=True)
-def curvature_binormal_jacobian(e, f):
-    """d kb / d(e, f), shape (3, 6): kb = 2 c / D with c = e x f, D = |e||f| + e.f."""
-    le, lf = norm3(e), norm3(f)
-    d = le * lf + dot3(e, f)
-    kb = 2.0 * cross3(e, f) / d
-    dd_e = lf * e / le + f
-    dd_f = le * f / lf + e
-    jac = np.empty((3, 6))
-    # d(e x f)/de = -[f]x, d(e x f)/df = [e]x, written entry by entry ([v]x[a, b] = -eps_abc v_c)
+def binormal_jacobian_into(e, f, jac):
+    """d kb / d(e, f) into ``jac`` (3, 6): kb = 2 c / D with c = e x f, D = |e||f| + e.f."""
+    le = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+    lf = math.sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2])
+    d = le * lf + e[0] * f[0] + e[1] * f[1] + e[2] * f[2]
+    c0, c1, c2 = e[1] * f[2] - e[2] * f[1], e[2] * f[0] - e[0] * f[2], e[0] * f[1] - e[1] * f[0]
     for a in range(3):
+        kb = 2.0 * (c0 if a == 0 else (c1 if a == 1 else c2)) / d
         for b in range(3):
-            jac[a, b] = (-2.0 * _skew(f, a, b) - kb[a] * dd_e[b]) / d
-            jac[a, 3 + b] = (2.0 * _skew(e, a, b) - kb[a] * dd_f[b]) / d
+            # d(e x f)/de = -[f]x, d(e x f)/df = [e]x
+            jac[a, b] = (-2.0 * _skew(f, a, b) - kb * (lf * e[b] / le + f[b])) / d
+            jac[a, 3 + b] = (2.0 * _skew(e, a, b) - kb * (le * f[b] / lf + e[b])) / d
+
+
+@njit(cache=True)
+def curvature_binormal_jacobian(e, f):
+    jac = np.empty((3, 6))
+    binormal_jacobian_into(e, f, jac)
     return jac
 
 
 @njit(cache=True)
+def twist_into(e, f, grad6, hess6):
+    """Gradient over (e, f) into ``grad6`` and Hessian into ``hess6`` of the reference twist at the vertex between
+    edges e and f (time-parallel reference frames): dm/de = kb/(2|e|), dm/df = kb/(2|f|)."""
+    le = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+    lf = math.sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2])
+    dot = e[0] * f[0] + e[1] * f[1] + e[2] * f[2]
+    chi = 1.0 + dot / (le * lf)
+    d = le * lf + dot
+    c = (e[1] * f[2] - e[2] * f[1], e[2] * f[0] - e[0] * f[2], e[0] * f[1] - e[1] * f[0])
+    for a in range(3):
+        kb_a = 2.0 * c[a] / d
+        grad6[a] = 0.5 * kb_a / le
+        grad6[3 + a] = 0.5 * kb_a / lf
+        te_a, tf_a = e[a] / le, f[a] / lf
+        tt_a = (te_a + tf_a) / chi
+        for b in range(3):
+            kb_b = 2.0 * c[b] / d
+            te_b, tf_b = e[b] / le, f[b] / lf
+            tt_b = (te_b + tf_b) / chi
+            hess6[a, b] = -0.25 / (le * le) * (kb_a * (te_b + tt_b) + (te_a + tt_a) * kb_b)
+            hess6[3 + a, 3 + b] = -0.25 / (lf * lf) * (kb_a * (tf_b + tt_b) + (tf_a + tt_a) * kb_b)
+            v = 0.5 / (le * lf) * (2.0 / chi * _skew(e, a, b) / le - kb_a * tt_b)
+            hess6[a, 3 + b] = v
+            hess6[3 + b, a] = v
+
+
+@njit(cache=True)
 def twist_vertex(e, f):
-    """Gradient (6,) over (e, f) and Hessian (6x6) of the reference twist at the vertex between edges e and f
-    (time-parallel reference frames): dm/de = kb/(2|e|), dm/df = kb/(2|f|)."""
-    le, lf = norm3(e), norm3(f)
-    te, tf = e / le, f / lf
-    chi = 1.0 + dot3(te, tf)
-    tt = (te + tf) / chi
-    kb = 2.0 * cross3(e, f) / (le * lf + dot3(e, f))
-    grad = np.empty(6)
-    for a in range(3):
-        grad[a] = 0.5 * kb[a] / le
-        grad[3 + a] = 0.5 * kb[a] / lf
-    hess = np.empty((6, 6))
-    for a in range(3):
-        for b in range(3):
-            hess[a, b] = -0.25 / (le * le) * (kb[a] * (te[b] + tt[b]) + (te[a] + tt[a]) * kb[b])
-            hess[3 + a, 3 + b] = -0.25 / (lf * lf) * (kb[a] * (tf[b] + tt[b]) + (tf[a] + tt[a]) * kb[b])
-    for a in range(3):
-        for b in range(3):
-            v = 0.5 / (le * lf) * (2.0 / chi * _skew(te, a, b) - kb[a] * tt[b])
-            hess[a, 3 + b] = v
-            hess[3 + b, a] = v
+    grad, hess = np.empty(6), np.empty((6, 6))
+    twist_into(e, f, grad, hess)
     return grad, hess
 
 
@@ -161,30 +184,40 @@ def edges_to_vertices_grad(g6):
     return out
 
 
-# d(e, f) / d(x_{i-1}, x_i, x_{i+1}) per edge (rows) and vertex (columns): e = x_i - x_{i-1}, f = x_{i+1} - x_i
-_EDGE_OF_VERTEX = np.array([[-1.0, 1.0, 0.0], [0.0, -1.0, 1.0]])
+@njit(cache=True)
+def vertex_block(h6, va, vb, i, j) -> float:
+    """Entry (3 va + i, 3 vb + j) of the Hessian over (x_{i-1}, x_i, x_{i+1}) from the (e, f) Hessian ``h6``:
+    J^T H J with e = x_i - x_{i-1}, f = x_{i+1} - x_i, written out per vertex pair."""
+    ee, ef, fe, ff = h6[i, j], h6[i, 3 + j], h6[3 + i, j], h6[3 + i, 3 + j]
+    if va == 0:
+        return ee if vb == 0 else (-ee + ef if vb == 1 else -ef)
+    if va == 1:
+        return -ee + fe if vb == 0 else (ee - ef - fe + ff if vb == 1 else ef - ff)
+    return -fe if vb == 0 else (fe - ff if vb == 1 else ff)
 
 
 @njit(cache=True)
 def edges_to_vertices_hess(h6):
-    """(e, f) Hessian -> Hessian over (x_{i-1}, x_i, x_{i+1}): J^T H J with J = _EDGE_OF_VERTEX (x) I3, written
-    out (a BLAS call per vertex costs more than the arithmetic)."""
-    jac = _EDGE_OF_VERTEX
-    out = np.zeros((9, 9))
+    """(e, f) Hessian -> Hessian over (x_{i-1}, x_i, x_{i+1})."""
+    out = np.empty((9, 9))
     for va in range(3):
         for vb in range(3):
-            for p in range(2):
-                ja = jac[p, va]
-                if ja == 0.0:
-                    continue
-                for q in range(2):
-                    w = ja * jac[q, vb]
-                    if w == 0.0:
-                        continue
-                    for i in range(3):
-                        for j in range(3):
-                            out[3 * va + i, 3 * vb + j] += w * h6[3 * p + i, 3 * q + j]
+            for i in range(3):
+                for j in range(3):
+                    out[3 * va + i, 3 * vb + j] = vertex_block(h6, va, vb, i, j)
     return out
+
+
+@njit(cache=True)
+def add_vertex_hess(band, c0, h6):
+    """Add the vertex-space Hessian of the (e, f) Hessian ``h6`` (first coordinate ``c0``) into the lower band."""
+    for va in range(3):
+        for vb in range(va + 1):
+            for i in range(3):
+                for j in range(3):
+                    r, c = 3 * va + i, 3 * vb + j
+                    if r >= c:
+                        band[r - c, c0 + c] += vertex_block(h6, va, vb, i, j)
 
 
 @njit(cache=True)
@@ -205,18 +238,23 @@ def span_twists(x, ref, t, span_edges, span_dirs):
 
 
 @njit(cache=True)
-def reference_twist(ref, t, i):
-    carried = transport(ref[i - 1], t[i - 1], t[i])
-    return signed_angle(carried, ref[i], t[i])
-
-
-@njit(cache=True)
-def add_block(band, c0, block):
-    """Add a symmetric block whose first coordinate is ``c0`` into the lower band matrix."""
-    m = block.shape[0]
-    for a in range(m):
-        for b in range(a + 1):
-            band[a - b, c0 + b] += block[a, b]
+def reference_twist(ref, t, i) -> float:
+    """The angle about t_i from edge i-1's director, transported in space onto edge i, to edge i's director."""
+    a0, a1, a2 = t[i - 1, 0], t[i - 1, 1], t[i - 1, 2]
+    b0, b1, b2 = t[i, 0], t[i, 1], t[i, 2]
+    v0, v1, v2 = ref[i - 1, 0], ref[i - 1, 1], ref[i - 1, 2]
+    k0, k1, k2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0  # t_{i-1} x t_i
+    sn = math.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
+    cs = a0 * b0 + a1 * b1 + a2 * b2
+    if sn > 1e-14:  # Rodrigues about the unit axis k by the angle between the tangents
+        k0, k1, k2 = k0 / sn, k1 / sn, k2 / sn
+        kv = k0 * v0 + k1 * v1 + k2 * v2
+        c0, c1, c2 = k1 * v2 - k2 * v1, k2 * v0 - k0 * v2, k0 * v1 - k1 * v0
+        v0, v1, v2 = v0 * cs + c0 * sn + k0 * kv * (1 - cs), v1 * cs + c1 * sn + k1 * kv * (1 - cs), \
+            v2 * cs + c2 * sn + k2 * kv * (1 - cs)
+    w0, w1, w2 = ref[i, 0], ref[i, 1], ref[i, 2]
+    x0, x1, x2 = v1 * w2 - v2 * w1, v2 * w0 - v0 * w2, v0 * w1 - v1 * w0
+    return math.atan2(x0 * b0 + x1 * b1 + x2 * b2, v0 * w0 + v1 * w1 + v2 * w2)
 
 
 @njit(cache=True)
@@ -227,22 +265,29 @@ def elastic(x, ref, t, lengths, rest, voronoi, ea, ei, gj, span_edges, span_dirs
     Returns (energy, tau per span)."""
     n = x.shape[0] - 1
     energy = 0.0
+    e_vec = np.empty(3)
+    f_vec = np.empty(3)
+    g3 = np.empty(3)
+    h3 = np.empty((3, 3))
+    g6 = np.empty(6)
+    h6 = np.empty((6, 6))
+    tg6 = np.empty(6)
+    th6 = np.empty((6, 6))
+    jac = np.empty((3, 6))
     for e in range(n):
-        d = x[e + 1] - x[e]
-        en, g3, h3 = stretch_edge(d, rest[e], ea, exact)
-        energy += en
+        for a in range(3):
+            e_vec[a] = x[e + 1, a] - x[e, a]
+        energy += stretch_into(e_vec, rest[e], ea, exact, g3, h3)
         if want_derivatives:
+            c0 = 3 * e
             for a in range(3):
                 grad[e, a] -= g3[a]
                 grad[e + 1, a] += g3[a]
-            blk = np.empty((6, 6))
-            for a in range(3):
+                for b in range(a + 1):  # the block [[H, -H], [-H, H]], lower part
+                    band[a - b, c0 + b] += h3[a, b]
+                    band[a - b, c0 + 3 + b] += h3[a, b]
                 for b in range(3):
-                    blk[a, b] = h3[a, b]
-                    blk[3 + a, 3 + b] = h3[a, b]
-                    blk[a, 3 + b] = -h3[a, b]
-                    blk[3 + a, b] = -h3[a, b]
-            add_block(band, 3 * e, blk)
+                    band[3 + a - b, c0 + b] -= h3[a, b]
     k = span_edges.shape[0]
     tau = span_twists(x, ref, t, span_edges, span_dirs)
     span_of = np.full(n + 1, -1)  # the span whose twist each interior vertex carries (clamps bound the spans)
@@ -251,26 +296,31 @@ def elastic(x, ref, t, lengths, rest, voronoi, ea, ei, gj, span_edges, span_dirs
         for i in range(span_edges[s, 0] + 1, span_edges[s, 1] + 1):
             span_of[i] = s
     for i in range(1, n):
-        e_vec = x[i] - x[i - 1]
-        f_vec = x[i + 1] - x[i]
-        en, g6, h6 = bend_vertex(e_vec, f_vec, 2.0 * ei / voronoi[i], exact)
-        energy += en
-        if not want_derivatives:
+        for a in range(3):
+            e_vec[a] = x[i, a] - x[i - 1, a]
+            f_vec[a] = x[i + 1, a] - x[i, a]
+        if not want_derivatives:  # the line search's energy alone: coeff (P - s) / (P + s)
+            p = math.sqrt(e_vec @ e_vec) * math.sqrt(f_vec @ f_vec)
+            s_dot = e_vec @ f_vec
+            energy += 2.0 * ei / voronoi[i] * (p - s_dot) / (p + s_dot)
             continue
+        energy += bend_into(e_vec, f_vec, 2.0 * ei / voronoi[i], exact, g6, h6, jac)
         s = span_of[i]
         if s >= 0:
             weight = gj * tau[s] / span_len[s]
-            tg6, th6 = twist_vertex(e_vec, f_vec)
+            twist_into(e_vec, f_vec, tg6, th6)
             for a in range(6):
                 g6[a] += weight * tg6[a]
                 if exact:
                     for b in range(6):
                         h6[a, b] += weight * th6[a, b]
-            tv = edges_to_vertices_grad(tg6)
-            for a in range(9):
-                twist_dirs[s, i - 1 + a // 3, a % 3] += tv[a]
-        gv = edges_to_vertices_grad(g6)
-        for a in range(9):
-            grad[i - 1 + a // 3, a % 3] += gv[a]
-        add_block(band, 3 * (i - 1), edges_to_vertices_hess(h6))
+            for a in range(3):
+                twist_dirs[s, i - 1, a] -= tg6[a]
+                twist_dirs[s, i, a] += tg6[a] - tg6[3 + a]
+                twist_dirs[s, i + 1, a] += tg6[3 + a]
+        for a in range(3):
+            grad[i - 1, a] -= g6[a]
+            grad[i, a] += g6[a] - g6[3 + a]
+            grad[i + 1, a] += g6[3 + a]
+        add_vertex_hess(band, 3 * (i - 1), h6)
     return energy, tau

@@ -20,6 +20,7 @@ from .contact.ccd import max_step
 from .contact.friction import friction_accumulate, friction_energy
 from .elastic import KD, elastic
 from .frames import transport_frames, unit_tangents
+from .recovery import penalty
 
 # Armijo's sufficient-decrease fraction and the energy's round-off allowance relative to its size.
 ARMIJO = 1e-4
@@ -62,9 +63,11 @@ def total_energy(x, ref_base, t_base, x_hat, x0, rest, voronoi, mass, ea, ei, gj
 @njit(cache=True)
 def contact_energy(x, contact):
     """Barrier + lagged friction energy of ``contact`` (see :func:`newton_step`); inf on any penetration."""
-    r, kind, pos, rot, size, mask, dhat, kappa, edge, t, normal, lam, anchor, mu, eps = contact
+    r, kind, pos, rot, size, mask, dhat, kappa, edge, t, normal, lam, anchor, mu, eps, recovering = contact
     if kind.shape[0] == 0:
         return 0.0
+    if recovering:  # the recovery's penalty stands in for the barrier (see recovery.py)
+        return penalty(x, r, kind, pos, rot, size, mask, dhat, kappa, False, x, x)
     return barrier_energy(x, r, kind, pos, rot, size, mask, dhat, kappa) + friction_energy(
         x, edge, t, normal, lam, anchor, mu, eps)
 
@@ -88,8 +91,10 @@ def assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag, x_
             grad[v, a] += -mass[v] * gravity[a] + mass[v] * (inertia * (x[v, a] - x_hat[v, a])
                                                                + drag * (x[v, a] - x0[v, a]))
             band[0, 3 * v + a] += diag
-    r, kind, pos, rot, size, mask, dhat, kappa, edge, tc, normal, lam, anchor, mu, eps = contact
-    if kind.shape[0] > 0:
+    r, kind, pos, rot, size, mask, dhat, kappa, edge, tc, normal, lam, anchor, mu, eps, recovering = contact
+    if kind.shape[0] > 0 and recovering:
+        energy += penalty(x, r, kind, pos, rot, size, mask, dhat, kappa, True, grad, band)
+    elif kind.shape[0] > 0:
         energy += barrier_accumulate(x, r, kind, pos, rot, size, mask, dhat, kappa, grad, band, True)
         energy += friction_accumulate(x, edge, tc, normal, lam, anchor, mu, eps, grad, band)
     return energy, grad, band, tau, dirs, t
@@ -113,9 +118,10 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
     ``held`` vertex indices sit at ``held_pos``; ``h`` the step [s] (inf: static equilibrium), ``damping`` the drag
     rate [1/s]. Converged when every free vertex's net force (including inertia and drag) is below
     ``tolerance`` times ``force_scale[v]`` (its weight). ``contact``: (radius, kind, pos, rot, size, mask, dhat,
-    kappa, the lagged friction set (edge, t, normal, lam, anchor), mu, eps) as :mod:`.contact` takes them, the
+    kappa, the lagged friction set (edge, t, normal, lam, anchor), mu, eps, recovering) as :mod:`.contact` takes them
+    (``recovering``: the penalty of :mod:`.recovery`, dhat its margin and kappa its stiffness, instead of the barrier), the
     primitives static during the solve; every step is cut by continuous collision detection, so an iterate never
-    passes through a primitive. Returns (x, ref, iterations, residual, converged, tau).
+    passes through a primitive. Returns (x, ref, iterations, residual, converged, tau, the static gradient at x).
     """
     n1 = x_start.shape[0]
     inertia = 0.0 if math.isinf(h) else 1.0 / (h * h)
@@ -139,6 +145,7 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
         free[held[j]] = False
     residual = np.inf
     tau = np.zeros(span_edges.shape[0])
+    grad = np.zeros((n1, 3))
     iterations = 0
     converged = False
     for it in range(max_iterations + 1):
@@ -183,7 +190,7 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
         slope = g @ step
         alpha = 1.0
         r, kind, pos, rot, size, mask = contact[0], contact[1], contact[2], contact[3], contact[4], contact[5]
-        if kind.shape[0] > 0:
+        if kind.shape[0] > 0 and not contact[15]:  # the recovery's penalty may pass through: no CCD there
             alpha = max_step(x, dx, r, kind, pos, rot, size, mask, 0.1, 64)
         # a decrease the energy's round-off cannot resolve: the quadratic model is exact enough there, take the step
         accepted = alpha == 1.0 and -slope <= TRUST_MODEL * abs(energy)
@@ -201,4 +208,9 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
         t_trial, _ = unit_tangents(trial)
         ref = transport_frames(ref, t_now, t_trial)
         x = trial
-    return x, ref, iterations, residual, converged, tau
+    # the last gradient was taken at the final x: less inertia and drag it is minus the net static force
+    static = grad.copy()
+    for v in range(n1):
+        for a in range(3):
+            static[v, a] -= mass[v] * (inertia * (x[v, a] - x_hat[v, a]) + drag * (x[v, a] - x0[v, a]))
+    return x, ref, iterations, residual, converged, tau, static

@@ -12,11 +12,14 @@ from .elastic import span_twists
 from .frames import transport, transport_frames, unit_tangents
 from .model import RodModel
 from .contact.friction import friction_lag
-from .newton import newton_step, static_gradient
+from .newton import contact_energy, newton_step, static_gradient
 from .scene import ContactSettings, Primitives
 
 # Newton iterations allowed per solve before it is reported unconverged (a warm-started step takes 2-5).
 MAX_ITERATIONS = 100
+# The recovery's penalty stiffness [N/m]: far above the stretch of one edge (EA/h ~ 4e4 N/m for the thesis's cable)
+# so that the penalty wins against the held vertex that pulls the cable in.
+RECOVERY_STIFFNESS = 1e7
 # Residual scale: a vertex's weight at g, or at 1 m/s^2 when g is smaller (a weightless rod still needs a scale).
 MIN_GRAVITY = 1.0
 
@@ -29,6 +32,7 @@ class SolveResult:
     iterations: int
     residual: float
     converged: bool
+    recovered: bool = False  # the start lay inside a primitive and the recovery's penalty moved it out first
 
 
 def initial_frames(points: np.ndarray, first_director: np.ndarray | None = None) -> np.ndarray:
@@ -74,6 +78,7 @@ class Rod:
         self.radius = float(radius)
         self.contact = ContactSettings() if contact is None else contact
         self.primitives = Primitives.none(model.segments)  # where the primitives were at the last solve
+        self._static_forces: np.ndarray | None = None  # of the last solve, at its final shape
 
     # ------------------------------------------------------------------ solves
     def step(self, held_pos, h: float, *, clamp_directors=None, tolerance: float = 1e-3,
@@ -109,7 +114,7 @@ class Rod:
         else:  # nothing touched before: no friction to lag
             lag = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
         return (self.radius, p.kind, p.pos, p.rot, p.size, p.mask, c.activation, c.stiffness, *lag,
-                c.friction, c.slip)
+                c.friction, c.slip, False)
 
     def _solve(self, start, held_pos, h, clamp_directors, tolerance, primitives=None):
         held_pos = np.ascontiguousarray(held_pos, dtype=float).reshape(len(self._held), 3)
@@ -117,23 +122,45 @@ class Rod:
             self.clamp_directors = np.ascontiguousarray(clamp_directors, dtype=float).reshape(-1, 2, 3)
         m = self.model
         start = np.ascontiguousarray(start)
-        start = np.ascontiguousarray(start)
         contact = self._contact(primitives, self.primitives)
         if primitives is not None:
             self.primitives = primitives
         if len(self.primitives) and math.isinf(h):  # rest: no motion to lag friction from
             contact = contact[:8] + self._contact(None, Primitives.none(m.segments))[8:]
-        x, ref, iterations, residual, converged, _ = newton_step(
+        recovered = False
+        if len(self.primitives) and self._inside(start, held_pos, contact) and self._inside(self.x, held_pos, contact):
+            start = self._recover(held_pos, h, contact)
+            recovered = True
+        x, ref, iterations, residual, converged, _, static = self._newton(start, held_pos, h, tolerance, contact)
+        self._static_forces = -static
+        return x, ref, SolveResult(int(iterations), float(residual), bool(converged), recovered)
+
+    def _newton(self, start, held_pos, h, tolerance, contact):
+        m = self.model
+        return newton_step(
             start, self.ref, self.x, self.v, self._held, held_pos, self._rest, self._voronoi, self._mass,
             m.tensile_stiffness, m.bending_stiffness, m.torsional_stiffness, self._gravity, h, m.damping,
             self._span_edges, self.clamp_directors, self._span_len, self._force_scale, tolerance, MAX_ITERATIONS,
             contact)
-        return x, ref, SolveResult(int(iterations), float(residual), bool(converged))
+
+    def _inside(self, x, held_pos, contact) -> bool:
+        """Whether ``x`` with the held vertices at ``held_pos`` lies inside some primitive (the barrier is infinite)."""
+        placed = x.copy()
+        placed[self._held] = held_pos
+        return math.isinf(contact_energy(placed, contact))
+
+    def _recover(self, held_pos, h, contact) -> np.ndarray:
+        """A start outside the primitives: the step solved with the recovery's penalty in place of the barrier."""
+        penalty = contact[:6] + (self.contact.activation, RECOVERY_STIFFNESS) + contact[8:15] + (True,)
+        x, *_ = self._newton(self.x, held_pos, h, 1e-2, penalty)
+        return x
 
     # ------------------------------------------------------------------ queries
     def static_forces(self) -> np.ndarray:
-        """Net static force on every vertex (elastic + gravity + contact normal forces), (n+1, 3) [N]: zero on a
-        free vertex at rest; on a held vertex, minus the force its holder applies."""
+        """Net static force on every vertex (elastic + gravity + contact), (n+1, 3) [N]: zero on a free vertex at
+        rest; on a held vertex, minus the force its holder applies. The last solve's, which ended at this shape."""
+        if self._static_forces is not None:
+            return self._static_forces
         m = self.model
         grad = static_gradient(self.x, self.ref, self._rest, self._voronoi, self._mass, m.tensile_stiffness,
                                m.bending_stiffness, m.torsional_stiffness, self._gravity, self._span_edges,

@@ -5,11 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConfigError
-from ..physics.measures import ClearanceProbe, WearMeasures, vertex_curvatures
+from ..physics.measures import MAX_CLEARANCE, WearMeasures, vertex_curvatures
 from ..physics.simulation import Equilibrium, MotionTrace, SettleResult
 from ..robots.joint_limits import check_within_limits
 from ..robots.time_law import JointLimits, SegmentMotion
 from ..stations.station import Station
+from .clearance import nearest_gap
 from .rod import Rod, initial_frames
 from .station_cable import StationCable, station_cable
 from .station_scene import StationScene
@@ -33,8 +34,7 @@ class RodSimulator:
         self.scenes = [StationScene(station, c) for c in self.cables]
         self.unconverged_steps = 0  # motion steps whose Newton solve missed its tolerance (flagged, never dropped)
         self.jammed_samples = 0  # samples whose links needed more than MAX_SUBSTEPS sub-steps (flagged)
-        self.probe = ClearanceProbe(station)
-        self._obstacle_data = station.data_at_home()  # the obstacles never move: their poses are read once
+        self._tension_taps = [_tension_taps(c) for c in self.cables]
         self.q = station.home.copy()
         self.motion_time = 0.0
         self.last_settle: SettleResult | None = None
@@ -148,8 +148,11 @@ class RodSimulator:
         h = cable.model.segment_length
         kappa = vertex_curvatures(x)
         tension = np.concatenate([rod.tensions(), self._node_tensions(cable, rod)])
-        index = self.station.cables[cable.robot]
-        dist, edge, obstacle = self.probe.min_distance(self._obstacle_data, index, x)
+        scene, k = self.scenes[cable.robot], self.scenes[cable.robot].n_obstacles
+        prims = rod.primitives
+        gap, edge, prim = nearest_gap(x, rod.radius, prims.kind[:k], prims.pos[:k], prims.rot[:k], prims.size[:k],
+                                      MAX_CLEARANCE) if k else (MAX_CLEARANCE, -1, -1)
+        dist, obstacle = max(gap, 0.0), scene.obstacle_names[prim] if prim >= 0 else ""
         twist = np.abs(rod.twist_rates()) if len(cable.model.spans) else np.zeros(1)
         ik, it = int(np.argmax(kappa)), int(np.argmax(tension))
         n_edges = cable.model.segments
@@ -159,23 +162,13 @@ class RodSimulator:
                             total_twist=float(np.abs(rod.twists()).max()) if len(cable.model.spans) else 0.0,
                             max_compression=float(max(0.0, -rod.tensions().min())))
 
-    @staticmethod
-    def _node_tensions(cable: StationCable, rod: Rod) -> np.ndarray:
+    def _node_tensions(self, cable: StationCable, rod: Rod) -> np.ndarray:
         """Tension where the cable enters each node: the node's load (the static force on the vertices it holds,
         their weight included) along the way the cable leaves it, on each side where it continues."""
-        forces = rod.static_forces()
-        held = {hp.vertex: hp.node for hp in cable.held}
-        n = cable.model.segments
-        out = []
-        for node in sorted(set(held.values())):
-            verts = [v for v, k in held.items() if k == node]
-            load = forces[verts].sum(axis=0)
-            for v in verts:
-                for w in (v - 1, v + 1):
-                    if 0 <= w <= n and w not in held:
-                        u = rod.x[w] - rod.x[v]
-                        out.append(float(load @ u) / float(np.linalg.norm(u)))
-        return np.array(out)
+        members, vertex, neighbour, node = self._tension_taps[cable.robot]
+        loads = members @ rod.static_forces()
+        way = rod.x[neighbour] - rod.x[vertex]
+        return (loads[node] * way).sum(axis=1) / np.linalg.norm(way, axis=1)
 
     def equilibrium(self) -> Equilibrium:
         worst = max(rod.equilibrium_residual() for rod in self.rods)
@@ -193,3 +186,20 @@ class RodSimulator:
             check_within_limits(q[i], r.robot.joint_limits, field if n == 1 else f"{field}[{i}]", digits=2,
                                 owner=f" of robot {r.name!r}")
         return q
+
+
+def _tension_taps(cable: StationCable) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where node tensions are read: a (nodes, vertices) 0/1 matrix of the vertices each node holds, and per tap
+    the held vertex, its free neighbour and the node."""
+    held = {hp.vertex: hp.node for hp in cable.held}
+    nodes = sorted(set(held.values()))
+    members = np.zeros((len(nodes), cable.model.segments + 1))
+    taps = []
+    for row, k in enumerate(nodes):
+        for v, owner in held.items():
+            if owner != k:
+                continue
+            members[row, v] = 1.0
+            taps += [(v, w, row) for w in (v - 1, v + 1) if 0 <= w <= cable.model.segments and w not in held]
+    vertex, neighbour, node = (np.array(col, dtype=int) for col in zip(*taps)) if taps else (np.zeros(0, int),) * 3
+    return members, vertex, neighbour, node

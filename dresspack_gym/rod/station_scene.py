@@ -15,9 +15,10 @@ from .contact.segment import lower_bound, segment_gap
 from .scene import BOX, CAPSULE, CYLINDER, PLANE, SPHERE, Primitives
 from .station_cable import StationCable
 
-KINDS = {mujoco.mjtGeom.mjGEOM_PLANE: PLANE, mujoco.mjtGeom.mjGEOM_SPHERE: SPHERE,
-         mujoco.mjtGeom.mjGEOM_CAPSULE: CAPSULE, mujoco.mjtGeom.mjGEOM_BOX: BOX,
-         mujoco.mjtGeom.mjGEOM_CYLINDER: CYLINDER}
+# MuJoCo's geom types (as the ints the model stores) -> the contact kernels' kinds
+KINDS = {int(mujoco.mjtGeom.mjGEOM_PLANE): PLANE, int(mujoco.mjtGeom.mjGEOM_SPHERE): SPHERE,
+         int(mujoco.mjtGeom.mjGEOM_CAPSULE): CAPSULE, int(mujoco.mjtGeom.mjGEOM_BOX): BOX,
+         int(mujoco.mjtGeom.mjGEOM_CYLINDER): CYLINDER}
 # A moving primitive may close at most this fraction of its gap to the cable in one sub-step, so every sub-step's
 # solve starts strictly outside it.
 CLOSING_FRACTION = 0.5
@@ -38,12 +39,16 @@ class StationScene:
         self.data.qpos[station.load_qpos] = station.load_values
         own = station.config.robots[cable.robot].dresspack.collide_with_robot
         geoms = list(station.obstacle_geoms)
+        obstacles = {int(g) for g in station.obstacle_geoms}
         for j, r in enumerate(station.robots):
             if j != cable.robot or own:
                 geoms += [g for g in r.geom_ids if m.geom_contype[g] != 0]
-        self.skipped = [m.geom(g).name for g in geoms if m.geom_type[g] not in KINDS]
-        self.geoms = np.array([g for g in geoms if m.geom_type[g] in KINDS], dtype=int)
-        self.kind = np.array([KINDS[m.geom_type[g]] for g in self.geoms], dtype=np.int64)
+        self.skipped = [m.geom(int(g)).name for g in geoms if int(m.geom_type[g]) not in KINDS]
+        self.geoms = np.array([g for g in geoms if int(m.geom_type[g]) in KINDS], dtype=int)
+        self.kind = np.array([KINDS[int(m.geom_type[g])] for g in self.geoms], dtype=np.int64)
+        # the obstacles (and floor) come first: what the clearance measure is taken to, as in the MuJoCo simulator
+        self.n_obstacles = sum(int(g) in obstacles for g in self.geoms)
+        self.obstacle_names = [m.geom(int(g)).name.removeprefix("obstacle/") for g in self.geoms[:self.n_obstacles]]
         self.size = m.geom_size[self.geoms].copy()
         self.bound = bounding_radii(self.kind, self.size)
         held = set(cable.model.held)
@@ -88,7 +93,7 @@ def primitive_gaps(x, r, kind, pos, rot, size, mask, moved, far):
         if moved[j] <= 1e-12:
             continue
         for i in range(x.shape[0] - 1):
-            if not mask[i, j] or lower_bound(x[i], x[i + 1], r, pos[j], bound[j]) >= out[j]:
+            if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= out[j]:
                 continue
             d, _ = segment_gap(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], p, n, h)
             out[j] = min(out[j], d)

@@ -88,7 +88,7 @@ def test_assembled_gradient_and_band_match_the_energy():
     x_hat, x0 = x + 0.01, x - 0.02
     none = (0.0, np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros((0, 3)),
             np.zeros((n, 0), np.bool_), 1e-3, 1.0, np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 3)), np.zeros(0),
-            np.zeros((0, 3)), 0.5, 1e-4)
+            np.zeros((0, 3)), 0.5, 1e-4, False)
     args = (rest, vor, mass, 1400.0, 0.3, 0.2, g, 400.0, 100.0, x_hat, x0, spans, dirs, span_len)
     energy, grad, band, tau, twist_dirs, _ = assemble(x, ref, *args, True, none)
 

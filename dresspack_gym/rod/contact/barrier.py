@@ -71,7 +71,7 @@ def barrier_accumulate(x, r, kind, pos, rot, size, mask, dhat, kappa, g, band, p
     energy = 0.0
     for i in range(x.shape[0] - 1):
         for j in range(kind.shape[0]):
-            if not mask[i, j] or lower_bound(x[i], x[i + 1], r, pos[j], bound[j]) >= dhat:
+            if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= dhat:
                 continue
             d, t = segment_gap(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], p, n, h)
             if d <= 0.0:
@@ -98,7 +98,7 @@ def barrier_energy(x, r, kind, pos, rot, size, mask, dhat, kappa):
     energy = 0.0
     for i in range(x.shape[0] - 1):
         for j in range(kind.shape[0]):
-            if not mask[i, j] or lower_bound(x[i], x[i + 1], r, pos[j], bound[j]) >= dhat:
+            if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= dhat:
                 continue
             d, _ = segment_gap(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], p, n, h)
             if d <= 0.0:

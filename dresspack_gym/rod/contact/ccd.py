@@ -66,7 +66,7 @@ def max_step(x, dx, r, kind, pos, rot, size, mask, keep, max_iter):
         for j in range(kind.shape[0]):
             if not mask[i, j]:
                 continue
-            lb = lower_bound(x[i], x[i + 1], r, pos[j], bound[j])
+            lb = lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j])
             if lb > 0.0 and speed * alpha <= (1.0 - keep) * lb:  # then gap(s) >= g0 - (1 - keep) g0
                 continue
             if kind[j] == PLANE:

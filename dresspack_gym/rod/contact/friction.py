@@ -42,13 +42,13 @@ def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat
     relative displacement at x is u = (I - n n^T)(p(t*; x) - anchor).
     """
     n_e = x_prev.shape[0] - 1
-    k = kind.shape[0]
+    n_prims = kind.shape[0]
     bound = bounding_radii(kind, size)
-    edge = np.empty(n_e * k, np.int64)
-    tpar = np.empty(n_e * k)
-    normal = np.empty((n_e * k, 3))
-    lam = np.empty(n_e * k)
-    anchor = np.empty((n_e * k, 3))
+    edge = np.empty(n_e * n_prims, np.int64)
+    tpar = np.empty(n_e * n_prims)
+    normal = np.empty((n_e * n_prims, 3))
+    lam = np.empty(n_e * n_prims)
+    anchor = np.empty((n_e * n_prims, 3))
     p = np.empty(3)
     n = np.empty(3)
     h = np.empty((3, 3))
@@ -56,8 +56,8 @@ def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat
     local = np.empty(3)
     m = 0
     for i in range(n_e):
-        for j in range(k):
-            if not mask[i, j] or lower_bound(x_prev[i], x_prev[i + 1], r, pos_prev[j], bound[j]) >= dhat:
+        for j in range(n_prims):
+            if not mask[i, j] or lower_bound(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j], bound[j]) >= dhat:
                 continue
             d, t = segment_gap(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j], p, n, h)
             if not 0.0 < d < dhat:

@@ -37,7 +37,7 @@ def contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev, mask,
     h = np.empty((3, 3))
     for i in range(n_v - 1):
         for j in range(kind.shape[0]):
-            if not mask[i, j] or lower_bound(x[i], x[i + 1], r, pos[j], bound[j]) >= max(gap[i], dhat):
+            if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= max(gap[i], dhat):
                 continue  # neither nearer than the best so far (nor cap) nor pushing
             d, t = segment_gap(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], p, n, h)
             if d < gap[i]:

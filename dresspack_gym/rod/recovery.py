@@ -1,0 +1,46 @@
+"""Getting a cable out of a primitive it was left inside (a holder drove it there): a quadratic penalty on the gap.
+
+The barrier solve needs a start outside every primitive. When even the last state is inside one (a clamp carried
+its edge into an obstacle faster than the cable could be pushed), a Newton solve on the incremental potential with
+k/2 (margin - d)^2 for every gap d below ``margin`` (no barrier, defined inside too) moves the free vertices out;
+the barrier solve then starts from there. It is reported, never silent (``RodSimulator.recovered_steps``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .contact.assembly import add_edge_block, add_edge_gradient
+from .contact.primitives import bounding_radii
+from .contact.segment import lower_bound, segment_gap
+
+
+@njit(cache=True)
+def penalty(x, r, kind, pos, rot, size, mask, margin, stiffness, want, g, band):
+    """Sum of stiffness/2 (margin - d)^2 over the enabled pairs with gap d < margin; with ``want`` adds its gradient
+    to g and its Gauss-Newton Hessian stiffness (grad d)(grad d)^T to the lower band."""
+    bound = bounding_radii(kind, size)
+    p = np.empty(3)
+    n = np.empty(3)
+    h = np.empty((3, 3))
+    gp = np.empty(3)
+    hp = np.empty((3, 3))
+    energy = 0.0
+    for i in range(x.shape[0] - 1):
+        for j in range(kind.shape[0]):
+            if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= margin:
+                continue
+            d, t = segment_gap(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], p, n, h)
+            if d >= margin:
+                continue
+            energy += 0.5 * stiffness * (margin - d) ** 2
+            if not want:
+                continue
+            for k in range(3):
+                gp[k] = -stiffness * (margin - d) * n[k]
+                for m in range(3):
+                    hp[k, m] = stiffness * n[k] * n[m]
+            add_edge_gradient(g, i, t, gp)
+            add_edge_block(band, i, t, hp)
+    return energy
