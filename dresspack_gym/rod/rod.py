@@ -82,12 +82,13 @@ class Rod:
 
     # ------------------------------------------------------------------ solves
     def step(self, held_pos, h: float, *, clamp_directors=None, tolerance: float = 1e-3,
-             primitives: Primitives | None = None) -> SolveResult:
+             primitives: Primitives | None = None, start: np.ndarray | None = None) -> SolveResult:
         """One implicit Euler step of ``h`` seconds with the held vertices moved to ``held_pos`` and the
-        ``primitives`` (default: as at the last solve) at their new poses."""
+        ``primitives`` (default: as at the last solve) at their new poses; Newton starts from ``start`` (default:
+        the inertial prediction x + h v) where that lies outside every primitive, else from the current shape."""
         if not h > 0:
             raise ConfigError("h", f"the step must be positive seconds, got {h}")
-        start = self.x + h * self.v  # the inertial prediction: where the cable would go with no force
+        start = self.x + h * self.v if start is None else np.ascontiguousarray(start, dtype=float)
         x_new, ref, result = self._solve(start, held_pos, h, clamp_directors, tolerance, primitives)
         self.v = (x_new - self.x) / h
         self.x, self.ref = x_new, ref
@@ -142,6 +143,11 @@ class Rod:
             m.tensile_stiffness, m.bending_stiffness, m.torsional_stiffness, self._gravity, h, m.damping,
             self._span_edges, self.clamp_directors, self._span_len, self._force_scale, tolerance, MAX_ITERATIONS,
             contact)
+
+    def outside(self, x, held_pos, primitives: Primitives) -> bool:
+        """Whether ``x`` with the held vertices at ``held_pos`` lies outside every one of ``primitives``."""
+        return not self._inside(np.ascontiguousarray(x), np.asarray(held_pos, dtype=float),
+                                self._contact(primitives, Primitives.none(self.model.segments)))
 
     def _inside(self, x, held_pos, contact) -> bool:
         """Whether ``x`` with the held vertices at ``held_pos`` lies inside some primitive (the barrier is infinite)."""

@@ -97,9 +97,19 @@ class RodSimulator:
 
     def _advance(self, cable: StationCable, rod: Rod, scene: StationScene, q0: np.ndarray, q1: np.ndarray,
                  h: float) -> None:
-        """One sample of ``h`` s from joints q0 to q1, in sub-steps where a link closes in on the cable: each lets
-        the links close at most half their gap, so every solve starts outside every primitive."""
+        """One sample of ``h`` s from joints q0 to q1. The solve starts with the vertices a link may reach carried
+        along with it; where that start is not outside every primitive (a vertex between two links, an edge
+        spanning a carried and a left vertex), in sub-steps in which no link closes more than half its gap, so
+        every solve starts outside every primitive."""
         end = scene.at(q1)
+        if len(end):
+            start = scene.carried_start(rod.x + h * rod.v, rod.radius, rod.primitives, end, rod.contact.activation)
+            pos, dirs = self._targets(cable, q1[cable.robot])
+            if rod.outside(start, pos, end):
+                result = rod.step(pos, h, clamp_directors=dirs, tolerance=STEP_TOLERANCE, primitives=end,
+                                  start=start)
+                self.unconverged_steps += int(not result.converged)
+                return
         done = 0.0
         for _ in range(MAX_SUBSTEPS):
             step = 1.0 - done if not len(end) else (1.0 - done) * scene.advance_fraction(

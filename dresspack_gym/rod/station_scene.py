@@ -9,8 +9,8 @@ import numpy as np
 from numba import njit
 
 from ..stations.station import Station
-from .contact.motion import pose_displacements
-from .contact.primitives import bounding_radii
+from .contact.motion import surface_displacements
+from .contact.primitives import bounding_radii, point_distance
 from .contact.segment import lower_bound, segment_gap
 from .scene import BOX, CAPSULE, CYLINDER, PLANE, SPHERE, Primitives
 from .station_cable import StationCable
@@ -65,6 +65,12 @@ class StationScene:
         return Primitives(self.kind, d.geom_xpos[self.geoms].copy(), d.geom_xmat[self.geoms].reshape(-1, 3, 3).copy(),
                           self.size, self.mask)
 
+    def carried_start(self, x: np.ndarray, radius: float, now: Primitives, end: Primitives, reach: float
+                      ) -> np.ndarray:
+        """The cable ``x`` with the vertices a moving link may reach carried along with it (see carried_along)."""
+        moved = surface_displacements(now.kind, now.size, now.pos, now.rot, end.pos, end.rot, self.bound)
+        return carried_along(x, radius, now.kind, now.pos, now.rot, now.size, end.pos, end.rot, moved, reach)
+
     def advance_fraction(self, x: np.ndarray, radius: float, now: Primitives, end: Primitives) -> float:
         """The fraction (0, 1] of the way from ``now`` to ``end`` the primitives may move in one sub-step: no
         moving primitive closes more than CLOSING_FRACTION of its gap to the cable ``x``."""
@@ -73,11 +79,53 @@ class StationScene:
 
 def closing_fraction(x: np.ndarray, radius: float, now: Primitives, end: Primitives, bound: np.ndarray) -> float:
     """See :meth:`StationScene.advance_fraction` (``bound``: the primitives' bounding radii)."""
-    moved = pose_displacements(now.pos, now.rot, end.pos, end.rot, bound)
+    moved = surface_displacements(now.kind, now.size, now.pos, now.rot, end.pos, end.rot, bound)
     if not (moved > 1e-12).any():
         return 1.0
     gaps = primitive_gaps(x, radius, now.kind, now.pos, now.rot, now.size, now.mask, moved, FAR)
     return float(min(1.0, (CLOSING_FRACTION * np.maximum(gaps, 0.0) / np.maximum(moved, 1e-300)).min()))
+
+
+@njit(cache=True)
+def carried_along(x, r, kind, pos, rot, size, pos_end, rot_end, moved, reach):
+    """``x`` with every vertex that a moving primitive may reach this step (its gap below that primitive's
+    displacement plus ``reach``) moved rigidly with the nearest such primitive: a pushed cable's start that the
+    link has not entered, so that one solve replaces the sub-steps a link pushing the cable would otherwise need."""
+    out = x.copy()
+    n = np.empty(3)
+    h = np.empty((3, 3))
+    local = np.empty(3)
+    for v in range(x.shape[0]):
+        best, best_j = np.inf, -1
+        for j in range(kind.shape[0]):
+            if moved[j] <= 1e-12 or kind[j] == 0:  # still, or a plane (the floor never moves)
+                continue
+            d = point_distance(kind[j], pos[j], rot[j], size[j], x[v], n, h) - r
+            if d < moved[j] + reach and d < best:
+                best, best_j = d, j
+        if best_j < 0:
+            continue
+        j = best_j
+        for a in range(3):
+            local[a] = 0.0
+            for b in range(3):
+                local[a] += rot[j, b, a] * (x[v, b] - pos[j, b])
+        for a in range(3):
+            out[v, a] = pos_end[j, a] + rot_end[j, a, 0] * local[0] + rot_end[j, a, 1] * local[1] \
+                + rot_end[j, a, 2] * local[2]
+    # a vertex carried by one link may now lie in another that moved (the wrist's links meet): set it on that one's
+    # surface, ``reach`` out (an edge between two such vertices cuts a curved surface by its sagitta, about a
+    # millimetre on a forearm; twice: two links may take turns)
+    for _ in range(2):
+        for v in range(x.shape[0]):
+            for j in range(kind.shape[0]):
+                if moved[j] <= 1e-12 or kind[j] == 0:
+                    continue
+                d = point_distance(kind[j], pos_end[j], rot_end[j], size[j], out[v], n, h) - r
+                if d < reach:
+                    for a in range(3):
+                        out[v, a] += (reach - d) * n[a]
+    return out
 
 
 @njit(cache=True)

@@ -57,3 +57,20 @@ def test_swept_link_pushes_the_cable_without_passing_through(speed, link_radius,
     print(f"sub-steps {substeps}")
     assert pushed > 0.1  # the bar did carry the cable along
     assert np.isfinite(rod.tensions()).all() and np.abs(rod.tensions()).max() < 2e3  # bounded forces
+
+
+def test_a_still_plane_does_not_stop_the_sub_steps_of_a_moving_link():
+    """The floor (a plane, unbounded) stands still while a link closes in: the link alone sets the sub-step."""
+    n = 24
+    s = np.linspace(0, 1, n + 1)
+    x = np.stack([1.6 * s, 0 * s, 0.5 - 0.3 * 4 * s * (1 - s)], axis=1)
+    floor = (np.array([0]), np.zeros((1, 3)), np.eye(3)[None], np.zeros((1, 3)))
+    bar_now, bar_end = capsule_at(-0.2, 0.2, 0.05, n), capsule_at(0.0, 0.2, 0.05, n)
+
+    def with_floor(bar):
+        return Primitives(np.concatenate([floor[0], bar.kind]), np.concatenate([floor[1], bar.pos]),
+                          np.concatenate([floor[2], bar.rot]), np.concatenate([floor[3], bar.size]),
+                          np.ones((n, 2), dtype=np.bool_))
+
+    fraction = closing_fraction(x, RADIUS, with_floor(bar_now), with_floor(bar_end), np.array([np.inf, 0.65]))
+    assert 0.0 < fraction < 1.0

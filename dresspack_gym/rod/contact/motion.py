@@ -27,7 +27,9 @@ def rotation_angle(rot_prev, rot):
 def pose_displacement(pos_prev, rot_prev, pos, rot, radius):
     """Upper bound [m] on the displacement of any point within radius of the origin: |dpos| + radius * angle."""
     d0, d1, d2 = pos[0] - pos_prev[0], pos[1] - pos_prev[1], pos[2] - pos_prev[2]
-    return math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) + radius * rotation_angle(rot_prev, rot)
+    angle = rotation_angle(rot_prev, rot)
+    # a still primitive of unbounded extent (a plane: radius inf) does not move: inf * 0 must not make a NaN
+    return math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) + (radius * angle if angle > 0.0 else 0.0)
 
 
 @njit(cache=True)
@@ -36,4 +38,32 @@ def pose_displacements(pos_prev, rot_prev, pos, rot, radius):
     out = np.empty(pos.shape[0])
     for j in range(pos.shape[0]):
         out[j] = pose_displacement(pos_prev[j], rot_prev[j], pos[j], rot[j], radius[j])
+    return out
+
+
+@njit(cache=True)
+def surface_displacements(kind, size, pos_prev, rot_prev, pos, rot, radius):
+    """Upper bound [m] per primitive on how far its surface moved: a gap to it shrinks by at most this much.
+
+    A sphere's surface moves with its centre and a capsule's with its axis segment (a rigid motion moves the segment's
+    points by interpolating its ends' displacements), so a spin about its own axis moves neither; other kinds take
+    :func:`pose_displacement` with ``radius`` (their bounding radius).
+    """
+    out = np.empty(kind.shape[0])
+    for j in range(kind.shape[0]):
+        if kind[j] == 1:  # sphere
+            d0, d1, d2 = pos[j, 0] - pos_prev[j, 0], pos[j, 1] - pos_prev[j, 1], pos[j, 2] - pos_prev[j, 2]
+            out[j] = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        elif kind[j] == 2:  # capsule: the larger of its axis ends' displacements
+            worst = 0.0
+            for sign in (-1.0, 1.0):
+                acc = 0.0
+                for a in range(3):
+                    d = (pos[j, a] + sign * size[j, 1] * rot[j, a, 2]) - (pos_prev[j, a] + sign * size[j, 1]
+                                                                          * rot_prev[j, a, 2])
+                    acc += d * d
+                worst = max(worst, math.sqrt(acc))
+            out[j] = worst
+        else:
+            out[j] = pose_displacement(pos_prev[j], rot_prev[j], pos[j], rot[j], radius[j])
     return out
