@@ -18,6 +18,8 @@ from .band import cholesky, pin, solve_low_rank
 from .contact.barrier import barrier_accumulate, barrier_energy
 from .contact.ccd import max_step
 from .contact.friction import friction_accumulate, friction_energy
+from .contact.primitives import bounding_radii
+from .contact.segment import lower_bound
 from .elastic import KD, elastic
 from .frames import transport_frames, unit_tangents
 from .recovery import penalty
@@ -26,6 +28,9 @@ from .recovery import penalty
 ARMIJO = 1e-4
 ROUNDOFF = 1e-13
 MAX_HALVINGS = 40
+# The broad phase keeps the (edge, primitive) pairs within this many metres of each other at its last update; it is
+# redone before any vertex could close that distance less the barrier's reach (so no pair that can touch is left out).
+BROAD_MARGIN = 0.05
 # Below this decrease (relative to the energy) Newton's step is taken without the energy test.
 TRUST_MODEL = 1e-11
 
@@ -101,6 +106,27 @@ def assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag, x_
 
 
 @njit(cache=True)
+def broad_phase(x, contact, margin):
+    """``contact`` with its pair mask cut to the pairs whose gap may be below ``margin`` at ``x``."""
+    r, kind, pos, rot, size, mask = contact[0], contact[1], contact[2], contact[3], contact[4], contact[5]
+    near = mask.copy()
+    bound = bounding_radii(kind, size)
+    for i in range(x.shape[0] - 1):
+        for j in range(kind.shape[0]):
+            if near[i, j] and lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= margin:
+                near[i, j] = False
+    return (r, kind, pos, rot, size, near) + contact[6:]
+
+
+@njit(cache=True)
+def _largest_move(a, b) -> float:
+    out = 0.0
+    for v in range(a.shape[0]):
+        out = max(out, math.sqrt((a[v, 0] - b[v, 0]) ** 2 + (a[v, 1] - b[v, 1]) ** 2 + (a[v, 2] - b[v, 2]) ** 2))
+    return out
+
+
+@njit(cache=True)
 def static_gradient(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, span_edges, span_dirs, span_len, contact):
     """Gradient of elastic + gravity + contact energy: minus the net static force on every vertex."""
     zero = np.zeros_like(x)
@@ -139,6 +165,11 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
     t_now, _ = unit_tangents(x)
     t_base, _ = unit_tangents(x0)
     ref = transport_frames(ref_start, t_base, t_now)
+    full_contact = contact
+    margin = BROAD_MARGIN
+    dhat = contact[6]
+    broad_at = x.copy()
+    contact = broad_phase(x, full_contact, margin)
     coords = _held_coords(held)
     free = np.ones(n1, dtype=np.bool_)
     for j in range(held.shape[0]):
@@ -187,6 +218,13 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
                 pin(factor, coords)
         step = -solve_low_rank(factor, weights, vectors, g)
         dx = step.reshape(n1, 3)
+        reach = 0.0
+        for v in range(n1):
+            reach = max(reach, math.sqrt(dx[v, 0] ** 2 + dx[v, 1] ** 2 + dx[v, 2] ** 2))
+        if _largest_move(x, broad_at) + reach > margin - dhat:  # this step could reach a pair left out: redo
+            margin = max(BROAD_MARGIN, 2.0 * reach + dhat)
+            broad_at = x.copy()
+            contact = broad_phase(x, full_contact, margin)
         slope = g @ step
         alpha = 1.0
         r, kind, pos, rot, size, mask = contact[0], contact[1], contact[2], contact[3], contact[4], contact[5]
