@@ -1,4 +1,4 @@
-"""Physics benchmark: raw ``mj_step`` throughput and the cost of a quasi-static joint move."""
+"""Benchmarks of this machine: the cable engines' replays, raw ``mj_step`` throughput, restrictions, env steps."""
 
 from __future__ import annotations
 
@@ -8,13 +8,79 @@ import mujoco
 import numpy as np
 
 
-def physics_benchmark(station_ref: str = "default", repeats: int = 3, raw_steps: int = 2000) -> dict:
-    """Raw steps/s of the station model, and wall time of a 90 deg j1 move with settling (best of repeats)."""
+def physics_benchmark(station_ref: str = "default", repeats: int = 3, raw_steps: int = 2000,
+                      engine: str = "dynamic") -> dict:
+    """On ``engine`` (physics.profiles.ENGINES): the wall seconds per second of motion over fixed weld-cycle replays
+    (``replay_wall_per_motion_s``, the field both engines compare by) and the engine's own figures (MuJoCo: raw
+    steps/s, a settled 90 deg j1 move, settling; the rod engine: equilibria/s and a sample's time by part)."""
     from ..io.loading import load_station
-    from ..physics.simulation import CableSimulator
+    from ..physics.profiles import ENGINES
     from ..stations.station import Station
+    from ..fields import check_choice
 
+    check_choice("physics", engine, list(ENGINES))
     station = Station(load_station(station_ref))
+    common = {"station": station.config.name, "engine": engine,
+              "cable_segments": [c.n_vertices - 1 for c in station.cables],
+              **_replay_benchmark(station, engine, repeats)}
+    if engine == "fast":
+        return {**common, **_rod_benchmark(station, repeats)}
+    return {**common, **_mujoco_benchmark(station, repeats, raw_steps)}
+
+
+# Fixed weld cycles of the replay benchmark: Home -> a random via -> a named weld -> Home, drawn from this seed.
+REPLAY_PATHS, REPLAY_SEED = 5, 0
+
+
+def _replay_benchmark(station, engine: str, repeats: int) -> dict:
+    """Wall seconds per second of motion replaying REPLAY_PATHS fixed weld cycles (best of repeats), after one
+    warm-up replay (the rod engine's compiled kernels load from disk on first use)."""
+    from ..physics.profiles import make_simulator, random_paths
+    from ..physics.trajectory import replay
+    from ..stations.validity import MotionValidity
+
+    paths = random_paths(station, 0, MotionValidity(station, 0, 0.005), REPLAY_PATHS, seed=REPLAY_SEED)
+    sim = make_simulator(station, engine)
+    replay(sim, paths[0], record_states=False)
+    walls, motion = [], 0.0
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        motion = sum(replay(sim, p, record_states=False).cycle_time for p in paths)
+        walls.append(time.perf_counter() - t0)
+    return {"replay_paths": REPLAY_PATHS, "replay_motion_s": round(motion, 3),
+            "replay_wall_per_motion_s": round(min(walls) / motion, 5)}
+
+
+def _rod_benchmark(station, repeats: int) -> dict:
+    """The rod engine: equilibria/s from the Home reference shape, and one sample's wall time split into the
+    solves (sub-steps included) and the measures, over a 90 deg j1 move."""
+    from ..rod.simulator import RodSimulator
+
+    sim = RodSimulator(station)
+    settles = []
+    for _ in range(repeats):
+        sim.reset(settle=False)
+        t0 = time.perf_counter()
+        sim.settle()
+        settles.append(time.perf_counter() - t0)
+    target = station.home.copy()
+    target[0, 0] += np.pi / 2
+    solve, measure, samples = [], [], 0
+    for _ in range(repeats):
+        sim.reset()
+        t_solve, t_measure, samples = sim.timed_move(target)
+        solve.append(t_solve)
+        measure.append(t_measure)
+    return {"equilibria_per_s": round(1.0 / min(settles), 1),
+            "settle_converged": sim.last_settle.converged,
+            "sample_solve_us": round(min(solve) / samples * 1e6, 1),
+            "sample_measures_us": round(min(measure) / samples * 1e6, 1)}
+
+
+def _mujoco_benchmark(station, repeats: int, raw_steps: int) -> dict:
+    """Raw steps/s of the station model, and wall time of a 90 deg j1 move with settling (best of repeats)."""
+    from ..physics.simulation import CableSimulator
+
     sim = CableSimulator(station)
     home_state = sim.get_state()
     m, d = station.model, sim.data
@@ -39,9 +105,7 @@ def physics_benchmark(station_ref: str = "default", repeats: int = 3, raw_steps:
     raw_rate = max(raw)
     settle = _settle_benchmark(sim, repeats)
     return {
-        "station": station.config.name,
         "timestep_s": m.opt.timestep,
-        "cable_segments": [c.n_vertices - 1 for c in station.cables],
         "nv": int(m.nv),
         "raw_mj_step_steps_per_s": round(raw_rate, 1),
         "move90_wall_s": round(best_move, 4),

@@ -429,7 +429,12 @@ def cmd_bench(args) -> int:
 
     bench = {"physics": physics_benchmark, "restrictions": restrictions_benchmark, "env": env_benchmark,
              "robustness": robustness_benchmark, "collision": collision_benchmark}[args.what]
-    result = bench(args.station, **({} if args.repeats is None else {"repeats": args.repeats}))
+    options = {} if args.repeats is None else {"repeats": args.repeats}
+    if args.what == "physics":
+        options["engine"] = args.physics
+    elif args.physics != "dynamic":
+        raise ConfigError("--physics", f"only 'bench physics' chooses the engine; 'bench {args.what}' runs on MuJoCo")
+    result = bench(args.station, **options)
     if args.json:
         print(json.dumps(result, indent=2))
     else:
@@ -671,6 +676,9 @@ def _add_bench(sub) -> None:
     add_station_argument(b)
     b.add_argument("--repeats", type=number(1, 1000, integer=True), default=None,
                    help="repetitions, the best reported (default: 3; robustness 1)")
+    b.add_argument("--physics", choices=["dynamic", "fast"], default="dynamic",
+                   help="the cable engine of 'bench physics': dynamic (MuJoCo, default) or fast (the rod engine); "
+                        "both report replay_wall_per_motion_s over the same fixed weld cycles")
     b.add_argument("--json", action="store_true", help="print the timings as one JSON object")
     b.set_defaults(func=cmd_bench)
 

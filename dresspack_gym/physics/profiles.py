@@ -11,13 +11,19 @@ from ..fields import check_choice
 from ..stations.config import StationConfig
 
 
+# The cable engines: MuJoCo's dynamic simulation, or the quasi-static rod engine (dresspack_gym.rod).
+ENGINES = ("dynamic", "fast")
+
+
 @dataclass(frozen=True)
 class PhysicsProfile:
-    """Cable segments of every dresspack and the motion timestep; None keeps the station's own."""
+    """Cable segments of every dresspack and the motion timestep (None keeps the station's own), and the engine
+    that simulates the cables (one of ENGINES)."""
 
     name: str
     segments: int | None = None
     timestep: float | None = None
+    engine: str = "dynamic"
 
 
 PROFILES = {
@@ -32,6 +38,18 @@ PROFILES = {
     # episodes, 10-25 N here and in the accurate profile on the same actions; tests/physics/test_physics_profiles.py).
     "coarse_step": PhysicsProfile("coarse_step", timestep=0.008),
 }
+
+
+def make_simulator(station, engine: str = "dynamic"):
+    """The station's cable simulator on ``engine`` (one of ENGINES): a CableSimulator (MuJoCo) or a RodSimulator
+    (the rod engine); both move robots, settle, measure and save state alike."""
+    if check_choice("physics", engine, list(ENGINES)) == "fast":
+        from ..rod.simulator import RodSimulator
+
+        return RodSimulator(station)
+    from .simulation import CableSimulator
+
+    return CableSimulator(station)
 
 
 def with_profile(config: StationConfig, profile: str) -> StationConfig:

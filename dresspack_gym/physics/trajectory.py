@@ -208,7 +208,7 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     measures0, states0 = sim.measures_and_states()
     samples_t, samples_q, samples_m = [0.0], [traj.waypoints[0].copy()], [measures0]
     samples_s = [states0[robot]] if record_states else []
-    samples_x = [sim.data.qpos.copy()]  # kept only with record_qpos
+    samples_x = [sim.data.qpos.copy()] if record_qpos else []  # MuJoCo's positions, to draw it
 
     def sampled(t: float) -> None:  # called right after each motion sample is recorded, in its state
         if record_qpos:

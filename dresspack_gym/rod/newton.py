@@ -107,15 +107,38 @@ def assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag, x_
 
 @njit(cache=True)
 def broad_phase(x, contact, margin):
-    """``contact`` with its pair mask cut to the pairs whose gap may be below ``margin`` at ``x``."""
+    """``contact`` with its pair mask cut to the pairs whose gap may be below ``margin`` at ``x``: first whole
+    primitives against the cable's bounding ball, then each remaining pair by its gap's lower bound."""
     r, kind, pos, rot, size, mask = contact[0], contact[1], contact[2], contact[3], contact[4], contact[5]
     near = mask.copy()
     bound = bounding_radii(kind, size)
-    for i in range(x.shape[0] - 1):
-        for j in range(kind.shape[0]):
+    n1 = x.shape[0]
+    c0, c1, c2 = 0.0, 0.0, 0.0
+    for v in range(n1):
+        c0, c1, c2 = c0 + x[v, 0] / n1, c1 + x[v, 1] / n1, c2 + x[v, 2] / n1
+    spread = 0.0
+    for v in range(n1):
+        spread = max(spread, math.sqrt((x[v, 0] - c0) ** 2 + (x[v, 1] - c1) ** 2 + (x[v, 2] - c2) ** 2))
+    for j in range(kind.shape[0]):
+        if kind[j] != 0:  # a plane has no bounding ball: its pairs are bounded one by one (exactly)
+            gap = math.sqrt((pos[j, 0] - c0) ** 2 + (pos[j, 1] - c1) ** 2 + (pos[j, 2] - c2) ** 2) - spread \
+                - bound[j] - r
+            if gap >= margin:
+                for i in range(n1 - 1):
+                    near[i, j] = False
+                continue
+        for i in range(n1 - 1):
             if near[i, j] and lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= margin:
                 near[i, j] = False
     return (r, kind, pos, rot, size, near) + contact[6:]
+
+
+@njit(cache=True)
+def inside(x, contact) -> bool:
+    """Whether ``x`` lies inside some primitive of ``contact`` (its barrier is infinite there)."""
+    if contact[1].shape[0] == 0:
+        return False
+    return math.isinf(contact_energy(x, broad_phase(x, contact, contact[6])))
 
 
 @njit(cache=True)
@@ -158,7 +181,7 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
     x = x_start.copy()
     for j in range(held.shape[0]):
         x[held[j]] = held_pos[j]
-    if math.isinf(contact_energy(x, contact)):
+    if inside(x, contact):
         x = x0.copy()
         for j in range(held.shape[0]):
             x[held[j]] = held_pos[j]

@@ -12,7 +12,7 @@ from .elastic import span_twists
 from .frames import transport, transport_frames, unit_tangents
 from .model import RodModel
 from .contact.friction import friction_lag
-from .newton import contact_energy, newton_step, static_gradient
+from .newton import broad_phase, inside, newton_step, static_gradient
 from .scene import ContactSettings, Primitives
 
 # Newton iterations allowed per solve before it is reported unconverged (a warm-started step takes 2-5).
@@ -79,6 +79,7 @@ class Rod:
         self.contact = ContactSettings() if contact is None else contact
         self.primitives = Primitives.none(model.segments)  # where the primitives were at the last solve
         self._static_forces: np.ndarray | None = None  # of the last solve, at its final shape
+        self.previous_x = self.x.copy()  # the shape before the last step (sliding speeds are read against it)
 
     # ------------------------------------------------------------------ solves
     def step(self, held_pos, h: float, *, clamp_directors=None, tolerance: float = 1e-3,
@@ -90,6 +91,7 @@ class Rod:
             raise ConfigError("h", f"the step must be positive seconds, got {h}")
         start = self.x + h * self.v if start is None else np.ascontiguousarray(start, dtype=float)
         x_new, ref, result = self._solve(start, held_pos, h, clamp_directors, tolerance, primitives)
+        self.previous_x = self.x
         self.v = (x_new - self.x) / h
         self.x, self.ref = x_new, ref
         return result
@@ -110,7 +112,9 @@ class Rod:
         p = previous if primitives is None else primitives
         c = self.contact
         if len(p) and len(previous) == len(p):
-            lag = friction_lag(self.x, self.radius, p.kind, previous.pos, previous.rot, p.size, p.pos, p.rot, p.mask,
+            # only the pairs within the barrier's reach at the last shape can be lagged
+            near = broad_phase(self.x, (self.radius, p.kind, previous.pos, previous.rot, p.size, p.mask), c.activation)
+            lag = friction_lag(self.x, self.radius, p.kind, previous.pos, previous.rot, p.size, p.pos, p.rot, near[5],
                                c.activation, c.stiffness)
         else:  # nothing touched before: no friction to lag
             lag = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
@@ -144,6 +148,11 @@ class Rod:
             self._span_edges, self.clamp_directors, self._span_len, self._force_scale, tolerance, MAX_ITERATIONS,
             contact)
 
+    def forget_forces(self) -> None:
+        """The state was set from outside: the last solve's static forces no longer belong to it."""
+        self._static_forces = None
+        self.previous_x = self.x.copy()
+
     def outside(self, x, held_pos, primitives: Primitives) -> bool:
         """Whether ``x`` with the held vertices at ``held_pos`` lies outside every one of ``primitives``."""
         return not self._inside(np.ascontiguousarray(x), np.asarray(held_pos, dtype=float),
@@ -153,7 +162,7 @@ class Rod:
         """Whether ``x`` with the held vertices at ``held_pos`` lies inside some primitive (the barrier is infinite)."""
         placed = x.copy()
         placed[self._held] = held_pos
-        return math.isinf(contact_energy(placed, contact))
+        return inside(placed, contact)
 
     def _recover(self, held_pos, h, contact) -> np.ndarray:
         """A start outside the primitives: the step solved with the recovery's penalty in place of the barrier."""

@@ -59,6 +59,33 @@ class RodSimulator:
         if settle:
             self.settle()
 
+    def get_state(self) -> np.ndarray:
+        """Every cable's positions, velocities and reference frames, the robots' joints and the motion time."""
+        parts = [np.concatenate([r.x.ravel(), r.v.ravel(), r.ref.ravel()]) for r in self.rods]
+        return np.concatenate(parts + [self.q.ravel(), [self.motion_time]])
+
+    def set_state(self, state: np.ndarray) -> None:
+        sizes = [r.x.size * 2 + r.ref.size for r in self.rods]
+        expected = sum(sizes) + self.q.size + 1
+        state = np.asarray(state, dtype=float)
+        if state.shape != (expected,):
+            raise ConfigError("state", f"expected a state vector of length {expected} from get_state(), "
+                                       f"got shape {state.shape}")
+        at = 0
+        q = state[sum(sizes):sum(sizes) + self.q.size].reshape(self.q.shape)
+        for rod, cable, scene, size in zip(self.rods, self.cables, self.scenes, sizes):
+            chunk = state[at:at + size]
+            n = rod.x.size
+            rod.x = chunk[:n].reshape(rod.x.shape).copy()
+            rod.v = chunk[n:2 * n].reshape(rod.v.shape).copy()
+            rod.ref = chunk[2 * n:].reshape(rod.ref.shape).copy()
+            rod.clamp_directors = self._targets(cable, q[cable.robot])[1]
+            rod.primitives = scene.at(q)
+            rod.forget_forces()
+            at += size
+        self.q = q.copy()
+        self.motion_time = float(state[-1])
+
     def _targets(self, cable: StationCable, q_robot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return cable.targets(self.station.robots[cable.robot].kinematics.link_frames(q_robot))
 
@@ -68,9 +95,12 @@ class RodSimulator:
         return JointLimits.stack(r.robot.joint_motion_limits for r in self.station.config.robots).at_speed(frac)
 
     def move_to(self, q_target, *, speed_fraction: float | None = None, settle: bool = True,
-                record_every: float | None = None) -> MotionTrace:
+                record_every: float | None = None, until: float | None = None, record_states: bool = False,
+                on_sample=None, stop_if=None) -> MotionTrace:
         """Move all robots along a straight joint-space segment under the time law; one implicit step of every
-        cable per sample (``record_every`` s, default 0.05 s), measures recorded at each when asked."""
+        cable per sample (``record_every`` s, default 0.05 s), measures (and with ``record_states`` every cable's
+        segment states) recorded at each when asked. ``until``, ``stop_if`` and ``on_sample`` as in
+        :meth:`CableSimulator.move_to <dresspack_gym.physics.simulation.CableSimulator.move_to>`."""
         target = self._as_q(q_target, "q_target")
         frac = self.config.speed_fraction if speed_fraction is None else float(speed_fraction)
         if not 0.0 < frac <= 1.0:
@@ -85,15 +115,53 @@ class RodSimulator:
             for cable, rod, scene in zip(self.cables, self.rods, self.scenes):
                 self._advance(cable, rod, scene, self.q, q, sample)
             self.q = q
+            now = self.motion_time + k * sample
             if record_every:
-                trace.time.append(self.motion_time + k * sample)
+                trace.time.append(now)
                 trace.q.append(q.copy())
-                trace.measures.append(self.measures())
+                measures = self.measures()
+                trace.measures.append(measures)
+                if record_states:
+                    trace.states.append(self._states(sample))
+                if on_sample is not None:
+                    on_sample(now)
+                trace.stopped = stop_if is not None and bool(stop_if(now, measures))
+            if trace.stopped or until is not None and now >= until:  # frozen mid-motion, unsettled
+                self.motion_time = now
+                return trace
         self.q = target.copy()
         self.motion_time += len(fractions) * sample
         if settle:
             self.settle()
+        if record_every and not len(fractions):  # a move of no length records where it stands
+            trace.time.append(self.motion_time)
+            trace.q.append(self.q.copy())
+            measures, states = self.measures_and_states()
+            trace.measures.append(measures)
+            if record_states:
+                trace.states.append(states)
+            trace.stopped = stop_if is not None and bool(stop_if(self.motion_time, measures))
         return trace
+
+    def timed_move(self, q_target) -> tuple[float, float, int]:
+        """A recorded move to ``q_target`` timed by part: (wall seconds in the solves, in the measures, samples)."""
+        import time
+
+        target = self._as_q(q_target, "q_target")
+        start, delta = self.q.copy(), target - self.q
+        fractions, _ = SegmentMotion(delta, self.motion_limits()).on_steps(DEFAULT_SAMPLE)
+        solve = measure = 0.0
+        for f in fractions:
+            q = start + f * delta
+            t0 = time.perf_counter()
+            for cable, rod, scene in zip(self.cables, self.rods, self.scenes):
+                self._advance(cable, rod, scene, self.q, q, DEFAULT_SAMPLE)
+            self.q = q
+            t1 = time.perf_counter()
+            self.measures_and_states(DEFAULT_SAMPLE)
+            solve, measure = solve + t1 - t0, measure + time.perf_counter() - t1
+        self.motion_time += len(fractions) * DEFAULT_SAMPLE
+        return solve, measure, len(fractions)
 
     def _advance(self, cable: StationCable, rod: Rod, scene: StationScene, q0: np.ndarray, q1: np.ndarray,
                  h: float) -> None:
@@ -152,6 +220,19 @@ class RodSimulator:
 
     def measures(self) -> WearMeasures:
         return WearMeasures.worst(self.cable_measures())
+
+    def measures_and_states(self, h: float | None = None) -> tuple[WearMeasures, list]:
+        """The station-level measures and every cable's segment states (``h``: the step just taken, for the
+        sliding speeds; None at rest)."""
+        return self.measures(), self._states(h)
+
+    def _states(self, h: float | None) -> list:
+        from .segments import segment_state
+
+        return [segment_state(rod, rod.previous_x if h else None, h) for rod in self.rods]
+
+    def segment_states(self) -> list:
+        return self.measures_and_states()[1]
 
     def _measure(self, cable: StationCable, rod: Rod) -> WearMeasures:
         x = rod.x
