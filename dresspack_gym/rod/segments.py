@@ -7,7 +7,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..physics.measures import vertex_curvatures
+from ..physics.measures import cross, vertex_curvatures
 from ..physics.segment_state import SegmentState
 from .contact.friction import friction_lag
 from .contact.report import contact_report
@@ -62,14 +62,18 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return np.divide(v, norm, out=np.zeros_like(v), where=norm > 1e-15)
 
 
-def material_directors(rod: Rod) -> np.ndarray:
-    """(n, 3) material director m1 of every edge (see :func:`material_angles`)."""
+def _twists(rod: Rod) -> tuple[np.ndarray, np.ndarray]:
+    """(unit edge tangents, each span's total twist), as Rod.twists computes them."""
     t, _ = unit_tangents(rod.x)
-    spans = rod.model.span_edges
-    tau = span_twists(rod.x, rod.ref, t, spans, rod.clamp_directors)
-    theta = material_angles(rod.ref, t, spans, rod.clamp_directors, tau)
+    return t, span_twists(rod.x, rod.ref, t, rod.model.span_edges, rod.clamp_directors)
+
+
+def material_directors(rod: Rod, twists: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """(n, 3) material director m1 of every edge (see :func:`material_angles`); ``twists``: :func:`_twists`."""
+    t, tau = _twists(rod) if twists is None else twists
+    theta = material_angles(rod.ref, t, rod.model.span_edges, rod.clamp_directors, tau)
     # the Rodrigues turn about t of a director perpendicular to t, as MuJoCo's reader builds its d1
-    return np.cos(theta)[:, None] * rod.ref + np.sin(theta)[:, None] * np.cross(t, rod.ref)
+    return np.cos(theta)[:, None] * rod.ref + np.sin(theta)[:, None] * cross(t, rod.ref)
 
 
 def vertex_bend(x: np.ndarray, m1: np.ndarray, kappa: np.ndarray) -> np.ndarray:
@@ -86,21 +90,22 @@ def vertex_bend(x: np.ndarray, m1: np.ndarray, kappa: np.ndarray) -> np.ndarray:
     tv = _unit(t[:-1] + t[1:])
     d1 = m1[:-1] + m1[1:]
     d1 = _unit(d1 - np.einsum("ij,ij->i", d1, tv)[:, None] * tv)
-    d2 = np.cross(tv, d1)
-    axis = _unit(np.cross(e[:-1], e[1:]))
+    d2 = cross(tv, d1)
+    axis = _unit(cross(e[:-1], e[1:]))
     bend = np.zeros((len(x), 2))
     bend[1:-1, 0] = kappa[1:-1] * np.einsum("ij,ij->i", axis, d1)
     bend[1:-1, 1] = kappa[1:-1] * np.einsum("ij,ij->i", axis, d2)
     return bend
 
 
-def vertex_twist_rates(rod: Rod) -> np.ndarray:
-    """Twist per length [rad/m] at every vertex: its span's tau/L on the span's vertices ea < i <= eb (where the
-    twist lives: between the clamp edges), 0 at the others (free ends carry no twist)."""
+def vertex_twist_rates(rod: Rod, tau: np.ndarray) -> np.ndarray:
+    """Twist per length [rad/m] at every vertex: its span's tau/L (``tau`` each span's total twist, L its rest
+    length, as Rod.twist_rates) on the span's vertices ea < i <= eb (where the twist lives: between the clamp
+    edges), 0 at the others (free ends carry no twist)."""
     out = np.zeros(len(rod.x))
     spans = rod.model.span_edges
     if len(spans):
-        for (ea, eb), rate in zip(spans, rod.twist_rates()):  # a loop over spans, not vertices
+        for (ea, eb), rate in zip(spans, tau / rod.model.span_lengths):  # a loop over spans, not vertices
             out[ea + 1:eb + 1] = rate
     return out
 
@@ -153,8 +158,9 @@ def segment_state(rod: Rod, previous_x: np.ndarray | None, h: float | None, *,
     n_v = len(x)
     kappa = np.zeros(n_v)
     kappa[1:-1] = vertex_curvatures(x)
-    bend = vertex_bend(x, material_directors(rod), kappa)
-    twist = vertex_twist_rates(rod)
+    twists = _twists(rod)
+    bend = vertex_bend(x, material_directors(rod, twists), kappa)
+    twist = vertex_twist_rates(rod, twists[1])
     strain = vertex_strains(rod)
     normal, friction, slip = np.zeros(n_v), np.zeros(n_v), np.zeros(n_v)
     prims = rod.primitives
