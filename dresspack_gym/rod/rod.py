@@ -78,6 +78,7 @@ class Rod:
         self.radius = float(radius)
         self.contact = ContactSettings() if contact is None else contact
         self.primitives = Primitives.none(model.segments)  # where the primitives were at the last solve
+        self.previous_primitives = self.primitives  # ... and at the one before (sliding is relative to them)
         self._static_forces: np.ndarray | None = None  # of the last solve, at its final shape
         self.previous_x = self.x.copy()  # the shape before the last step (sliding speeds are read against it)
 
@@ -128,6 +129,7 @@ class Rod:
         m = self.model
         start = np.ascontiguousarray(start)
         contact = self._contact(primitives, self.primitives)
+        self.previous_primitives = self.primitives
         if primitives is not None:
             self.primitives = primitives
         if len(self.primitives) and math.isinf(h):  # rest: no motion to lag friction from
@@ -152,6 +154,7 @@ class Rod:
         """The state was set from outside: the last solve's static forces no longer belong to it."""
         self._static_forces = None
         self.previous_x = self.x.copy()
+        self.previous_primitives = self.primitives
 
     def outside(self, x, held_pos, primitives: Primitives) -> bool:
         """Whether ``x`` with the held vertices at ``held_pos`` lies outside every one of ``primitives``."""

@@ -12,6 +12,7 @@ from ..robots.time_law import JointLimits, SegmentMotion
 from ..stations.station import Station
 from .clearance import nearest_gap
 from .rod import Rod, initial_frames
+from .segments import segment_state
 from .station_cable import StationCable, station_cable
 from .station_scene import StationScene
 
@@ -227,9 +228,8 @@ class RodSimulator:
         return self.measures(), self._states(h)
 
     def _states(self, h: float | None) -> list:
-        from .segments import segment_state
-
-        return [segment_state(rod, rod.previous_x if h else None, h) for rod in self.rods]
+        return [segment_state(rod, rod.previous_x if h else None, h, previous_primitives=rod.previous_primitives)
+                for rod in self.rods]
 
     def segment_states(self) -> list:
         return self.measures_and_states()[1]
