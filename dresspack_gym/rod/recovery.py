@@ -13,7 +13,7 @@ from numba import njit
 
 from .contact.assembly import add_edge_block, add_edge_gradient
 from .contact.primitives import bounding_radii
-from .contact.segment import lower_bound, segment_gap
+from .contact.segment import contact_ends, contact_point, lower_bound
 
 
 @njit(cache=True)
@@ -31,16 +31,19 @@ def penalty(x, r, kind, pos, rot, size, mask, margin, stiffness, want, g, band):
         for j in range(kind.shape[0]):
             if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= margin:
                 continue
-            d, t = segment_gap(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], p, n, h)
-            if d >= margin:
-                continue
-            energy += 0.5 * stiffness * (margin - d) ** 2
-            if not want:
-                continue
-            for k in range(3):
-                gp[k] = -stiffness * (margin - d) * n[k]
-                for m in range(3):
-                    hp[k, m] = stiffness * n[k] * n[m]
-            add_edge_gradient(g, i, t, gp)
-            add_edge_block(band, i, t, hp)
+            ends = contact_ends(kind[j])
+            for end in range(ends):
+                d, t = contact_point(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], end, p, n, h)
+                if d >= margin:
+                    continue
+                k_pair = stiffness / ends
+                energy += 0.5 * k_pair * (margin - d) ** 2
+                if not want:
+                    continue
+                for k in range(3):
+                    gp[k] = -k_pair * (margin - d) * n[k]
+                    for m in range(3):
+                        hp[k, m] = k_pair * n[k] * n[m]
+                add_edge_gradient(g, i, t, gp)
+                add_edge_block(band, i, t, hp)
     return energy

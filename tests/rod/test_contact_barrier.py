@@ -136,10 +136,15 @@ def fixed_t_gradient(x, prims, ts):
     g = np.zeros_like(x)
     n, h = np.empty(3), np.empty((3, 3))
     for i, t in enumerate(ts):
-        p = (1 - t) * x[i] + t * x[i + 1]
-        d = point_distance(kind[0], pos[0], rot[0], size[0], p, n, h) - R
-        g[i] += (1 - t) * KAPPA * barrier_d1(d, DHAT) * n
-        g[i + 1] += t * KAPPA * barrier_d1(d, DHAT) * n
+        # a plane touches each edge at both ends, half weight each; other kinds at the edge's closest point
+        contacts = [(0.0, 0.5), (1.0, 0.5)] if kind[0] == 0 else [(t, 1.0)]
+        for tc, w in contacts:
+            p = (1 - tc) * x[i] + tc * x[i + 1]
+            d = point_distance(kind[0], pos[0], rot[0], size[0], p, n, h) - R
+            if d >= DHAT:
+                continue
+            g[i] += (1 - tc) * w * KAPPA * barrier_d1(d, DHAT) * n
+            g[i + 1] += tc * w * KAPPA * barrier_d1(d, DHAT) * n
     return g
 
 

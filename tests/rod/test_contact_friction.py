@@ -82,7 +82,7 @@ def test_sliding_on_a_plane_feels_mu_lam_beyond_eps_and_the_ramp_inside():
 
 
 def test_at_rest_friction_is_static_stiffness_without_force():
-    x = np.array([[0.0, 0.0, 0.05], [0.3, 0.0, 0.07]])
+    x = np.array([[0.0, 0.0, 0.05], [0.3, 0.0, 0.3]])  # only the first end within the barrier's reach
     still = prims_of(PLANE, np.zeros(3), np.eye(3))
     lagged = lag(x, still, still)
     e, g, band = accumulate(x, lagged)
@@ -92,12 +92,12 @@ def test_at_rest_friction_is_static_stiffness_without_force():
 
 
 def test_relative_motion_a_moving_plane_drags_a_still_cable():
-    x_prev = np.array([[0.0, 0.0, 0.05], [0.3, 0.0, 0.07]])
+    x_prev = np.array([[0.0, 0.0, 0.05], [0.3, 0.0, 0.3]])  # only the first end within the barrier's reach
     still = prims_of(PLANE, np.zeros(3), np.eye(3))
     moved = prims_of(PLANE, np.array([0.01, 0.0, 0.0]), np.eye(3))
     lagged = lag(x_prev, still, moved)
     assert lagged[0].tolist() == [0] and lagged[1][0] == 0.0
-    assert lagged[3][0] == pytest.approx(-KAPPA * barrier_d1(0.05 - R, DHAT))
+    assert lagged[3][0] == pytest.approx(-0.5 * KAPPA * barrier_d1(0.05 - R, DHAT))  # the end's half of the pair
     _, g_plane, _ = accumulate(x_prev, lagged)  # the cable still, the plane moved +x
     x = x_prev.copy()
     x[:, 0] += 0.01

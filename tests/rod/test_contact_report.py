@@ -28,12 +28,18 @@ def report(x, x_prev, mask=None, cap=10.0):
     return contact_report(x, x_prev, R, kind, pos, rot, size, pos, rot, mask, DHAT, KAPPA, MU, EPS, cap)
 
 
+def pushing(d):
+    return -KAPPA * barrier_d1(d, DHAT) if d < DHAT else 0.0
+
+
 def test_normal_force_goes_to_the_vertices_by_the_contact_parameter():
-    floor_edge = np.array([[1.0, 0.0, 0.03], [1.2, 0.0, 0.04]])  # touches the floor at its first end
+    floor_edge = np.array([[1.0, 0.0, 0.03], [1.2, 0.0, 0.04]])  # a plane: a contact at each end, half weight each
     ball_edge = np.array([[-0.1, 0.0, 0.32], [0.1, 0.0, 0.32]])  # touches the ball at its middle
-    for x, force, clear in [(floor_edge, [1.0, 0.0], 0.03 - R), (ball_edge, [0.5, 0.5], 0.02 - R)]:
+    floor_force = [0.5 * pushing(0.03 - R), 0.5 * pushing(0.04 - R)]
+    ball_force = [0.5 * pushing(0.02 - R), 0.5 * pushing(0.02 - R)]
+    for x, force, clear in [(floor_edge, floor_force, 0.03 - R), (ball_edge, ball_force, 0.02 - R)]:
         normal, fric, gap, nearest = report(x, x)
-        np.testing.assert_allclose(normal, np.array(force) * -KAPPA * barrier_d1(clear, DHAT), rtol=1e-12)
+        np.testing.assert_allclose(normal, force, rtol=1e-12)
         assert not fric.any()  # nothing moved
         assert gap[0] == pytest.approx(clear, rel=1e-12) and nearest[0] == (0 if x is floor_edge else 1)
         g = np.zeros_like(x)
@@ -45,9 +51,9 @@ def test_friction_force_of_a_sliding_edge():
     x_prev = np.array([[1.0, 0.0, 0.03], [1.2, 0.0, 0.04]])
     x = x_prev + [0.01, 0.0, 0.0]
     normal, fric, _, _ = report(x, x_prev)
-    lam = -KAPPA * barrier_d1(0.03 - R, DHAT)
-    np.testing.assert_allclose(fric, [MU * lam, 0.0], rtol=1e-12)
-    assert normal[0] == pytest.approx(lam)
+    lam = [0.5 * pushing(0.03 - R), 0.5 * pushing(0.04 - R)]  # each end's share of the plane contact
+    np.testing.assert_allclose(fric, MU * np.array(lam), rtol=1e-12)
+    np.testing.assert_allclose(normal, lam, rtol=1e-12)
 
 
 def test_masked_and_far_primitives():

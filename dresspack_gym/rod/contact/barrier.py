@@ -9,7 +9,7 @@ from numba import njit
 
 from .assembly import add_edge_block, add_edge_gradient
 from .primitives import bounding_radii
-from .segment import lower_bound, segment_gap
+from .segment import contact_ends, contact_point, lower_bound, segment_gap
 
 
 @njit(cache=True)
@@ -73,18 +73,21 @@ def barrier_accumulate(x, r, kind, pos, rot, size, mask, dhat, kappa, g, band, p
         for j in range(kind.shape[0]):
             if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= dhat:
                 continue
-            d, t = segment_gap(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], p, n, h)
-            if d <= 0.0:
-                return np.inf
-            if d >= dhat:
-                continue
-            energy += kappa * barrier(d, dhat)
-            d1 = kappa * barrier_d1(d, dhat)
-            for k in range(3):
-                gp[k] = d1 * n[k]
-            add_edge_gradient(g, i, t, gp)
-            point_hessian(d, n, h, dhat, kappa, project, hp)
-            add_edge_block(band, i, t, hp)
+            ends = contact_ends(kind[j])
+            w = kappa / ends
+            for end in range(ends):
+                d, t = contact_point(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], end, p, n, h)
+                if d <= 0.0:
+                    return np.inf
+                if d >= dhat:
+                    continue
+                energy += w * barrier(d, dhat)
+                d1 = w * barrier_d1(d, dhat)
+                for k in range(3):
+                    gp[k] = d1 * n[k]
+                add_edge_gradient(g, i, t, gp)
+                point_hessian(d, n, h, dhat, w, project, hp)
+                add_edge_block(band, i, t, hp)
     return energy
 
 
@@ -100,8 +103,10 @@ def barrier_energy(x, r, kind, pos, rot, size, mask, dhat, kappa):
         for j in range(kind.shape[0]):
             if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= dhat:
                 continue
-            d, _ = segment_gap(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], p, n, h)
-            if d <= 0.0:
-                return np.inf
-            energy += kappa * barrier(d, dhat)
+            ends = contact_ends(kind[j])
+            for end in range(ends):
+                d, _ = contact_point(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], end, p, n, h)
+                if d <= 0.0:
+                    return np.inf
+                energy += kappa / ends * barrier(d, dhat)
     return energy

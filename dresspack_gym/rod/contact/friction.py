@@ -11,7 +11,7 @@ from numba import njit
 from .assembly import add_edge_block, add_edge_gradient
 from .barrier import barrier_d1
 from .primitives import bounding_radii
-from .segment import lower_bound, segment_gap
+from .segment import contact_ends, contact_point, lower_bound, segment_gap
 
 
 @njit(cache=True)
@@ -44,11 +44,11 @@ def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat
     n_e = x_prev.shape[0] - 1
     n_prims = kind.shape[0]
     bound = bounding_radii(kind, size)
-    edge = np.empty(n_e * n_prims, np.int64)
-    tpar = np.empty(n_e * n_prims)
-    normal = np.empty((n_e * n_prims, 3))
-    lam = np.empty(n_e * n_prims)
-    anchor = np.empty((n_e * n_prims, 3))
+    edge = np.empty(2 * n_e * n_prims, np.int64)  # up to two contacts a pair (segment.contact_ends)
+    tpar = np.empty(2 * n_e * n_prims)
+    normal = np.empty((2 * n_e * n_prims, 3))
+    lam = np.empty(2 * n_e * n_prims)
+    anchor = np.empty((2 * n_e * n_prims, 3))
     p = np.empty(3)
     n = np.empty(3)
     h = np.empty((3, 3))
@@ -59,24 +59,27 @@ def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat
         for j in range(n_prims):
             if not mask[i, j] or lower_bound(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j], bound[j]) >= dhat:
                 continue
-            d, t = segment_gap(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j], p, n, h)
-            if not 0.0 < d < dhat:
-                continue
-            # the primitive's surface point under the contact, carried rigidly to the current pose
-            for k in range(3):
-                s[k] = p[k] - (d + r) * n[k]
-            for k in range(3):
-                local[k] = 0.0
-                for l in range(3):
-                    local[k] += rot_prev[j, l, k] * (s[l] - pos_prev[j, l])
-            for k in range(3):
-                moved = pos[j, k] + rot[j, k, 0] * local[0] + rot[j, k, 1] * local[1] + rot[j, k, 2] * local[2]
-                anchor[m, k] = p[k] + moved - s[k]
-                normal[m, k] = n[k]
-            edge[m] = i
-            tpar[m] = t
-            lam[m] = -kappa * barrier_d1(d, dhat)
-            m += 1
+            ends = contact_ends(kind[j])
+            for end in range(ends):
+                d, t = contact_point(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j], end,
+                                     p, n, h)
+                if not 0.0 < d < dhat:
+                    continue
+                # the primitive's surface point under the contact, carried rigidly to the current pose
+                for k in range(3):
+                    s[k] = p[k] - (d + r) * n[k]
+                for k in range(3):
+                    local[k] = 0.0
+                    for l in range(3):
+                        local[k] += rot_prev[j, l, k] * (s[l] - pos_prev[j, l])
+                for k in range(3):
+                    moved = pos[j, k] + rot[j, k, 0] * local[0] + rot[j, k, 1] * local[1] + rot[j, k, 2] * local[2]
+                    anchor[m, k] = p[k] + moved - s[k]
+                    normal[m, k] = n[k]
+                edge[m] = i
+                tpar[m] = t
+                lam[m] = -kappa / ends * barrier_d1(d, dhat)
+                m += 1
     return edge[:m].copy(), tpar[:m].copy(), normal[:m].copy(), lam[:m].copy(), anchor[:m].copy()
 
 

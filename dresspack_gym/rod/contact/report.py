@@ -8,7 +8,7 @@ from numba import njit
 from .barrier import barrier_d1
 from .friction import friction_force, friction_lag
 from .primitives import bounding_radii
-from .segment import lower_bound, segment_gap
+from .segment import contact_ends, contact_point, lower_bound, segment_gap
 
 CAP = 10.0  # [m] beyond which clearances are not resolved
 
@@ -39,14 +39,16 @@ def contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev, mask,
         for j in range(kind.shape[0]):
             if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= max(gap[i], dhat):
                 continue  # neither nearer than the best so far (nor cap) nor pushing
-            d, t = segment_gap(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], p, n, h)
-            if d < gap[i]:
-                gap[i] = d
-                nearest[i] = j
-            if d < dhat:
-                f = -kappa * barrier_d1(d, dhat) if d > 0.0 else np.inf
-                normal[i] += (1.0 - t) * f
-                normal[i + 1] += t * f
+            ends = contact_ends(kind[j])
+            for end in range(ends):
+                d, t = contact_point(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], end, p, n, h)
+                if d < gap[i]:
+                    gap[i] = d
+                    nearest[i] = j
+                if d < dhat:
+                    f = -kappa / ends * barrier_d1(d, dhat) if d > 0.0 else np.inf
+                    normal[i] += (1.0 - t) * f
+                    normal[i + 1] += t * f
     edge, tpar, nrm, lam, anchor = friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat, kappa)
     force = friction_force(x, edge, tpar, nrm, lam, anchor, mu, eps)
     for c in range(edge.shape[0]):

@@ -162,3 +162,24 @@ def lower_bound(a, b, r, kind, pos, rot, size, bound):
         axial = max(abs(l2) - size[1], 0.0)
         return max(ball, math.sqrt(radial * radial + axial * axial) - half - r)
     return ball
+
+
+@njit(cache=True)
+def contact_ends(kind) -> int:
+    """Contacts one (edge, primitive) pair makes: a plane touches the edge at both its ends (each vertex its own
+    contact, weighted 1/2 per edge, so a vertex between two edges counts once), every other kind at its closest
+    point. An edge lying flat on a plane has no closest point to speak of: taken at one end, its contact would
+    jump between the two, and a cable resting on the floor would never settle."""
+    return 2 if kind == PLANE else 1
+
+
+@njit(cache=True)
+def contact_point(a, b, r, kind, pos, rot, size, end, p, n, h):
+    """Gap and t of contact ``end`` (0 .. contact_ends - 1) of the edge [a, b] with the primitive; p, n, h as
+    :func:`segment_gap` fills them."""
+    if kind != PLANE:
+        return segment_gap(a, b, r, kind, pos, rot, size, p, n, h)
+    t = float(end)
+    for k in range(3):
+        p[k] = b[k] if end == 1 else a[k]
+    return point_distance(kind, pos, rot, size, p, n, h) - r, t
