@@ -13,7 +13,7 @@ from numba import njit
 
 from .contact.assembly import add_edge_block, add_edge_gradient
 from .contact.primitives import bounding_radii
-from .contact.segment import contact_ends, contact_point, lower_bound
+from .contact.segment import MAX_CONTACTS, lower_bound, pair_contacts
 
 
 @njit(cache=True)
@@ -21,9 +21,9 @@ def penalty(x, r, kind, pos, rot, size, mask, margin, stiffness, want, g, band):
     """Sum of stiffness/2 (margin - d)^2 over the enabled pairs with gap d < margin; with ``want`` adds its gradient
     to g and its Gauss-Newton Hessian stiffness (grad d)(grad d)^T to the lower band."""
     bound = bounding_radii(kind, size)
-    p = np.empty(3)
     n = np.empty(3)
-    h = np.empty((3, 3))
+    dc, tc, wc = np.empty(MAX_CONTACTS), np.empty(MAX_CONTACTS), np.empty(MAX_CONTACTS)
+    pc, nc, hc = np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3, 3))
     gp = np.empty(3)
     hp = np.empty((3, 3))
     energy = 0.0
@@ -31,12 +31,15 @@ def penalty(x, r, kind, pos, rot, size, mask, margin, stiffness, want, g, band):
         for j in range(kind.shape[0]):
             if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= margin:
                 continue
-            ends = contact_ends(kind[j])
-            for end in range(ends):
-                d, t = contact_point(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], end, p, n, h)
+            count, _ = pair_contacts(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], margin, dc, tc, wc, pc, nc,
+                                     hc)
+            for c in range(count):
+                d, t = dc[c], tc[c]
                 if d >= margin:
                     continue
-                k_pair = stiffness / ends
+                k_pair = stiffness * max(wc[c], 0.5)  # the closest point pushes out even where the blend omits it
+                for k in range(3):
+                    n[k] = nc[c, k]
                 energy += 0.5 * k_pair * (margin - d) ** 2
                 if not want:
                     continue

@@ -9,7 +9,7 @@ from numba import njit
 
 from .assembly import add_edge_block, add_edge_gradient
 from .primitives import bounding_radii
-from .segment import contact_ends, contact_point, lower_bound, segment_gap
+from .segment import MAX_CONTACTS, lower_bound, pair_contacts
 
 
 @njit(cache=True)
@@ -63,9 +63,8 @@ def barrier_accumulate(x, r, kind, pos, rot, size, mask, dhat, kappa, g, band, p
     penetrating pair (d <= 0), g and band then hold a partial sum.
     """
     bound = bounding_radii(kind, size)
-    p = np.empty(3)
-    n = np.empty(3)
-    h = np.empty((3, 3))
+    d, t, w = np.empty(MAX_CONTACTS), np.empty(MAX_CONTACTS), np.empty(MAX_CONTACTS)
+    p, n, h = np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3, 3))
     hp = np.empty((3, 3))
     gp = np.empty(3)
     energy = 0.0
@@ -73,21 +72,29 @@ def barrier_accumulate(x, r, kind, pos, rot, size, mask, dhat, kappa, g, band, p
         for j in range(kind.shape[0]):
             if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= dhat:
                 continue
-            ends = contact_ends(kind[j])
-            w = kappa / ends
-            for end in range(ends):
-                d, t = contact_point(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], end, p, n, h)
-                if d <= 0.0:
+            count, m = pair_contacts(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], dhat, d, t, w, p, n, h)
+            for c in range(count):
+                if d[c] <= 0.0:
                     return np.inf
-                if d >= dhat:
+            for c in range(count):
+                if d[c] >= dhat or w[c] == 0.0:
                     continue
-                energy += w * barrier(d, dhat)
-                d1 = w * barrier_d1(d, dhat)
+                energy += kappa * w[c] * barrier(d[c], dhat)
+                d1 = kappa * w[c] * barrier_d1(d[c], dhat)
                 for k in range(3):
-                    gp[k] = d1 * n[k]
-                add_edge_gradient(g, i, t, gp)
-                point_hessian(d, n, h, dhat, w, project, hp)
-                add_edge_block(band, i, t, hp)
+                    gp[k] = d1 * n[c, k]
+                add_edge_gradient(g, i, t[c], gp)
+                point_hessian(d[c], n[c], h[c], dhat, kappa * w[c], project, hp)
+                add_edge_block(band, i, t[c], hp)
+            if m >= 0 and 0.0 < w[2] < 1.0 and d[2] < dhat:
+                # the blend's own slope: w = (d_m - d*) / dhat in its ramp, times the closest point's barrier
+                coef = kappa * barrier(d[2], dhat) / dhat
+                for k in range(3):
+                    gp[k] = coef * n[m, k]
+                add_edge_gradient(g, i, t[m], gp)
+                for k in range(3):
+                    gp[k] = -coef * n[2, k]
+                add_edge_gradient(g, i, t[2], gp)
     return energy
 
 
@@ -95,18 +102,16 @@ def barrier_accumulate(x, r, kind, pos, rot, size, mask, dhat, kappa, g, band, p
 def barrier_energy(x, r, kind, pos, rot, size, mask, dhat, kappa):
     """The energy of :func:`barrier_accumulate` alone (for the line search): inf on any penetration."""
     bound = bounding_radii(kind, size)
-    p = np.empty(3)
-    n = np.empty(3)
-    h = np.empty((3, 3))
+    d, t, w = np.empty(MAX_CONTACTS), np.empty(MAX_CONTACTS), np.empty(MAX_CONTACTS)
+    p, n, h = np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3, 3))
     energy = 0.0
     for i in range(x.shape[0] - 1):
         for j in range(kind.shape[0]):
             if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= dhat:
                 continue
-            ends = contact_ends(kind[j])
-            for end in range(ends):
-                d, _ = contact_point(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], end, p, n, h)
-                if d <= 0.0:
+            count, _ = pair_contacts(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], dhat, d, t, w, p, n, h)
+            for c in range(count):
+                if d[c] <= 0.0:
                     return np.inf
-                energy += kappa / ends * barrier(d, dhat)
+                energy += kappa * w[c] * barrier(d[c], dhat)
     return energy

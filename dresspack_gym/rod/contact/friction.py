@@ -11,7 +11,7 @@ from numba import njit
 from .assembly import add_edge_block, add_edge_gradient
 from .barrier import barrier_d1
 from .primitives import bounding_radii
-from .segment import contact_ends, contact_point, lower_bound, segment_gap
+from .segment import MAX_CONTACTS, lower_bound, pair_contacts
 
 
 @njit(cache=True)
@@ -44,11 +44,14 @@ def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat
     n_e = x_prev.shape[0] - 1
     n_prims = kind.shape[0]
     bound = bounding_radii(kind, size)
-    edge = np.empty(2 * n_e * n_prims, np.int64)  # up to two contacts a pair (segment.contact_ends)
-    tpar = np.empty(2 * n_e * n_prims)
-    normal = np.empty((2 * n_e * n_prims, 3))
-    lam = np.empty(2 * n_e * n_prims)
-    anchor = np.empty((2 * n_e * n_prims, 3))
+    most = MAX_CONTACTS * n_e * n_prims  # every pair's contacts (segment.pair_contacts)
+    edge = np.empty(most, np.int64)
+    tpar = np.empty(most)
+    normal = np.empty((most, 3))
+    lam = np.empty(most)
+    anchor = np.empty((most, 3))
+    dc, tc, wc = np.empty(MAX_CONTACTS), np.empty(MAX_CONTACTS), np.empty(MAX_CONTACTS)
+    pc, nc, hc = np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3, 3))
     p = np.empty(3)
     n = np.empty(3)
     h = np.empty((3, 3))
@@ -59,12 +62,14 @@ def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat
         for j in range(n_prims):
             if not mask[i, j] or lower_bound(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j], bound[j]) >= dhat:
                 continue
-            ends = contact_ends(kind[j])
-            for end in range(ends):
-                d, t = contact_point(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j], end,
-                                     p, n, h)
-                if not 0.0 < d < dhat:
+            count, _ = pair_contacts(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j], dhat,
+                                     dc, tc, wc, pc, nc, hc)
+            for c in range(count):
+                d, t = dc[c], tc[c]
+                if not 0.0 < d < dhat or wc[c] == 0.0:
                     continue
+                for k in range(3):
+                    p[k], n[k] = pc[c, k], nc[c, k]
                 # the primitive's surface point under the contact, carried rigidly to the current pose
                 for k in range(3):
                     s[k] = p[k] - (d + r) * n[k]
@@ -78,7 +83,7 @@ def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat
                     normal[m, k] = n[k]
                 edge[m] = i
                 tpar[m] = t
-                lam[m] = -kappa / ends * barrier_d1(d, dhat)
+                lam[m] = -kappa * wc[c] * barrier_d1(d, dhat)
                 m += 1
     return edge[:m].copy(), tpar[:m].copy(), normal[:m].copy(), lam[:m].copy(), anchor[:m].copy()
 

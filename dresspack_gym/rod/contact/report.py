@@ -8,7 +8,7 @@ from numba import njit
 from .barrier import barrier_d1
 from .friction import friction_force, friction_lag
 from .primitives import bounding_radii
-from .segment import contact_ends, contact_point, lower_bound, segment_gap
+from .segment import MAX_CONTACTS, lower_bound, pair_contacts
 
 CAP = 10.0  # [m] beyond which clearances are not resolved
 
@@ -32,21 +32,21 @@ def contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev, mask,
     for i in range(n_v - 1):
         gap[i] = cap
         nearest[i] = -1
-    p = np.empty(3)
-    n = np.empty(3)
-    h = np.empty((3, 3))
+    dc, tc, wc = np.empty(MAX_CONTACTS), np.empty(MAX_CONTACTS), np.empty(MAX_CONTACTS)
+    pc, nc, hc = np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3, 3))
     for i in range(n_v - 1):
         for j in range(kind.shape[0]):
             if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= max(gap[i], dhat):
                 continue  # neither nearer than the best so far (nor cap) nor pushing
-            ends = contact_ends(kind[j])
-            for end in range(ends):
-                d, t = contact_point(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], end, p, n, h)
+            count, _ = pair_contacts(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], dhat, dc, tc, wc, pc, nc,
+                                     hc)
+            for c in range(count):
+                d, t = dc[c], tc[c]
                 if d < gap[i]:
                     gap[i] = d
                     nearest[i] = j
-                if d < dhat:
-                    f = -kappa / ends * barrier_d1(d, dhat) if d > 0.0 else np.inf
+                if d < dhat and wc[c] > 0.0:
+                    f = -kappa * wc[c] * barrier_d1(d, dhat) if d > 0.0 else np.inf
                     normal[i] += (1.0 - t) * f
                     normal[i + 1] += t * f
     edge, tpar, nrm, lam, anchor = friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat, kappa)

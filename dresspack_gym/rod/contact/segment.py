@@ -164,22 +164,37 @@ def lower_bound(a, b, r, kind, pos, rot, size, bound):
     return ball
 
 
-@njit(cache=True)
-def contact_ends(kind) -> int:
-    """Contacts one (edge, primitive) pair makes: a plane touches the edge at both its ends (each vertex its own
-    contact, weighted 1/2 per edge, so a vertex between two edges counts once), every other kind at its closest
-    point. An edge lying flat on a plane has no closest point to speak of: taken at one end, its contact would
-    jump between the two, and a cable resting on the floor would never settle."""
-    return 2 if kind == PLANE else 1
+# Contacts one (edge, primitive) pair can make (see pair_contacts).
+MAX_CONTACTS = 3
 
 
 @njit(cache=True)
-def contact_point(a, b, r, kind, pos, rot, size, end, p, n, h):
-    """Gap and t of contact ``end`` (0 .. contact_ends - 1) of the edge [a, b] with the primitive; p, n, h as
-    :func:`segment_gap` fills them."""
-    if kind != PLANE:
-        return segment_gap(a, b, r, kind, pos, rot, size, p, n, h)
-    t = float(end)
-    for k in range(3):
-        p[k] = b[k] if end == 1 else a[k]
-    return point_distance(kind, pos, rot, size, p, n, h) - r, t
+def pair_contacts(a, b, r, kind, pos, rot, size, blend, d, t, w, p, n, h):
+    """The contacts of the edge [a, b] with one primitive: their gaps d, edge parameters t and weights w, and each
+    one's point p, normal n and distance Hessian h (rows of the (MAX_CONTACTS, ...) arrays given). Returns
+    (count, m): m is the end whose gap is the smaller (the blend below needs it), -1 where there is no blend.
+
+    A sphere or capsule touches the edge at its closest point. Flat faces have no closest point to speak of when
+    an edge lies flat on them: taken at one end, the contact would jump between the two and a cable resting there
+    would never settle. So a plane touches the edge at both ends, each vertex its own contact weighted 1/2 (a
+    vertex between two edges counts once); a box or cylinder too, plus the edge's closest point, weighted by how
+    far it lies below the nearer end: w = clip((min(d_a, d_b) - d*) / blend, 0, 1). That is 0 where the edge lies
+    on a face (d* is an end's gap) and 1 where it hangs over the primitive's edge or rim (the ends away from it),
+    continuous in between; the barrier of the three stays infinite at any penetration.
+    """
+    if kind == PLANE or kind == BOX or kind == CYLINDER:
+        for end in range(2):
+            for k in range(3):
+                p[end, k] = b[k] if end == 1 else a[k]
+            d[end] = point_distance(kind, pos, rot, size, p[end], n[end], h[end]) - r
+            t[end] = float(end)
+            w[end] = 0.5
+        if kind == PLANE:  # a plane's distance is linear along the edge: its ends are all of it
+            return 2, -1
+        d[2], t[2] = segment_gap(a, b, r, kind, pos, rot, size, p[2], n[2], h[2])
+        m = 0 if d[0] <= d[1] else 1
+        w[2] = min(max((d[m] - d[2]) / blend, 0.0), 1.0)
+        return 3, m
+    d[0], t[0] = segment_gap(a, b, r, kind, pos, rot, size, p[0], n[0], h[0])
+    w[0] = 1.0
+    return 1, -1
