@@ -172,8 +172,9 @@ class RodSimulator:
         every solve starts outside every primitive."""
         end = scene.at(q1)
         if len(end):
-            start = scene.carried_start(rod.x + h * rod.v, rod.radius, rod.primitives, end, rod.contact.activation)
             pos, dirs = self._targets(cable, q1[cable.robot])
+            start = scene.carried_start(_following(rod, pos, h), rod.radius, rod.primitives, end,
+                                        rod.contact.activation)
             if rod.outside(start, pos, end):
                 result = rod.step(pos, h, clamp_directors=dirs, tolerance=STEP_TOLERANCE, primitives=end,
                                   start=start)
@@ -277,6 +278,52 @@ class RodSimulator:
             check_within_limits(q[i], r.robot.joint_limits, field if n == 1 else f"{field}[{i}]", digits=2,
                                 owner=f" of robot {r.name!r}")
         return q
+
+
+    # ------------------------------------------------------------------ robustness maps
+    def move_quasi_static(self, q_target, *, speed_fraction: float) -> MotionTrace:
+        """:meth:`CableSimulator.move_to <dresspack_gym.physics.simulation.CableSimulator.move_to>` with
+        ``settle=False, quasi_static=True``: the full-speed motion slowed down in time by ``speed_fraction``
+        (accelerations by its square), one implicit step of every cable per DEFAULT_SAMPLE, not settled. The trace's
+        ``max_acceleration_ratio`` is the largest change of a free vertex's velocity over one sample, over g times
+        the sample (the net force on the vertex in units of its weight, as MuJoCo's averaged indicator)."""
+        target = self._as_q(q_target, "q_target")
+        frac = float(speed_fraction)
+        if not 0.0 < frac <= 1.0:
+            raise ConfigError("speed_fraction", f"must be in (0, 1], got {frac}")
+        full = JointLimits.stack(r.robot.joint_motion_limits for r in self.station.config.robots)
+        start, delta = self.q.copy(), target - self.q
+        fractions, _ = SegmentMotion(delta, full.slowed(frac)).on_steps(DEFAULT_SAMPLE)
+        g_sample = max(float(self.config.gravity), 1.0) * DEFAULT_SAMPLE
+        free = [np.setdiff1d(np.arange(c.model.segments + 1), c.model.held_array) for c in self.cables]
+        trace = MotionTrace()
+        for f in fractions:
+            q = start + f * delta
+            for cable, rod, scene, idx in zip(self.cables, self.rods, self.scenes, free):
+                v0 = rod.v[idx].copy()
+                self._advance(cable, rod, scene, self.q, q, DEFAULT_SAMPLE)
+                if len(idx):
+                    accel = float(np.linalg.norm(rod.v[idx] - v0, axis=1).max()) / g_sample
+                    trace.max_acceleration_ratio = max(trace.max_acceleration_ratio, accel)
+            self.q = q
+        self.q = target.copy()
+        self.motion_time += len(fractions) * DEFAULT_SAMPLE
+        return trace
+
+def _following(rod: Rod, held_pos: np.ndarray, h: float) -> np.ndarray:
+    """The inertial prediction x + h v, corrected by how far each held vertex's new place is from its prediction,
+    interpolated along the cable between the held vertices (constant beyond the outer ones): the cable follows
+    its holders into the solve's start, which otherwise begins with the edges next to a clamp stretched by the
+    clamp's whole step (thousands of vertex weights of force, several Newton iterations to undo)."""
+    start = rod.x + h * rod.v
+    held = rod.model.held_array
+    if not len(held):
+        return start
+    miss = held_pos - start[held]
+    index = np.arange(len(start))
+    for a in range(3):
+        start[:, a] += np.interp(index, held, miss[:, a])
+    return start
 
 
 def _tension_taps(cable: StationCable) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
