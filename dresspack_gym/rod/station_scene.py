@@ -95,10 +95,14 @@ def carried_along(x, r, kind, pos, rot, size, pos_end, rot_end, moved, reach):
     n = np.empty(3)
     h = np.empty((3, 3))
     local = np.empty(3)
+    bound = bounding_radii(kind, size)
     for v in range(x.shape[0]):
         best, best_j = np.inf, -1
         for j in range(kind.shape[0]):
             if moved[j] <= 1e-12 or kind[j] == 0:  # still, or a plane (the floor never moves)
+                continue
+            ball = math.sqrt((x[v, 0] - pos[j, 0]) ** 2 + (x[v, 1] - pos[j, 1]) ** 2 + (x[v, 2] - pos[j, 2]) ** 2)
+            if ball - bound[j] - r >= moved[j] + reach:  # beyond its bounding ball's reach: cannot be met
                 continue
             d = point_distance(kind[j], pos[j], rot[j], size[j], x[v], n, h) - r
             if d < moved[j] + reach and d < best:
