@@ -11,6 +11,7 @@ from ..robots.joint_limits import check_within_limits
 from ..robots.time_law import JointLimits, SegmentMotion
 from ..stations.station import Station
 from .clearance import nearest_gap
+from .loads import holder_loads
 from .rod import Rod, initial_frames
 from .segments import segment_state
 from .station_cable import StationCable, station_cable
@@ -36,6 +37,7 @@ class RodSimulator:
         self.unconverged_steps = 0  # motion steps whose Newton solve missed its tolerance (flagged, never dropped)
         self.jammed_samples = 0  # samples whose links needed more than MAX_SUBSTEPS sub-steps (flagged)
         self._tension_taps = [_tension_taps(c) for c in self.cables]
+        self._anchors = [np.array(c.anchors, dtype=int) for c in self.cables]  # each node's point
         self.q = station.home.copy()
         self.motion_time = 0.0
         self.last_settle: SettleResult | None = None
@@ -248,11 +250,15 @@ class RodSimulator:
         twist = np.abs(rod.twist_rates()) if len(cable.model.spans) else np.zeros(1)
         ik, it = int(np.argmax(kappa)), int(np.argmax(tension))
         n_edges = cable.model.segments
+        members, anchors = self._tension_taps[cable.robot][0], self._anchors[cable.robot]
+        forces, torques = holder_loads(rod, members, anchors)
         return WearMeasures(float(kappa[ik]), float(max(tension.max(), 0.0)), float(dist), float(twist.max()),
                             curvature_at=(ik + 1) * h, tension_at=(it + 0.5) * h if it < n_edges else 0.0,
                             clearance_at=(edge + 0.5) * h if edge >= 0 else 0.0, nearest_obstacle=obstacle,
                             total_twist=float(np.abs(rod.twists()).max()) if len(cable.model.spans) else 0.0,
-                            max_compression=float(max(0.0, -rod.tensions().min())))
+                            max_compression=float(max(0.0, -rod.tensions().min())),
+                            max_node_force=float(np.linalg.norm(forces, axis=1).max()),
+                            max_node_torque=float(np.linalg.norm(torques, axis=1).max()))
 
     def _node_tensions(self, cable: StationCable, rod: Rod) -> np.ndarray:
         """Tension where the cable enters each node: the node's load (the static force on the vertices it holds,

@@ -43,6 +43,7 @@ class StationCable:
     held: tuple[HeldPoint, ...]
     clamps: tuple[ClampFrame, ...]  # in cable order; consecutive clamps bound a twist span
     radius: float
+    anchors: tuple[int, ...] = ()  # per node, in the dresspack's order: the vertex at its point (node.pos)
 
     def targets(self, link_frames: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         """World positions of the held vertices and the clamps' directors per span, (n_spans, 2, 3), for the
@@ -75,10 +76,11 @@ def station_cable(station: Station, robot: int) -> StationCable:
     home_frames = node_frames(placement, kin.link_frames(placement.home))
     rotations = clamp_rotations(dp, home_frames, station.home_cable_shapes[robot])
     h = dp.segment_length
-    held, clamps = [], []
+    held, clamps, anchors = [], [], []
     for k, (node, rot) in enumerate(zip(dp.nodes, rotations)):
         link = -1 if node.body == "world" else LINK_INDEX[node.body]
         verts = node_vertices(dp, node)
+        anchors.append(verts[0])
         p = np.asarray(node.pos, dtype=float)
         for j, v in enumerate(verts):
             local = p if j == 0 else p + (-1.0 if dp.is_end_node(node) else 1.0) * h * np.asarray(node.direction)
@@ -88,4 +90,4 @@ def station_cable(station: Station, robot: int) -> StationCable:
     held.sort(key=lambda hp: hp.vertex)
     spans = tuple((clamps[k].edge, clamps[k + 1].edge) for k in range(len(clamps) - 1))
     model = rod_model(dp, station.config.simulation, tuple(hp.vertex for hp in held), spans)
-    return StationCable(robot, model, tuple(held), tuple(clamps), dp.radius)
+    return StationCable(robot, model, tuple(held), tuple(clamps), dp.radius, tuple(anchors))

@@ -25,7 +25,12 @@ def test_home_equilibrium_matches_mujoco(segments):
     gap = np.linalg.norm(fast.cable_points() - dynamic.cable_points(), axis=1).max()
     assert gap < 2e-3  # both converged to their residual tolerance
     assert fast.rods[0].twists() == pytest.approx([0.0], abs=1e-9)  # installed untwisted at Home
-    assert fast.measures().max_curvature == pytest.approx(dynamic.measures().max_curvature, rel=0.03)
+    fm, dm = fast.measures(), dynamic.measures()
+    assert fm.max_curvature == pytest.approx(dm.max_curvature, rel=0.03)
+    assert fm.max_tension == pytest.approx(dm.max_tension, rel=0.01)
+    # what the clamps carry: force and torque about the node point, as MuJoCo's load cells read them
+    assert fm.max_node_force == pytest.approx(dm.max_node_force, rel=0.01)
+    assert fm.max_node_torque == pytest.approx(dm.max_node_torque, rel=0.01)
 
 
 def test_scene_holds_every_obstacle_and_link_and_measures_clearance_as_mujoco():
