@@ -146,6 +146,15 @@ class RodSimulator:
             trace.stopped = stop_if is not None and bool(stop_if(self.motion_time, measures))
         return trace
 
+    def hold(self, seconds: float) -> None:
+        """Simulate on for ``seconds`` with the robots still (motion steps, not a settle: what rest must survive)."""
+        if not seconds >= 0.0:
+            raise ConfigError("seconds", f"must be a non-negative number of seconds, got {seconds}")
+        for _ in range(int(round(seconds / DEFAULT_SAMPLE))):
+            for cable, rod, scene in zip(self.cables, self.rods, self.scenes):
+                self._advance(cable, rod, scene, self.q, self.q, DEFAULT_SAMPLE)
+            self.motion_time += DEFAULT_SAMPLE
+
     def timed_move(self, q_target) -> tuple[float, float, int]:
         """A recorded move to ``q_target`` timed by part: (wall seconds in the solves, in the measures, samples)."""
         import time
