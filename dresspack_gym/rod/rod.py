@@ -80,6 +80,7 @@ class Rod:
         self.primitives = Primitives.none(model.segments)  # where the primitives were at the last solve
         self.previous_primitives = self.primitives  # ... and at the one before (sliding is relative to them)
         self._static_forces: np.ndarray | None = None  # of the last solve, at its final shape
+        self._twists: np.ndarray | None = None  # the spans' twists at the last solve's final shape
         self.previous_x = self.x.copy()  # the shape before the last step (sliding speeds are read against it)
 
     # ------------------------------------------------------------------ solves
@@ -138,8 +139,9 @@ class Rod:
         if len(self.primitives) and self._inside(start, held_pos, contact) and self._inside(self.x, held_pos, contact):
             start = self._recover(held_pos, h, contact)
             recovered = True
-        x, ref, iterations, residual, converged, _, static = self._newton(start, held_pos, h, tolerance, contact)
+        x, ref, iterations, residual, converged, tau, static = self._newton(start, held_pos, h, tolerance, contact)
         self._static_forces = -static
+        self._twists = tau
         return x, ref, SolveResult(int(iterations), float(residual), bool(converged), recovered)
 
     def _newton(self, start, held_pos, h, tolerance, contact):
@@ -153,6 +155,7 @@ class Rod:
     def forget_forces(self) -> None:
         """The state was set from outside: the last solve's static forces no longer belong to it."""
         self._static_forces = None
+        self._twists = None
         self.previous_x = self.x.copy()
         self.previous_primitives = self.primitives
 
@@ -197,7 +200,9 @@ class Rod:
         return self.model.tensile_stiffness * (lengths / self._rest - 1.0)
 
     def twists(self) -> np.ndarray:
-        """Total twist [rad] of every clamped span."""
+        """Total twist [rad] of every clamped span (the last solve's, which ended at this shape)."""
+        if self._twists is not None:
+            return self._twists
         t, _ = unit_tangents(self.x)
         return span_twists(self.x, self.ref, t, self._span_edges, self.clamp_directors)
 
