@@ -225,20 +225,22 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
         vectors = dirs.reshape(span_edges.shape[0], 3 * n1).copy()
         for s in range(span_edges.shape[0]):
             vectors[s, coords] = 0.0
-        factor = band.copy()
-        pin(factor, coords)
-        if not cholesky(factor):
-            _, _, factor, _, _, _ = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag,
-                                             x_hat, x0, span_edges, span_dirs, span_len, False, contact)
-            pin(factor, coords)
+        pin(band, coords)
+        ok, factor = cholesky(band)
+        if not ok:
+            _, _, band, _, _, _ = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag,
+                                           x_hat, x0, span_edges, span_dirs, span_len, False, contact)
+            pin(band, coords)
             shift = 0.0
-            while not cholesky(factor):  # Gauss-Newton is PSD; a zero-gravity static rod may still be singular
+            ok, factor = cholesky(band)
+            while not ok:  # Gauss-Newton is PSD; a zero-gravity static rod may still be singular
                 shift = 1e-9 if shift == 0.0 else shift * 10.0
-                _, _, factor, _, _, _ = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag,
-                                                 x_hat, x0, span_edges, span_dirs, span_len, False, contact)
+                _, _, band, _, _, _ = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag,
+                                               x_hat, x0, span_edges, span_dirs, span_len, False, contact)
                 for c in range(3 * n1):
-                    factor[0, c] += shift * max(1.0, abs(factor[0, c]))
-                pin(factor, coords)
+                    band[0, c] += shift * max(1.0, abs(band[0, c]))
+                pin(band, coords)
+                ok, factor = cholesky(band)
         step = -solve_low_rank(factor, weights, vectors, g)
         dx = step.reshape(n1, 3)
         reach = 0.0
