@@ -42,6 +42,7 @@ def _saved(out, seed: int) -> np.ndarray:
     return np.load(_trajectory_path(out, run_key("ompl-wear", SPEC.tasks[0], seed)))["waypoints"]
 
 
+@pytest.mark.slow  # five ompl-wear plans and a fresh process (~1-3 min)
 def test_same_plan_alone_after_another_plan_and_after_a_resumed_evaluation(tmp_path):
     full = tmp_path / "full"
     run_evaluation(SPEC, full, progress=False)  # seed 0 is planned first, in this process

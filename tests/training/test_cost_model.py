@@ -35,6 +35,7 @@ def tiny_policy(tmp_path_factory):
     return env.unwrapped, folder
 
 
+@pytest.mark.slow  # labels made three times, once on two processes (~30 s)
 def test_labels_are_the_same_for_one_and_two_jobs_and_a_resumed_run_remakes_only_missing_episodes(tiny_policy,
                                                                                                   tmp_path):
     from dresspack.training.counterfactuals import generate, load_counterfactuals, shard_path
