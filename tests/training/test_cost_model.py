@@ -356,6 +356,6 @@ def test_labels_on_ray_are_the_ones_made_here(tiny_policy, tmp_path):
     finally:
         ray.shutdown()
     a, b = load_counterfactuals(tmp_path / "here"), load_counterfactuals(tmp_path / "ray")
-    assert on_ray["episodes"] == 2 and set(a) == set(b) and all(np.array_equal(a[k], b[k]) for k in a)
+    assert on_ray["episodes"] == 2 and set(a) == set(b) and all(_same(a[k], b[k]) for k in a)
     with pytest.raises(ConfigError, match="backend"):
         generate(cfg, tmp_path / "bad", backend="cluster")
