@@ -100,6 +100,7 @@ def test_fmt_search_is_reproducible_valid_and_beats_the_direct_move_by_its_objec
     assert along < 0.5 * objective(a, b)
 
 
+@pytest.mark.slow  # two ompl-wear-fmt plans (~25 s)
 def test_planner_is_reproducible_and_reports_its_search(tension):
     station, planner = tension[:2]
     task = make_task(station, 0, planner.validity.checker.collides, ["side_b"])  # Home -> side_b -> Home

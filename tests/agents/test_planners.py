@@ -168,6 +168,7 @@ def test_chain_reach_bounds_every_multi_joint_move(default_station):
         assert worst <= reach @ np.abs(q1 - q0) + 1e-9
 
 
+@pytest.mark.slow  # full ompl and ompl-wear plans on the tension station (~25 s)
 def test_global_wear_planner_finds_the_low_tension_route():
     """Thesis tension case: the wear-unaware route drags the cable over the cuboid (~370 N); with the shipped wear
     map the global planner takes the route under it, near the free-hanging cable's ~25 N (seeds 0-2 peak at 35, 31

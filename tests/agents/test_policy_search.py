@@ -83,6 +83,7 @@ def test_search_finds_a_cheaper_path_than_the_policys_and_reports_its_true_cost(
     assert np.all(np.abs(np.diff(result.trajectory.waypoints, axis=0)).max(axis=1) > 1e-9)
 
 
+@pytest.mark.slow  # three ppo-search plans with refinement (~30 s)
 def test_same_plan_whatever_was_planned_before(station, tasks):
     """The search and its refinement alike (the refiner's random perturbations restart from the seed each plan)."""
     planner = PolicySearchPlanner(station, 0, **SIMULATED, proposals=2, refine=4, seed=3)
@@ -101,6 +102,7 @@ def test_proposals_checked(station, bad):
         PolicySearchPlanner(station, 0, policy=POLICY, proposals=bad)
 
 
+@pytest.mark.slow  # a full refinement under the leg cost (~15 s)
 def test_refinement_moves_the_vias_to_a_cheaper_route_and_reports_its_cost(station, tasks):
     """drawn_1: the policy's route, its vias on the action set's grid, is refined with 10 leg-cost queries (no other
     routes). The refined route goes through the same stops, the reported costs are the found and the refined legs
@@ -167,6 +169,7 @@ def test_alternatives_checked(station, bad):
         PolicySearchPlanner(station, 0, policy=POLICY, alternatives=bad)
 
 
+@pytest.mark.slow  # ppo-search with OMPL alternatives, twice (~10 s)
 def test_alternative_routes_compete_with_the_found_legs_reproducibly(station, tasks):
     """drawn_4, where the policy's route goes the dear way round: with two OMPL routes per leg scored against the
     found legs (no refinement), the route costs less than the search's, its reported leg cost is the returned

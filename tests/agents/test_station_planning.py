@@ -488,6 +488,7 @@ def test_plan_config_errors_name_the_field():
 
 
 
+@pytest.mark.slow  # two station plans with replays and pictures (~45 s)
 def test_station_plan_command_writes_plans_pictures_and_a_comparison(tmp_path, capsys):
     from dresspack_gym.cli.main import main
 
@@ -678,6 +679,7 @@ def test_a_simulated_leg_standing_still_wears_at_its_settled_rate(two_robot_stat
     assert planner.legs.run(0, np.array([two_robot_station.home[0], q]), 1.0) is moved  # cached
 
 
+@pytest.mark.slow  # two station plans with leg cable runs (~30 s)
 def test_a_leg_that_jams_its_cable_alone_is_rerouted_while_planning(two_robot_station, monkeypatch):
     """The cable run of every chosen leg reaches the plan without a station replay: a leg whose run jams the
     cable is re-routed or blocked, logged with its reason, and the plan no longer uses it."""
@@ -704,6 +706,7 @@ def test_a_leg_that_jams_its_cable_alone_is_rerouted_while_planning(two_robot_st
     assert plan.info["simulated_legs"] > 0
 
 
+@pytest.mark.slow  # a station plan, a replay and a repair round (~30 s)
 def test_a_cable_repair_keeps_the_answers_found_before_it(two_robot_station, monkeypatch):
     """A jam found in the station replay re-routes its leg and the station is planned again: the answers of the
     rounds before are still candidates then (their jammed leg re-routed), not thrown away."""
@@ -787,7 +790,7 @@ def test_wear_objective_is_optimal_against_brute_force_with_the_cables_waiting_a
     assert w.estimate["idle_wear"] == pytest.approx(sum(rates[r] * (max(ends) - e) for r, e in enumerate(ends)))
 
 
-@pytest.mark.slow  # three station plans (about 3 min); the single-robot order check (test_reproducibility) stays
+@pytest.mark.slow  # three station plans (about 3 min)
 def test_an_objective_plans_the_same_whatever_was_planned_before_it(two_robot_station, monkeypatch):
     """``dresspack station-plan`` plans its objectives with one planner (the legs are reused): the wear plan after
     a time plan equals the wear plan of a fresh planner, and the time plan inside it equals the time plan (which
@@ -932,6 +935,7 @@ def test_every_move_planned_up_front_is_exact_both_ways_and_resumes_from_its_cac
 
 
 
+@pytest.mark.slow  # three station plans, one with every move planned (~50 s)
 def test_legs_up_front_make_every_move_exact_for_the_wear_objective_only(two_robot_station, tmp_path):
     """``legs_up_front``: the wear objective plans every own move before its rounds (to the leg cache) and its
     solver knows them all; the time objective plans lazily whatever the flag says, so its plan is the lazy one."""

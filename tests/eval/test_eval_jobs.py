@@ -20,6 +20,7 @@ def _results(out) -> list[dict]:
     return json.loads((out / "results.json").read_text())["rows"]
 
 
+@pytest.mark.slow  # an evaluation run twice, once on two processes (~15 s)
 def test_two_processes_give_the_rows_of_one(tmp_path, capsys):
     one, two = tmp_path / "one", tmp_path / "two"
     assert main([*ARGS, "--jobs", "1", "--out", str(one)]) == 0

@@ -130,6 +130,7 @@ def test_map_round_trips_through_a_file(default_config, small_map, tmp_path):
         WearMap.load(path, other)
 
 
+@pytest.mark.slow  # a 300-sample wear map, then 12 held-out shapes settled (~30 s)
 def test_map_predicts_held_out_shapes_better_than_the_reference_curve(default_config):
     """The interpolated deviation must carry real information: at configurations it never saw, the map's
     shape is nearer the settled one than the analytic curve through the same nodes."""

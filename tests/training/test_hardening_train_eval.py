@@ -170,6 +170,7 @@ def test_eval_out_that_is_a_file_is_refused(tmp_path, capsys):
     assert "is an existing file" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # an evaluation of two planners, run and resumed (~65 s)
 def test_resumed_evaluation_equals_an_uninterrupted_one(tmp_path):
     """Rows computed after a resume equal those of one uninterrupted run (per-plan seeding): the first run is
     cut after its first row by removing the later rows from the log, as an interruption leaves it."""

@@ -27,6 +27,7 @@ SMOKE = {
 }
 
 
+@pytest.mark.slow  # two PPO sessions with evaluations (~50 s)
 def test_train_smoke_writes_run_folder_reloads_and_resumes(tmp_path):
     from sb3_contrib import MaskablePPO
 
@@ -100,6 +101,7 @@ def test_shipped_training_config_loads_and_holds_out_its_evaluation_tasks():
     assert cfg.eval_seed != cfg.seed
 
 
+@pytest.mark.slow  # a PPO run, then three masked episodes (~35 s)
 def test_masked_policy_never_enters_a_forbidden_configuration(tmp_path):
     """Even an untrained network, acting with masks, only visits valid configurations (asserted from info["q"])."""
     from dresspack.agents.learned.policy import PolicyAgent
@@ -127,6 +129,7 @@ def test_masked_policy_never_enters_a_forbidden_configuration(tmp_path):
             assert env.checker.min_distance(q) >= env.checker.margin
 
 
+@pytest.mark.slow  # two PPO sessions (~35 s)
 def test_resuming_a_finished_run_continues_from_its_final_model(tmp_path):
     """A finished run whose last rollout fell between checkpoints continues from the final model's steps."""
     from dresspack.training.train import resume_point
@@ -139,6 +142,7 @@ def test_resuming_a_finished_run_continues_from_its_final_model(tmp_path):
     assert summary["timesteps"] == 384 and summary["last_session"]["steps"] == 128
 
 
+@pytest.mark.slow  # a PPO run on drawn welds with evaluations (~60 s)
 def test_goal_conditioned_training_runs_and_evaluates_on_its_own_draws(tmp_path):
     cfg = load_train_config("goal_conditioned")
     assert cfg.env_kwargs["part_welds"] >= 1 and cfg.eval_seed != cfg.seed
@@ -205,6 +209,7 @@ def test_eval_callback_judges_every_evaluation_on_the_same_episodes(tmp_path):
     assert rewards[None][0] == rewards[7][0]  # the first evaluation is the one the stock callback ran
 
 
+@pytest.mark.slow  # a PPO run, then its three models validated (~35 s)
 def test_select_model_validates_every_saved_model_on_the_same_episodes_and_resumes(tmp_path, capsys):
     from dresspack.training.select import select_model
 
@@ -242,6 +247,7 @@ def test_select_model_validates_every_saved_model_on_the_same_episodes_and_resum
         cli_main(["select-model", str(run), "--episodes", "0"])
 
 
+@pytest.mark.slow  # rollouts of the shipped policy, refit three times (~35 s)
 def test_self_imitation_keeps_each_episodes_best_rollout_fits_the_actor_alone_and_resumes(tmp_path, capsys):
     import torch
     from dresspack.agents.learned.policy import resolve_policy
