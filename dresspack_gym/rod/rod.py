@@ -85,14 +85,16 @@ class Rod:
 
     # ------------------------------------------------------------------ solves
     def step(self, held_pos, h: float, *, clamp_directors=None, tolerance: float = 1e-3,
-             primitives: Primitives | None = None, start: np.ndarray | None = None) -> SolveResult:
+             primitives: Primitives | None = None, start: np.ndarray | None = None,
+             start_outside: bool = False) -> SolveResult:
         """One implicit Euler step of ``h`` seconds with the held vertices moved to ``held_pos`` and the
         ``primitives`` (default: as at the last solve) at their new poses; Newton starts from ``start`` (default:
-        the inertial prediction x + h v) where that lies outside every primitive, else from the current shape."""
+        the inertial prediction x + h v) where that lies outside every primitive, else from the current shape
+        (``start_outside``: the caller has checked that it does)."""
         if not h > 0:
             raise ConfigError("h", f"the step must be positive seconds, got {h}")
         start = self.x + h * self.v if start is None else np.ascontiguousarray(start, dtype=float)
-        x_new, ref, result = self._solve(start, held_pos, h, clamp_directors, tolerance, primitives)
+        x_new, ref, result = self._solve(start, held_pos, h, clamp_directors, tolerance, primitives, start_outside)
         self.previous_x = self.x
         self.v = (x_new - self.x) / h
         self.x, self.ref = x_new, ref
@@ -123,7 +125,7 @@ class Rod:
         return (self.radius, p.kind, p.pos, p.rot, p.size, p.mask, c.activation, c.stiffness, *lag,
                 c.friction, c.slip, False)
 
-    def _solve(self, start, held_pos, h, clamp_directors, tolerance, primitives=None):
+    def _solve(self, start, held_pos, h, clamp_directors, tolerance, primitives=None, start_outside=False):
         held_pos = np.ascontiguousarray(held_pos, dtype=float).reshape(len(self._held), 3)
         if clamp_directors is not None:
             self.clamp_directors = np.ascontiguousarray(clamp_directors, dtype=float).reshape(-1, 2, 3)
@@ -136,7 +138,8 @@ class Rod:
         if len(self.primitives) and math.isinf(h):  # rest: no motion to lag friction from
             contact = contact[:8] + self._contact(None, Primitives.none(m.segments))[8:]
         recovered = False
-        if len(self.primitives) and self._inside(start, held_pos, contact) and self._inside(self.x, held_pos, contact):
+        if (len(self.primitives) and not start_outside and self._inside(start, held_pos, contact)
+                and self._inside(self.x, held_pos, contact)):
             start = self._recover(held_pos, h, contact)
             recovered = True
         x, ref, iterations, residual, converged, tau, static = self._newton(start, held_pos, h, tolerance, contact)

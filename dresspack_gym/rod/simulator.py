@@ -183,12 +183,12 @@ class RodSimulator:
         every solve starts outside every primitive."""
         end = scene.at(q1)
         if len(end):
-            pos, dirs = self._targets(cable, q1[cable.robot])
+            pos, dirs = scene.targets()
             start = scene.carried_start(_following(rod, pos, h), rod.radius, rod.primitives, end,
                                         rod.contact.activation)
             if rod.outside(start, pos, end):
                 result = rod.step(pos, h, clamp_directors=dirs, tolerance=STEP_TOLERANCE, primitives=end,
-                                  start=start)
+                                  start=start, start_outside=True)
                 self.unconverged_steps += int(not result.converged)
                 return
         done = 0.0
@@ -199,8 +199,8 @@ class RodSimulator:
                 break
             done = 1.0 if done + step >= 1.0 - 1e-12 else done + step
             q = q0 + (q1 - q0) * done
-            prims = end if done == 1.0 else scene.at(q)
-            pos, dirs = self._targets(cable, q[cable.robot])
+            prims = scene.at(q)
+            pos, dirs = scene.targets()
             result = rod.step(pos, h * step, clamp_directors=dirs, tolerance=STEP_TOLERANCE, primitives=prims)
             self.unconverged_steps += int(not result.converged)
             if done == 1.0:
@@ -294,7 +294,6 @@ class RodSimulator:
                                 owner=f" of robot {r.name!r}")
         return q
 
-
     # ------------------------------------------------------------------ robustness maps
     def move_quasi_static(self, q_target, *, speed_fraction: float) -> MotionTrace:
         """:meth:`CableSimulator.move_to <dresspack_gym.physics.simulation.CableSimulator.move_to>` with
@@ -324,6 +323,7 @@ class RodSimulator:
         self.q = target.copy()
         self.motion_time += len(fractions) * DEFAULT_SAMPLE
         return trace
+
 
 def _following(rod: Rod, held_pos: np.ndarray, h: float) -> np.ndarray:
     """The inertial prediction x + h v, corrected by how far each held vertex's new place is from its prediction,

@@ -8,7 +8,8 @@ import mujoco
 import numpy as np
 from numba import njit
 
-from ..stations.station import Station
+from ..robots.model import body_name
+from ..stations.station import LINK_INDEX, Station
 from .contact.motion import surface_displacements
 from .contact.primitives import bounding_radii, point_distance
 from .contact.segment import lower_bound, segment_gap
@@ -51,6 +52,13 @@ class StationScene:
         self.obstacle_names = [m.geom(int(g)).name.removeprefix("obstacle/") for g in self.geoms[:self.n_obstacles]]
         self.size = m.geom_size[self.geoms].copy()
         self.bound = bounding_radii(self.kind, self.size)
+        # the bodies that hold the cable's vertices and clamp frames (the world: -1), for its targets from the same
+        # kinematics pass as the primitives
+        link_body = {k: m.body(body_name(station.robots[cable.robot].name, link)).id for link, k in LINK_INDEX.items()}
+        self.held_body = np.array([link_body.get(hp.link, -1) for hp in cable.held], dtype=int)
+        self.held_local = np.array([hp.local for hp in cable.held], dtype=float).reshape(-1, 3)
+        self.clamp_body = np.array([link_body.get(c.link, -1) for c in cable.clamps], dtype=int)
+        self.clamp_local = np.array([c.local_director for c in cable.clamps], dtype=float).reshape(-1, 3)
         held = set(cable.model.held)
         self.mask = np.ones((cable.model.segments, len(self.geoms)), dtype=np.bool_)
         for e in range(cable.model.segments):
@@ -64,6 +72,19 @@ class StationScene:
         mujoco.mj_kinematics(self.station.model, d)
         return Primitives(self.kind, d.geom_xpos[self.geoms].copy(), d.geom_xmat[self.geoms].reshape(-1, 3, 3).copy(),
                           self.size, self.mask)
+
+    def targets(self) -> tuple[np.ndarray, np.ndarray]:
+        """The held vertices' world positions and the clamps' directors per span (n_spans, 2, 3) at the robots' pose
+        of the last :meth:`at` (MuJoCo's kinematics: the same link frames the primitives were posed with)."""
+        d = self.data
+        rot = d.xmat.reshape(-1, 3, 3)
+        world = self.held_body < 0
+        pos = np.einsum("hij,hj->hi", rot[self.held_body], self.held_local) + d.xpos[self.held_body]
+        pos[world] = self.held_local[world]
+        dirs = np.einsum("cij,cj->ci", rot[self.clamp_body], self.clamp_local)
+        dirs[self.clamp_body < 0] = self.clamp_local[self.clamp_body < 0]
+        spans = np.stack([dirs[:-1], dirs[1:]], axis=1) if len(dirs) > 1 else np.zeros((0, 2, 3))
+        return pos, spans
 
     def carried_start(self, x: np.ndarray, radius: float, now: Primitives, end: Primitives, reach: float
                       ) -> np.ndarray:

@@ -87,3 +87,20 @@ def test_the_cable_resting_on_the_roof_rail_stays_put():
     assert sim.unconverged_steps == 0
     assert np.linalg.norm(sim.cable_points() - before, axis=1).max() < 1e-4
     assert sim.measures().max_tension == pytest.approx(tension, rel=1e-3)
+
+
+@pytest.mark.parametrize("name", ["default", "side_framing_4r"])
+def test_targets_from_mujoco_kinematics_match_the_robot_kinematics(name):
+    """The held vertices and clamp directors read off MuJoCo's kinematics pass (with the primitives) are those of
+    the robots' own forward kinematics."""
+    station = Station(load_station(name))
+    sim = RodSimulator(station)
+    rng = np.random.default_rng(1)
+    for cable, scene in zip(sim.cables, sim.scenes):
+        for _ in range(4):
+            q = station.home + rng.normal(scale=0.4, size=station.home.shape)
+            scene.at(q)
+            pos, dirs = scene.targets()
+            want_pos, want_dirs = cable.targets(station.robots[cable.robot].kinematics.link_frames(q[cable.robot]))
+            np.testing.assert_allclose(pos, want_pos, atol=1e-9)
+            np.testing.assert_allclose(dirs, want_dirs, atol=1e-9)
