@@ -113,3 +113,34 @@ def test_energy_does_not_rise_without_drag():
         assert now <= before + 1e-9
         before = now
     assert rod.x[:, 2].min() < -0.5  # it did swing down
+
+
+@pytest.mark.parametrize("segments", [12, 24, 48])
+def test_rod_clamped_on_a_semicircle_rests_on_the_circle(segments):
+    """Both ends clamped on a circle of radius R along its tangents, no gravity: the rest shape is the arc, the
+    curvature 1/R everywhere and every clamp carries the moment EI / R (no force)."""
+    radius, ei = 0.4, 0.1
+    length = np.pi * radius
+    s = np.linspace(0.0, np.pi, segments + 1)
+    arc = np.stack([radius * np.sin(s), np.zeros_like(s), radius * (1 - np.cos(s))], axis=1)
+    # the discrete arc's chords are shorter than its arc length: the rest lengths of the polygon through it
+    chord = 2 * radius * np.sin(np.pi / segments / 2)
+    model = RodModel(chord * segments, segments, 1.25, 1e5, ei, 0.1, held=(0, 1, segments - 1, segments),
+                     gravity=(0.0, 0.0, 0.0))
+    start = arc.copy()
+    start[2:-2, 1] += 0.02 * np.sin(np.linspace(0, np.pi, segments - 3))  # pushed out of its plane
+    rod = Rod(model, start)
+    rod.ref[:] = [0.0, 1.0, 0.0]
+    assert rod.solve_rest(held_pos=arc[[0, 1, segments - 1, segments]], tolerance=1e-8).converged
+    np.testing.assert_allclose(rod.x, arc, atol=1e-7)  # back on the polygon inscribed in the circle
+    from dresspack_gym.physics.measures import vertex_curvatures
+
+    np.testing.assert_allclose(vertex_curvatures(rod.x), 1 / radius, rtol=1e-9)  # Menger: exact on an arc
+    from dresspack_gym.rod.loads import holder_loads
+
+    members = np.zeros((2, segments + 1))
+    members[0, [0, 1]] = members[1, [segments - 1, segments]] = 1.0
+    forces, torques = holder_loads(rod, members, np.array([0, segments]))
+    np.testing.assert_allclose(forces, 0.0, atol=1e-7)
+    # the discrete bend moment 2 EI tan(phi/2) / lv converges to EI / R at O(h^2)
+    assert np.linalg.norm(torques, axis=1) == pytest.approx(ei / radius, rel=4.0 / segments ** 2)  # 2.6 % at 12
