@@ -4,6 +4,8 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from dresspack_gym.physics.measures import vertex_curvatures
+from dresspack_gym.rod.loads import holder_loads
 from dresspack_gym.rod.model import RodModel
 from dresspack_gym.rod.rod import Rod
 
@@ -133,11 +135,7 @@ def test_rod_clamped_on_a_semicircle_rests_on_the_circle(segments):
     rod.ref[:] = [0.0, 1.0, 0.0]
     assert rod.solve_rest(held_pos=arc[[0, 1, segments - 1, segments]], tolerance=1e-8).converged
     np.testing.assert_allclose(rod.x, arc, atol=1e-7)  # back on the polygon inscribed in the circle
-    from dresspack_gym.physics.measures import vertex_curvatures
-
     np.testing.assert_allclose(vertex_curvatures(rod.x), 1 / radius, rtol=1e-9)  # Menger: exact on an arc
-    from dresspack_gym.rod.loads import holder_loads
-
     members = np.zeros((2, segments + 1))
     members[0, [0, 1]] = members[1, [segments - 1, segments]] = 1.0
     forces, torques = holder_loads(rod, members, np.array([0, segments]))

@@ -7,7 +7,10 @@ import pytest
 
 from dresspack_gym.io.loading import load_station
 from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.rod.contact.report import contact_report
 from dresspack_gym.rod.simulator import RodSimulator
+from dresspack_gym.stations.tasks import select_weld_goals
+from dresspack_gym.stations.validity import MotionValidity
 from dresspack_gym.stations.station import Station
 
 
@@ -66,10 +69,6 @@ def test_the_cable_resting_on_the_roof_rail_stays_put():
     """floor_pan_inner: the cable comes to rest on the roof rail (MuJoCo's soft contact lets it slide on there and
     flags that settle unconverged, tests/physics/test_rest.py); on the rod engine the settle converges and 20 s more
     of motion steps with the robot still move no vertex 0.1 mm."""
-    from dresspack_gym.rod.contact.report import contact_report
-    from dresspack_gym.stations.tasks import select_weld_goals
-    from dresspack_gym.stations.validity import MotionValidity
-
     station = Station(load_station("default"))
     q = select_weld_goals(station, 0, MotionValidity(station, 0, 0.005).checker.collides,
                           ["floor_pan_inner"])["floor_pan_inner"]
