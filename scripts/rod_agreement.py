@@ -101,7 +101,8 @@ def main() -> None:
         "spearman_J": spearman(jd, jf) if len(rows) > 2 else None,
         "median_rel_dJ": float(np.median(np.abs(jf - jd) / np.maximum(jd, 1e-9))),
         "median_rel_dkappa": float(np.median([abs(r["fast"]["kappa"] / r["dynamic"]["kappa"] - 1) for r in rows])),
-        "median_rel_dtension": float(np.median([abs(r["fast"]["tension"] / r["dynamic"]["tension"] - 1) for r in rows])),
+        "median_rel_dtension": float(np.median([abs(r["fast"]["tension"] / r["dynamic"]["tension"] - 1)
+                                                for r in rows])),
         "wall_dynamic_s": float(sum(r["wall_dynamic_s"] for r in rows)),
         "wall_fast_s": float(sum(r["wall_fast_s"] for r in rows)),
         "motion_s": float(sum(r["fast"]["cycle_time"] for r in rows)),

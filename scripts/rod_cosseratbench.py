@@ -72,9 +72,9 @@ def main() -> None:
                 rows.append(row)
                 shown = {k: f"{v:.3g}" for k, v in summary["metrics"].items() if v is not None}
                 wall = f"{result.wall_time:.2f} s" if result.wall_time is not None else ""
+                why = str(summary["missing"] or summary["failure"] or "") if result.outcome != "completed" else ""
                 print(f"{experiment.name:10s} {variant.key:14s} {name:14s} {result.outcome:11s} {wall:9s} {shown}"
-                      f"{' ' + str(summary['missing'] or summary['failure'] or '') if result.outcome != 'completed' else ''}",
-                      flush=True)
+                      f"{' ' + why if why else ''}", flush=True)
     args.summary.parent.mkdir(parents=True, exist_ok=True)
     args.summary.write_text(json.dumps({
         "command": "scripts/rod_cosseratbench.py " + " ".join(

@@ -1,4 +1,4 @@
-"""The rod engine as a cosseratbench solver (entry point ``dresspack_rod``); a benchmark extra nothing in dresspack_gym imports."""
+"""The rod engine as a cosseratbench solver (entry point ``dresspack_rod``): a benchmark extra, imported by nothing."""
 
 from __future__ import annotations
 
@@ -6,7 +6,8 @@ import math
 from importlib.metadata import PackageNotFoundError, version
 
 import numpy as np
-from cosseratbench.scenario import Cylinder, End, EndCondition, Rod as RodSpec, Scenario
+from cosseratbench.scenario import Cylinder, End, EndCondition, Scenario
+from cosseratbench.scenario import Rod as RodSpec
 from cosseratbench.solver import Capability, Diverged
 from cosseratbench.trajectory import Trajectory
 
@@ -28,8 +29,9 @@ TOLERANCE = 1e-6
 ACTIVATION = 0.1
 # Friction is smoothed below a slip speed of SLIP_SPEED rod lengths per second, the built-in adapters' tolerance.
 SLIP_SPEED = 1e-4
-# With obstacles, the first step is taken as steps growing from 2^-ONSET of it. The engine lags friction's normal forces from the
-# start of each step, and at the start contact has not yet come to its force (the barrier's gap is the start's):
+# With obstacles, the first step is taken as steps growing from 2^-ONSET of it. The engine lags friction's normal
+# forces from the start of each step, and at the start contact has not yet come to its force (the barrier's gap is
+# the start's):
 # in one full step a rope on a cylinder slid 2 mm before friction caught it, and off at 95% of the holding load.
 ONSET = 10
 

@@ -168,9 +168,10 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
     rate [1/s]. Converged when every free vertex's net force (including inertia and drag) is below
     ``tolerance`` times ``force_scale[v]`` (its weight). ``contact``: (radius, kind, pos, rot, size, mask, dhat,
     kappa, the lagged friction set (edge, t, normal, lam, anchor), mu, eps, recovering) as :mod:`.contact` takes them
-    (``recovering``: the penalty of :mod:`.recovery`, dhat its margin and kappa its stiffness, instead of the barrier), the
-    primitives static during the solve; every step is cut by continuous collision detection, so an iterate never
-    passes through a primitive. Returns (x, ref, iterations, residual, converged, tau, the static gradient at x).
+    (``recovering``: the penalty of :mod:`.recovery`, dhat its margin and kappa its stiffness, instead of the
+    barrier), the primitives static during the solve; every step is cut by continuous collision detection, so an
+    iterate never passes through a primitive. Returns (x, ref, iterations, residual, converged, tau, the static
+    gradient at x).
     """
     n1 = x_start.shape[0]
     inertia = 0.0 if math.isinf(h) else 1.0 / (h * h)

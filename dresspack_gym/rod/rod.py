@@ -8,10 +8,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError
-from .elastic import span_twists
-from .frames import transport, transport_frames, unit_tangents
-from .model import RodModel
 from .contact.friction import friction_lag
+from .elastic import span_twists
+from .frames import transport, unit_tangents
+from .model import RodModel
 from .newton import broad_phase, inside, newton_step, static_gradient
 from .scene import ContactSettings, Primitives
 
@@ -188,7 +188,8 @@ class Rod:
         m = self.model
         grad = static_gradient(self.x, self.ref, self._rest, self._voronoi, self._mass, m.tensile_stiffness,
                                m.bending_stiffness, m.torsional_stiffness, self._gravity, self._span_edges,
-                               self.clamp_directors, self._span_len, self._contact(self.primitives, Primitives.none(m.segments)))
+                               self.clamp_directors, self._span_len,
+                               self._contact(self.primitives, Primitives.none(m.segments)))
         return -grad
 
     def equilibrium_residual(self) -> float:

@@ -1,4 +1,4 @@
-"""What a rod may touch: primitives' kinds, poses and sizes as the contact kernels take them, and the barrier's settings."""
+"""What a rod may touch: the primitives' kinds, poses and sizes, and the barrier's settings."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Compile every kernel of the rod engine once (numba writes them to its disk cache): ``python -m dresspack_gym.rod.warm``.
+"""Compile every kernel of the rod engine once into numba's disk cache: ``python -m dresspack_gym.rod.warm``.
 
 The setup script runs it, so that the first simulation, and the test workers, load compiled code instead of each
 compiling it (about a minute on 2 cores)."""
@@ -11,7 +11,7 @@ import numpy as np
 
 
 def compile_all() -> float:
-    """Run every kernel once on small inputs (compiling it or loading it from the cache); returns the seconds it took."""
+    """Run every kernel once on small inputs (compiling it or loading it from the cache); the seconds it took."""
     from ..io.loading import load_station
     from ..physics.trajectory import Trajectory, replay
     from ..stations.station import Station

@@ -4,8 +4,14 @@ import ipctk
 import numpy as np
 import pytest
 
-from dresspack_gym.rod.contact.barrier import (barrier, barrier_accumulate, barrier_d1, barrier_d2, barrier_energy,
-                                               point_hessian)
+from dresspack_gym.rod.contact.barrier import (
+    barrier,
+    barrier_accumulate,
+    barrier_d1,
+    barrier_d2,
+    barrier_energy,
+    point_hessian,
+)
 from dresspack_gym.rod.contact.primitives import BOX, CAPSULE, CYLINDER, PLANE, SPHERE, point_distance
 from dresspack_gym.rod.contact.segment import segment_gap
 from dresspack_gym.rod.contact.warm import compile_kernels
@@ -149,7 +155,7 @@ def fixed_t_gradient(x, prims, ts):
 
 
 # kinds whose contacts are fixed points of the edge once t is held (a plane's two ends, a sphere's or capsule's closest
-# point); a box or cylinder adds a blended closest point whose weight's slope has no Hessian term (segment.pair_contacts)
+# point); a box or cylinder adds a blended closest point, its weight's slope without a Hessian term (pair_contacts)
 FIXED_T_KINDS = [PLANE, SPHERE, CAPSULE]
 
 

@@ -46,7 +46,6 @@ def test_far_primitives_allow_the_full_step():
 
 
 def test_head_on_steps_stop_near_the_kept_fraction_of_the_gap():
-    rng = np.random.default_rng(1)
     for kind, size in [(SPHERE, (0.1, 0, 0)), (BOX, (0.2, 0.2, 0.2)), (CYLINDER, (0.1, 0.2, 0)), (PLANE, (0, 0, 0))]:
         prims = (np.array([kind], np.int64), np.zeros((1, 3)), np.eye(3)[None].copy(), np.array([size], float))
         top = 0.0 if kind == PLANE else 0.2 if kind == BOX else 0.2 if kind == CYLINDER else 0.1

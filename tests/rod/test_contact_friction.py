@@ -5,8 +5,14 @@ import numpy as np
 import pytest
 
 from dresspack_gym.rod.contact.barrier import barrier_d1
-from dresspack_gym.rod.contact.friction import (f0, f1, friction_accumulate, friction_energy, friction_force,
-                                                friction_lag)
+from dresspack_gym.rod.contact.friction import (
+    f0,
+    f1,
+    friction_accumulate,
+    friction_energy,
+    friction_force,
+    friction_lag,
+)
 from dresspack_gym.rod.contact.primitives import BOX, CAPSULE, CYLINDER, PLANE, SPHERE
 from dresspack_gym.rod.contact.warm import compile_kernels
 

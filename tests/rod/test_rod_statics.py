@@ -122,7 +122,6 @@ def test_rod_clamped_on_a_semicircle_rests_on_the_circle(segments):
     """Both ends clamped on a circle of radius R along its tangents, no gravity: the rest shape is the arc, the
     curvature 1/R everywhere and every clamp carries the moment EI / R (no force)."""
     radius, ei = 0.4, 0.1
-    length = np.pi * radius
     s = np.linspace(0.0, np.pi, segments + 1)
     arc = np.stack([radius * np.sin(s), np.zeros_like(s), radius * (1 - np.cos(s))], axis=1)
     # the discrete arc's chords are shorter than its arc length: the rest lengths of the polygon through it

@@ -9,9 +9,9 @@ from dresspack_gym.io.loading import load_station
 from dresspack_gym.physics.simulation import CableSimulator
 from dresspack_gym.rod.contact.report import contact_report
 from dresspack_gym.rod.simulator import RodSimulator
+from dresspack_gym.stations.station import Station
 from dresspack_gym.stations.tasks import select_weld_goals
 from dresspack_gym.stations.validity import MotionValidity
-from dresspack_gym.stations.station import Station
 
 
 def station_at(segments):

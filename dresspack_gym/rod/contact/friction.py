@@ -54,13 +54,13 @@ def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat
     pc, nc, hc = np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3, 3))
     p = np.empty(3)
     n = np.empty(3)
-    h = np.empty((3, 3))
     s = np.empty(3)
     local = np.empty(3)
     m = 0
     for i in range(n_e):
         for j in range(n_prims):
-            if not mask[i, j] or lower_bound(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j], bound[j]) >= dhat:
+            if not mask[i, j] or lower_bound(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j],
+                                             bound[j]) >= dhat:
                 continue
             count, _ = pair_contacts(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j], dhat,
                                      dc, tc, wc, pc, nc, hc)
@@ -75,8 +75,8 @@ def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat
                     s[k] = p[k] - (d + r) * n[k]
                 for k in range(3):
                     local[k] = 0.0
-                    for l in range(3):
-                        local[k] += rot_prev[j, l, k] * (s[l] - pos_prev[j, l])
+                    for m2 in range(3):
+                        local[k] += rot_prev[j, m2, k] * (s[m2] - pos_prev[j, m2])
                 for k in range(3):
                     moved = pos[j, k] + rot[j, k, 0] * local[0] + rot[j, k, 1] * local[1] + rot[j, k, 2] * local[2]
                     anchor[m, k] = p[k] + moved - s[k]
@@ -134,9 +134,9 @@ def friction_accumulate(x, edge, t, normal, lam, anchor, mu, eps, g, band):
         for k in range(3):
             gp[k] = a * u[k]
         for k in range(3):
-            for l in range(3):
-                delta = 1.0 if k == l else 0.0
-                hp[k, l] = a * (delta - nrm[k] * nrm[l]) + b * u[k] * u[l]
+            for m2 in range(3):
+                delta = 1.0 if k == m2 else 0.0
+                hp[k, m2] = a * (delta - nrm[k] * nrm[m2]) + b * u[k] * u[m2]
         add_edge_gradient(g, i, t[c], gp)
         add_edge_block(band, i, t[c], hp)
     return energy

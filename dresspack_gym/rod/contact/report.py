@@ -36,7 +36,8 @@ def contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev, mask,
     pc, nc, hc = np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3)), np.empty((MAX_CONTACTS, 3, 3))
     for i in range(n_v - 1):
         for j in range(kind.shape[0]):
-            if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= max(gap[i], dhat):
+            reach = max(gap[i], dhat)
+            if not mask[i, j] or lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= reach:
                 continue  # neither nearer than the best so far (nor cap) nor pushing
             count, _ = pair_contacts(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], dhat, dc, tc, wc, pc, nc,
                                      hc)
