@@ -201,7 +201,7 @@ def cmd_robustness(args) -> int:
              "speed_fraction": args.speed_fraction, "settle_time": args.settle_time, "start": args.start,
              "timestep": args.timestep, "settle_timestep": args.settle_timestep,
              "max_dynamic_ratio": args.max_dynamic_ratio, "min_speed_fraction": args.min_speed_fraction,
-             "cable_robot_contact": args.cable_robot_contact or None,
+             "cable_robot_contact": args.cable_robot_contact or None, "engine": args.physics,
              "excursion": tuple(math.radians(e) for e in args.excursion) if args.excursion else None}
     settings = RobustnessSettings(**{k: v for k, v in given.items() if v is not None})
     try:
@@ -221,7 +221,8 @@ def cmd_robustness(args) -> int:
     else:
         print(f"{summary['n_non_robust']} of {summary['n_configs']} configurations non-robust "
               f"({100 * summary['fraction_non_robust']:.1f} %), threshold {1000 * settings.threshold:.0f} mm; "
-              f"{summary['n_unconverged']} unconverged (no equilibrium: reported, not counted)")
+              f"{summary['n_unconverged']} unconverged (no equilibrium: reported, not counted)"
+              + (f", {summary['n_jammed']} of them jammed (a link against the cable)" if "n_jammed" in summary else ""))
         for ry, s in summary["per_ry"].items():
             print(f"  Ry {float(ry):7.1f} deg: {100 * s['fraction_non_robust']:5.1f} % of {s['n']}")
         print("wrote " + ", ".join([str(Path(args.out) / "results.csv"), str(Path(args.out) / "summary.json")] + plots))
@@ -523,6 +524,7 @@ def _add_worker_flags(p, result: str) -> None:
 def _add_robustness_map(sub) -> None:
     """``dresspack robustness-map``."""
     from ..maps.robustness.algorithm import START_MODES
+    from ..physics.profiles import ENGINES
 
     rm = sub.add_parser("robustness-map", help="map non-robust cable configurations (thesis Algorithm 1), resumable")
     rm.add_argument("--grid", required=True, help="grid YAML or shipped grid name (thesis_24336, thesis_67500, small)")
@@ -551,6 +553,9 @@ def _add_robustness_map(sub) -> None:
                     help="max relaxation to equilibrium after each return [s] (default 5)")
     rm.add_argument("--cable-robot-contact", action="store_true",
                     help="let the cable touch the robot's links (the thesis maps the cable alone: off by default)")
+    rm.add_argument("--physics", choices=list(ENGINES), default="dynamic",
+                    help="the cable engine: dynamic (MuJoCo, default) or fast (the quasi-static rod engine, whose "
+                         "cable-robot contact is its barrier against the links' capsules); a map keeps its engine")
     rm.add_argument("--timestep", type=number(1e-4, 0.01, unit="s"), default=None,
                     help="physics step during motions [s] (default 0.004)")
     rm.add_argument("--settle-timestep", type=number(1e-4, 0.02, unit="s"), default=None,

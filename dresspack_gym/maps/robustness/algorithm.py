@@ -22,6 +22,14 @@ whose excursions exceed it is re-run from the same start at half the speed, down
 ``min_speed_fraction``. A configuration whose stored shape never reaches equilibrium (e.g. a cable
 jammed against a link) is reported as unconverged, not as a sample. Cable-robot contact is off by
 default, as in the thesis, which maps the cable with its nodes moved alone (``cable_robot_contact``).
+
+Engines (``engine``, one of physics.profiles.ENGINES): "dynamic" (MuJoCo, the default) or "fast" (the quasi-static
+rod engine, dresspack_gym.rod). Both see the same station: with ``cable_robot_contact`` off the dresspack's
+``collide_with_robot`` is cleared, which removes the robot's own links from MuJoCo's contacts and from the rod
+engine's barrier primitives alike. On the fast engine a settle is the rod's static rest solve, the excursions are
+the same slowed time law with one implicit step per 0.05 s sample, and a configuration is unconverged when a rest
+solve or a motion step missed its tolerance or a link jammed against the cable (``jammed``: a sample the links did
+not get through in the engine's sub-step budget).
 """
 
 from __future__ import annotations
@@ -31,7 +39,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...errors import ConfigError
-from ...physics.simulation import CableSimulator
+from ...physics.profiles import ENGINES, make_simulator
 from ...robots.joint_limits import LIMIT_TOL
 from ...stations.config import StationConfig
 from ...stations.station import Station
@@ -64,6 +72,7 @@ class RobustnessSettings:
     timestep: float = 0.004  # [s] during motions
     settle_timestep: float = 0.016  # [s] while the robot stands still and the cable relaxes
     start: str = "row"  # "row": continue from the previous configuration of the grid row; "ry": from Ry's state
+    engine: str = "dynamic"  # the cable engine (physics.profiles.ENGINES): "dynamic" (MuJoCo) or "fast" (rod engine)
 
     def __post_init__(self):
         checks = {
@@ -81,6 +90,7 @@ class RobustnessSettings:
             "timestep": (1e-4 <= self.timestep <= 0.01, "in [0.0001, 0.01] s"),
             "settle_timestep": (self.timestep <= self.settle_timestep <= 0.02, "in [timestep, 0.02] s"),
             "start": (self.start in START_MODES, f"one of {list(START_MODES)}"),
+            "engine": (self.engine in ENGINES, f"one of {list(ENGINES)}"),
         }
         for name, (ok, allowed) in checks.items():
             if not ok:
@@ -106,6 +116,7 @@ class ConfigurationResult:
     converged: bool
     dynamic_ratio: float
     speed_fraction: float
+    jammed: bool = False  # fast engine: a link jammed against the cable in some sample (then also unconverged)
 
 
 def resample(points: np.ndarray, n: int) -> np.ndarray:
@@ -127,7 +138,8 @@ class RobustnessEvaluator:
         config = replace(config, simulation=replace(config.simulation, timestep=settings.timestep,
                                                     settle_timestep=settings.settle_timestep))
         self.station = Station(config)
-        self.sim = CableSimulator(self.station)
+        self.sim = make_simulator(self.station, settings.engine)
+        self.fast = settings.engine == "fast"
         self.placement = self.station.config.robots[settings.robot]
         self.limits = self.placement.robot.joint_limits
         self._ry_states: dict[float, np.ndarray] = {}
@@ -173,16 +185,23 @@ class RobustnessEvaluator:
         key = round(ry, 12)
         if key not in self._ry_states:
             self.sim.reset(self._all_robots(self.joints(np.array([ry, 0.0, 0.0, 0.0]))), settle=False)
-            self.sim.settle(3.0, timestep=self.settings.settle_timestep)
+            self._settle(3.0)
             self._ry_states[key] = self.sim.get_state()
         self.sim.set_state(self._ry_states[key])
 
+    def _settle(self, max_time: float) -> bool:
+        """Let the cable come to rest (MuJoCo: relax for at most ``max_time``; rod engine: its rest solve)."""
+        if self.fast:
+            return self.sim.settle().converged
+        return self.sim.settle(max_time, timestep=self.settings.settle_timestep).converged
+
     def _go(self, q: np.ndarray, settle: bool, speed: float) -> tuple[float, bool]:
         """Move to q; returns (max vertex acceleration / g of the motion, settled to equilibrium or not settling)."""
-        trace = self.sim.move_to(self._all_robots(q), speed_fraction=speed, settle=False, quasi_static=True)
-        converged = True
-        if settle:
-            converged = self.sim.settle(self.settings.settle_time, timestep=self.settings.settle_timestep).converged
+        if self.fast:
+            trace = self.sim.move_quasi_static(self._all_robots(q), speed_fraction=speed)
+        else:
+            trace = self.sim.move_to(self._all_robots(q), speed_fraction=speed, settle=False, quasi_static=True)
+        converged = self._settle(self.settings.settle_time) if settle else True
         return trace.max_acceleration_ratio, converged
 
     def _shape(self) -> np.ndarray:
@@ -209,10 +228,18 @@ class RobustnessEvaluator:
         speed = s.speed_fraction
         while True:
             self.sim.set_state(start)
+            jams, misses = self._flags()
             devs, ratio, converged = self._paths(index, v, speed)
+            jams_after, misses_after = self._flags()
+            jammed = jams_after > jams
+            converged = converged and not jammed and misses_after == misses
             if ratio <= s.max_dynamic_ratio or speed <= s.min_speed_fraction * (1 + 1e-9):
-                return ConfigurationResult(devs[0], devs[1], converged, ratio, speed)
+                return ConfigurationResult(devs[0], devs[1], converged, ratio, speed, jammed)
             speed = max(speed / 2.0, s.min_speed_fraction)
+
+    def _flags(self) -> tuple[int, int]:
+        """The fast engine's running counts of jammed samples and unconverged motion steps (MuJoCo: none)."""
+        return (self.sim.jammed_samples, self.sim.unconverged_steps) if self.fast else (0, 0)
 
     def _paths(self, index: int, v: np.ndarray, speed: float) -> tuple[tuple[float, float], float, bool]:
         s = self.settings

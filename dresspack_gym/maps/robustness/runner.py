@@ -20,7 +20,19 @@ from ...stations.config import StationConfig
 from .algorithm import RobustnessEvaluator, RobustnessSettings
 from .grid import RobustnessGrid
 from .query import RobustnessMap  # noqa: F401  (re-exported: the map API next to the runner)
-from .store import COLUMNS, META, RESULTS, done_indices, grid_to_meta, load_results, load_unconverged, repair_last_line
+from .store import (
+    META,
+    RESULTS,
+    columns_for,
+    done_indices,
+    grid_to_meta,
+    load_jammed,
+    load_results,
+    load_unconverged,
+    map_engine,
+    read_header,
+    repair_last_line,
+)
 
 CHUNK = 16  # configurations per work unit with start "ry" (same Ry: its start state is reused inside a unit)
 BACKENDS = ("serial", "process", "ray")
@@ -31,7 +43,10 @@ def _fingerprint(grid: RobustnessGrid, station_name: str, settings: RobustnessSe
     for axis in (grid.ry, grid.j4, grid.j5, grid.j6):
         h.update(np.round(axis, 12).tobytes())
     h.update(station_name.encode())
-    h.update(json.dumps(asdict(settings), sort_keys=True, default=float).encode())
+    fields = asdict(settings)
+    if fields["engine"] == "dynamic":  # maps made before the engine was chosen keep their fingerprint
+        del fields["engine"]
+    h.update(json.dumps(fields, sort_keys=True, default=float).encode())
     h.update(TIME_LAW.encode())  # the moves between configurations are timed by it
     return h.hexdigest()[:16]
 
@@ -142,6 +157,10 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
     meta_path = out / META
     if meta_path.is_file():
         meta = json.loads(meta_path.read_text())
+        if map_engine(meta) != settings.engine:
+            raise ConfigError("engine", f"{out} holds a map computed on the {map_engine(meta)!r} engine, not on "
+                                        f"{settings.engine!r} (--physics {settings.engine}); resume it with "
+                                        f"--physics {map_engine(meta)} or use another --out folder")
         if meta.get("fingerprint") != fp:
             raise ConfigError("out", f"{out} holds a map of a different grid, station, settings or time law "
                                      f"({meta.get('grid')}, {meta.get('station')}, "
@@ -149,7 +168,7 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
                                      f"use another --out folder")
     else:
         meta_path.write_text(json.dumps({"fingerprint": fp, "grid": grid.name, "station": config.name,
-                                         "time_law": TIME_LAW,
+                                         "time_law": TIME_LAW, "engine": settings.engine,
                                          "n_configs": len(grid), "settings": asdict(settings),
                                          "grid_axes": grid_to_meta(grid)}, indent=2,
                                         default=float))
@@ -169,7 +188,8 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
         bar = tqdm(total=n_report, unit="config", desc=f"robustness {grid.name}", smoothing=0.05)
     if new_file:
         with results.open("w", newline="") as f:
-            csv.writer(f).writerow(COLUMNS)
+            csv.writer(f).writerow(columns_for(settings.engine))
+    header = read_header(results)
     for rows in _iterate(backend, workers, config, settings, units, configs, ray_address):
         # Opened by path for every unit (a unit takes seconds): a results file replaced while the map runs (a git
         # checkout, stash or pull of a committed map) is appended to, not a deleted file held open since the start.
@@ -178,9 +198,10 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
             for i, r in rows:
                 v = np.degrees(configs[i])
                 dev = max(r.dev_neg, r.dev_pos)
-                writer.writerow([i, *np.round(v, 6), f"{r.dev_neg:.6f}", f"{r.dev_pos:.6f}", f"{dev:.6f}",
-                                 int(r.converged), f"{r.dynamic_ratio:.3e}", f"{r.speed_fraction:.6g}",
-                                 int(dev < settings.threshold)])
+                row = dict(zip(header, [i, *np.round(v, 6), f"{r.dev_neg:.6f}", f"{r.dev_pos:.6f}", f"{dev:.6f}",
+                                        int(r.converged), f"{r.dynamic_ratio:.3e}", f"{r.speed_fraction:.6g}"]))
+                row.update(jammed=int(r.jammed), robust=int(dev < settings.threshold))
+                writer.writerow([row[c] for c in header])
             f.flush()
             os.fsync(f.fileno())
         if bar is not None:
@@ -204,7 +225,11 @@ def summarize(out: str | Path, grid: RobustnessGrid, threshold: float) -> dict:
         if sel.any():
             per_ry[f"{np.degrees(ry):g}"] = {"n": int(sel.sum()), "n_non_robust": int(non_robust[sel].sum()),
                                             "fraction_non_robust": float(non_robust[sel].mean())}
-    return {"grid": grid.name, "n_configs": len(idx), "n_grid": len(grid),
-            "n_non_robust": int(non_robust.sum()),
-            "fraction_non_robust": float(non_robust.mean()) if len(idx) else 0.0,
-            "threshold_m": threshold, "n_unconverged": n_unconverged, "per_ry": per_ry}
+    summary = {"grid": grid.name, "n_configs": len(idx), "n_grid": len(grid),
+               "n_non_robust": int(non_robust.sum()),
+               "fraction_non_robust": float(non_robust.mean()) if len(idx) else 0.0,
+               "threshold_m": threshold, "n_unconverged": n_unconverged, "per_ry": per_ry}
+    jammed = load_jammed(out)
+    if jammed is not None:  # a map on the fast engine (MuJoCo's maps keep their summary as it was)
+        summary.update(engine="fast", n_jammed=len(jammed))
+    return summary

@@ -17,6 +17,25 @@ META = "meta.json"
 # proven equilibrium; an unconverged configuration is an error, never counted as robust.
 COLUMNS = ["index", "ry_deg", "j4_deg", "j5_deg", "j6_deg", "dev_neg_m", "dev_pos_m", "max_dev_m",
            "converged", "dynamic_ratio", "speed_fraction", "robust"]
+# A map on the fast (rod) engine also says per configuration whether a link jammed against the cable ("jammed", such
+# a configuration is also unconverged); a map on MuJoCo keeps the columns above (a jam shows only as no equilibrium).
+FAST_COLUMNS = COLUMNS[:-1] + ["jammed", COLUMNS[-1]]
+
+
+def columns_for(engine: str) -> list[str]:
+    """The results.csv columns of a new map on ``engine``."""
+    return FAST_COLUMNS if engine == "fast" else COLUMNS
+
+
+def read_header(path: Path) -> list[str]:
+    """The column names of an existing results.csv (its first line)."""
+    with Path(path).open(newline="") as f:
+        return next(csv.reader(f), [])
+
+
+def map_engine(meta: dict) -> str:
+    """The engine a map was computed on (maps made before engines were chosen: MuJoCo's, "dynamic")."""
+    return meta.get("engine", "dynamic")
 
 
 def grid_to_meta(grid: RobustnessGrid) -> dict:
@@ -55,6 +74,15 @@ def load_results(out: str | Path) -> dict[int, tuple[np.ndarray, float, bool]]:
     return {i: (v, dev, robust and converged) for i, (v, dev, robust, converged) in _rows(out).items()}
 
 
+def load_jammed(out: str | Path) -> set[int] | None:
+    """Indices where a link jammed against the cable; None for a map without the column (MuJoCo's)."""
+    path = Path(out) / RESULTS
+    if not path.is_file() or "jammed" not in read_header(path):
+        return None
+    with path.open() as f:
+        return {int(r["index"]) for r in csv.DictReader(f) if r.get("robust") in ("0", "1") and r["jammed"] == "1"}
+
+
 def load_unconverged(out: str | Path) -> set[int]:
     """Indices whose stored shapes did not all reach equilibrium (maps made before v2 have none)."""
     return {i for i, (_, _, _, converged) in _rows(out).items() if not converged}
@@ -84,7 +112,8 @@ def repair_last_line(path: Path) -> None:
         return
     cut = data.rfind(b"\n") + 1
     fields = data[cut:].decode(errors="replace").split(",")
-    if len(fields) == len(COLUMNS) and fields[-1].strip() in ("0", "1"):
+    header = data[:data.find(b"\n")].decode(errors="replace").split(",") if cut else COLUMNS
+    if cut and len(fields) == len(header) and fields[-1].strip() in ("0", "1"):
         path.write_bytes(data + b"\n")
     else:
         path.write_bytes(data[:cut])

@@ -1,0 +1,67 @@
+"""The robustness map's engine choice (--physics dynamic|fast): validated, recorded in the map, never mixed on resume."""
+
+import csv
+import json
+
+import pytest
+
+from dresspack_gym import ConfigError
+from dresspack_gym.cli.main import main
+from dresspack_gym.io.loading import load_station
+from dresspack_gym.maps.robustness.algorithm import RobustnessSettings
+from dresspack_gym.maps.robustness.runner import _fingerprint, run_map
+
+# A couple of configurations of the shipped small grid; no slowing down (the machinery, not the settings, is tested).
+ARGS = ["robustness-map", "--grid", "small", "--station", "default", "--backend", "serial",
+        "--max-dynamic-ratio", "1000", "--json"]
+
+
+def test_a_bad_physics_value_is_refused_in_one_line(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(ARGS[:-1] + ["--out", str(tmp_path / "m"), "--physics", "quick"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "--physics" in err and "'quick'" in err and "'dynamic'" in err and "'fast'" in err
+    assert not (tmp_path / "m").exists()
+    with pytest.raises(ConfigError, match="robustness.engine"):
+        RobustnessSettings(engine="quick")
+
+
+def test_a_fast_map_records_its_engine_and_refuses_another(tmp_path, capsys):
+    out = tmp_path / "m"
+    assert main(ARGS + ["--out", str(out), "--physics", "fast", "--limit", "2"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["engine"] == "fast" and summary["n_configs"] + summary["n_unconverged"] == 2
+    assert summary["n_jammed"] == 0
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["engine"] == "fast" and meta["settings"]["engine"] == "fast"
+    with open(out / "results.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["index"] for r in rows] == ["0", "1"] and all(r["jammed"] in ("0", "1") for r in rows)
+    # resuming on MuJoCo (the default engine) is refused before anything runs, naming the field and both engines
+    assert main(ARGS + ["--out", str(out), "--limit", "1"]) == 2
+    error = json.loads(capsys.readouterr().out)
+    assert error["field"] == "engine" and "'fast'" in error["error"] and "--physics dynamic" in error["error"]
+    # ... and so is the other way round (through the API)
+    dyn = tmp_path / "d"
+    (dyn).mkdir()
+    (dyn / "meta.json").write_text(json.dumps({"fingerprint": "0", "grid": "small", "station": "x", "settings": {}}))
+    from dresspack_gym.maps.robustness.grid import RobustnessGrid
+    from dresspack_gym.io.loading import read_yaml
+    from dresspack_gym.shipped import find_shipped
+
+    grid = RobustnessGrid.from_dict(read_yaml(find_shipped("small", "grids", "grid"), "grid"))
+    with pytest.raises(ConfigError, match=r"engine.*'dynamic' engine, not on 'fast'"):
+        run_map(grid, load_station("default"), dyn, RobustnessSettings(engine="fast"), backend="serial",
+                progress=False)
+
+
+def test_the_default_engine_keeps_the_fingerprint_of_maps_made_before_it():
+    from dresspack_gym.maps.robustness.grid import RobustnessGrid
+    from dresspack_gym.io.loading import read_yaml
+    from dresspack_gym.shipped import find_shipped
+
+    grid = RobustnessGrid.from_dict(read_yaml(find_shipped("small", "grids", "grid"), "grid"))
+    dynamic = _fingerprint(grid, "s", RobustnessSettings())
+    assert dynamic == _fingerprint(grid, "s", RobustnessSettings(engine="dynamic"))
+    assert dynamic != _fingerprint(grid, "s", RobustnessSettings(engine="fast"))
