@@ -160,7 +160,7 @@ def static_gradient(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, span_edges
 
 @njit(cache=True)
 def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass, ea, ei, gj, gravity, h, damping,
-                span_edges, span_dirs, span_len, force_scale, tolerance, max_iterations, contact):
+                span_edges, span_dirs, span_len, force_scale, tolerance, max_iterations, contact, settled_step=0.0):
     """Minimise the incremental potential from ``x_start`` (frames ``ref_start`` on the tangents of ``x0``, the last
     state).
 
@@ -170,8 +170,9 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
     kappa, the lagged friction set (edge, t, normal, lam, anchor), mu, eps, recovering) as :mod:`.contact` takes them
     (``recovering``: the penalty of :mod:`.recovery`, dhat its margin and kappa its stiffness, instead of the
     barrier), the primitives static during the solve; every step is cut by continuous collision detection, so an
-    iterate never passes through a primitive. Returns (x, ref, iterations, residual, converged, tau, the static
-    gradient at x).
+    iterate never passes through a primitive. With ``settled_step`` > 0 a full Newton step that moves no vertex that
+    far [m] also ends the solve as converged (for motion steps). Returns (x, ref, iterations, residual, converged,
+    tau, the static gradient at x).
     """
     n1 = x_start.shape[0]
     inertia = 0.0 if math.isinf(h) else 1.0 / (h * h)
@@ -272,6 +273,11 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
         t_trial, _ = unit_tangents(trial)
         ref = transport_frames(ref, t_now, t_trial)
         x = trial
+        if settled_step > 0.0 and alpha == 1.0 and reach < settled_step:
+            # a full Newton step this short: the next would move no vertex a measurable distance (motion steps only;
+            # an equilibrium is proven by its force residual). The gradient kept is the last iterate's, a step behind.
+            converged = True
+            break
     # the last gradient was taken at the final x: less inertia and drag it is minus the net static force
     static = grad.copy()
     for v in range(n1):

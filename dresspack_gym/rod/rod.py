@@ -20,6 +20,9 @@ MAX_ITERATIONS = 100
 # The recovery's penalty stiffness [N/m]: far above the stretch of one edge (EA/h ~ 4e4 N/m for the thesis's cable)
 # so that the penalty wins against the held vertex that pulls the cable in.
 RECOVERY_STIFFNESS = 1e7
+# A motion step also ends when a full Newton step moves no vertex this far [m] (a micrometre: far below what any
+# measure resolves); rest solves end on their force residual alone.
+SETTLED_STEP = 1e-6
 # Residual scale: a vertex's weight at g, or at 1 m/s^2 when g is smaller (a weightless rod still needs a scale).
 MIN_GRAVITY = 1.0
 
@@ -76,6 +79,7 @@ class Rod:
         self._span_edges = model.span_edges
         self._span_len = model.span_lengths
         self.radius = float(radius)
+        self.settled_step = SETTLED_STEP
         self.contact = ContactSettings() if contact is None else contact
         self.primitives = Primitives.none(model.segments)  # where the primitives were at the last solve
         self.previous_primitives = self.primitives  # ... and at the one before (sliding is relative to them)
@@ -153,7 +157,7 @@ class Rod:
             start, self.ref, self.x, self.v, self._held, held_pos, self._rest, self._voronoi, self._mass,
             m.tensile_stiffness, m.bending_stiffness, m.torsional_stiffness, self._gravity, h, m.damping,
             self._span_edges, self.clamp_directors, self._span_len, self._force_scale, tolerance, MAX_ITERATIONS,
-            contact)
+            contact, 0.0 if math.isinf(h) else self.settled_step)
 
     def forget_forces(self) -> None:
         """The state was set from outside: the last solve's static forces no longer belong to it."""

@@ -21,6 +21,10 @@ from .station_scene import StationScene
 DEFAULT_SAMPLE = 0.05
 # A motion step is solved to this fraction of a vertex's weight (inertia and drag included in the balance).
 STEP_TOLERANCE = 1e-3
+# A vertex within this many barrier activations of where an approaching link will be is carried along with it, and
+# one that ends nearer to another link is set this far out (an edge between two such vertices cuts a link's curved
+# surface by its sagitta: about a millimetre on the forearm)
+CARRY_REACH = 4.0
 # At most this many sub-steps per sample when a link closes in on a cable (each an implicit step of its share).
 MAX_SUBSTEPS = 256
 
@@ -185,7 +189,7 @@ class RodSimulator:
         if len(end):
             pos, dirs = scene.targets()
             start = scene.carried_start(_following(rod, pos, h), rod.radius, rod.primitives, end,
-                                        rod.contact.activation)
+                                        CARRY_REACH * rod.contact.activation)
             if rod.outside(start, pos, end):
                 result = rod.step(pos, h, clamp_directors=dirs, tolerance=STEP_TOLERANCE, primitives=end,
                                   start=start, start_outside=True)
@@ -329,7 +333,8 @@ def _following(rod: Rod, held_pos: np.ndarray, h: float) -> np.ndarray:
     """The inertial prediction x + h v, corrected by how far each held vertex's new place is from its prediction,
     interpolated along the cable between the held vertices (constant beyond the outer ones): the cable follows
     its holders into the solve's start, which otherwise begins with the edges next to a clamp stretched by the
-    clamp's whole step (thousands of vertex weights of force, several Newton iterations to undo)."""
+    clamp's whole step. (Carrying the cable rigidly with its holders' motions is worse: a turning clamp swings the
+    far middle of the cable by centimetres that the solve then takes back.)"""
     start = rod.x + h * rod.v
     held = rod.model.held_array
     if not len(held):

@@ -109,9 +109,9 @@ def closing_fraction(x: np.ndarray, radius: float, now: Primitives, end: Primiti
 
 @njit(cache=True)
 def carried_along(x, r, kind, pos, rot, size, pos_end, rot_end, moved, reach):
-    """``x`` with every vertex that a moving primitive may reach this step (its gap below that primitive's
-    displacement plus ``reach``) moved rigidly with the nearest such primitive: a pushed cable's start that the
-    link has not entered, so that one solve replaces the sub-steps a link pushing the cable would otherwise need."""
+    """``x`` with every vertex that a moving primitive comes at this step (it would end within ``reach`` of the
+    vertex left where it is) moved rigidly with the nearest such primitive: a pushed cable's start that the link has
+    not entered, so that one solve replaces the sub-steps a link pushing the cable would otherwise need."""
     out = x.copy()
     n = np.empty(3)
     h = np.empty((3, 3))
@@ -126,8 +126,12 @@ def carried_along(x, r, kind, pos, rot, size, pos_end, rot_end, moved, reach):
             if ball - bound[j] - r >= moved[j] + reach:  # beyond its bounding ball's reach: cannot be met
                 continue
             d = point_distance(kind[j], pos[j], rot[j], size[j], x[v], n, h) - r
-            if d < moved[j] + reach and d < best:
-                best, best_j = d, j
+            if d >= moved[j] + reach or d >= best:
+                continue
+            # only a link that comes at the vertex carries it: one moving away or past leaves it to the solve
+            if point_distance(kind[j], pos_end[j], rot_end[j], size[j], x[v], n, h) - r >= reach:
+                continue
+            best, best_j = d, j
         if best_j < 0:
             continue
         j = best_j
@@ -139,8 +143,7 @@ def carried_along(x, r, kind, pos, rot, size, pos_end, rot_end, moved, reach):
             out[v, a] = pos_end[j, a] + rot_end[j, a, 0] * local[0] + rot_end[j, a, 1] * local[1] \
                 + rot_end[j, a, 2] * local[2]
     # a vertex carried by one link may now lie in another that moved (the wrist's links meet): set it on that one's
-    # surface, ``reach`` out (an edge between two such vertices cuts a curved surface by its sagitta, about a
-    # millimetre on a forearm; twice: two links may take turns)
+    # surface, ``reach`` out (twice: two links may take turns)
     for _ in range(2):
         for v in range(x.shape[0]):
             for j in range(kind.shape[0]):
