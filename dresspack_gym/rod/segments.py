@@ -11,8 +11,9 @@ from ..physics.measures import cross, vertex_curvatures
 from ..physics.segment_state import SegmentState
 from .contact.friction import friction_lag
 from .contact.report import contact_report
-from .elastic import reference_twist, span_twists
+from .elastic import reference_twist
 from .frames import signed_angle, unit_tangents
+from .newton import broad_phase
 from .rod import Rod
 from .scene import Primitives
 
@@ -63,9 +64,9 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 def _twists(rod: Rod) -> tuple[np.ndarray, np.ndarray]:
-    """(unit edge tangents, each span's total twist), as Rod.twists computes them."""
+    """(unit edge tangents, each span's total twist, as Rod.twists gives it)."""
     t, _ = unit_tangents(rod.x)
-    return t, span_twists(rod.x, rod.ref, t, rod.model.span_edges, rod.clamp_directors)
+    return t, rod.twists()
 
 
 def material_directors(rod: Rod, twists: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
@@ -76,25 +77,39 @@ def material_directors(rod: Rod, twists: tuple[np.ndarray, np.ndarray] | None = 
     return np.cos(theta)[:, None] * rod.ref + np.sin(theta)[:, None] * cross(t, rod.ref)
 
 
-def vertex_bend(x: np.ndarray, m1: np.ndarray, kappa: np.ndarray) -> np.ndarray:
+@njit(cache=True)
+def vertex_bend(x, m1, kappa):
     """(n+1, 2) curvature binormal (direction e_(i-1) x e_i, length the Menger curvature) in each interior
     vertex's material frame (d1, d2 = t_v x d1); 0 at the ends.
 
     The vertex frame: the mean of the two edges' m1 made perpendicular to the vertex tangent t_v (the sum of the
     edge tangents), so both edges count alike and the binormal, perpendicular to both edges, lies in its plane:
     |bend| = curvature exactly. MuJoCo's reader uses the incoming edge's frame instead; the two differ by half the
-    twist increment of the vertex and O(bend angle^2), both vanishing as the resolution grows.
+    twist increment of the vertex and O(bend angle^2), both vanishing as the resolution grows. A degenerate frame
+    (a straight or folded vertex) gives no bend rather than NaN.
     """
-    e = np.diff(x, axis=0)
-    t = _unit(e)
-    tv = _unit(t[:-1] + t[1:])
-    d1 = m1[:-1] + m1[1:]
-    d1 = _unit(d1 - np.einsum("ij,ij->i", d1, tv)[:, None] * tv)
-    d2 = cross(tv, d1)
-    axis = _unit(cross(e[:-1], e[1:]))
-    bend = np.zeros((len(x), 2))
-    bend[1:-1, 0] = kappa[1:-1] * np.einsum("ij,ij->i", axis, d1)
-    bend[1:-1, 1] = kappa[1:-1] * np.einsum("ij,ij->i", axis, d2)
+    n1 = x.shape[0]
+    bend = np.zeros((n1, 2))
+    for i in range(1, n1 - 1):
+        e = x[i] - x[i - 1]
+        f = x[i + 1] - x[i]
+        le, lf = math.sqrt(e @ e), math.sqrt(f @ f)
+        tv = e / max(le, 1e-300) + f / max(lf, 1e-300)
+        ltv = math.sqrt(tv @ tv)
+        b = np.array([e[1] * f[2] - e[2] * f[1], e[2] * f[0] - e[0] * f[2], e[0] * f[1] - e[1] * f[0]])
+        lb = math.sqrt(b @ b)
+        if ltv < 1e-15 or lb < 1e-15:
+            continue
+        tv /= ltv
+        d1 = m1[i - 1] + m1[i]
+        d1 = d1 - (d1 @ tv) * tv
+        ld1 = math.sqrt(d1 @ d1)
+        if ld1 < 1e-15:
+            continue
+        d1 /= ld1
+        d2 = np.array([tv[1] * d1[2] - tv[2] * d1[1], tv[2] * d1[0] - tv[0] * d1[2], tv[0] * d1[1] - tv[1] * d1[0]])
+        bend[i, 0] = kappa[i] * (b @ d1) / lb
+        bend[i, 1] = kappa[i] * (b @ d2) / lb
     return bend
 
 
@@ -168,11 +183,17 @@ def segment_state(rod: Rod, previous_x: np.ndarray | None, h: float | None, *,
         before = prims if previous_primitives is None else previous_primitives
         x_prev = x if previous_x is None else np.ascontiguousarray(previous_x, dtype=float)
         c = rod.contact
+        # only the pairs within the barrier's reach now or at the step's start carry force: the others are left out
+        # before the per-pair work
+        near = broad_phase(x, (rod.radius, prims.kind, prims.pos, prims.rot, prims.size, prims.mask), c.activation)[5]
+        lagged = broad_phase(x_prev, (rod.radius, prims.kind, before.pos, before.rot, prims.size, prims.mask),
+                             c.activation)[5]
+        mask = near | lagged
         normal, friction, _, _ = contact_report(x, x_prev, rod.radius, prims.kind, prims.pos, prims.rot, prims.size,
-                                                before.pos, before.rot, prims.mask, c.activation, c.stiffness,
+                                                before.pos, before.rot, mask, c.activation, c.stiffness,
                                                 c.friction, c.slip)
         if previous_x is not None and h is not None and h > 0 and math.isfinite(h):
             lag = friction_lag(x_prev, rod.radius, prims.kind, before.pos, before.rot, prims.size, prims.pos,
-                               prims.rot, prims.mask, c.activation, c.stiffness)
+                               prims.rot, lagged, c.activation, c.stiffness)
             slip = vertex_slip(x, lag, h)
     return SegmentState(kappa, bend, twist, strain, normal, friction, slip)

@@ -2,16 +2,18 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..errors import ConfigError
-from ..physics.measures import MAX_CLEARANCE, WearMeasures, vertex_curvatures
+from ..physics.damage import damage_rate
+from ..physics.measures import MAX_CLEARANCE, WearMeasures
 from ..physics.simulation import Equilibrium, MotionTrace, SettleResult
 from ..robots.joint_limits import check_within_limits
 from ..robots.time_law import JointLimits, SegmentMotion
 from ..stations.station import Station
-from .clearance import nearest_gap
-from .loads import holder_loads
+from .measuring import measure
 from .rod import Rod, initial_frames
 from .segments import segment_state
 from .station_cable import StationCable, station_cable
@@ -126,10 +128,10 @@ class RodSimulator:
             if record_every:
                 trace.time.append(now)
                 trace.q.append(q.copy())
-                measures = self.measures()
+                measures, states = self.measures_and_states(sample)
                 trace.measures.append(measures)
                 if record_states:
-                    trace.states.append(self._states(sample))
+                    trace.states.append(states)
                 if on_sample is not None:
                     on_sample(now)
                 trace.stopped = stop_if is not None and bool(stop_if(now, measures))
@@ -232,16 +234,27 @@ class RodSimulator:
     def cable_points(self, robot: int = 0) -> np.ndarray:
         return self.rods[robot].x.copy()
 
-    def cable_measures(self) -> list[WearMeasures]:
-        return [self._measure(cable, rod) for cable, rod in zip(self.cables, self.rods)]
+    def cable_measures(self, h: float | None = None) -> list[WearMeasures]:
+        """Every cable's WearMeasures, the worst segment's damage rate included (as the MuJoCo simulator's)."""
+        return self._cable_measures(self._states(h))
+
+    def _cable_measures(self, states: list) -> list[WearMeasures]:
+        out = []
+        for cable, rod, state in zip(self.cables, self.rods, states):
+            rate = damage_rate(state, self.station.config.robots[cable.robot].dresspack)
+            k = int(np.argmax(rate))
+            out.append(replace(self._measure(cable, rod), max_damage_rate=float(rate[k]),
+                               damage_at=k * cable.model.segment_length))
+        return out
 
     def measures(self) -> WearMeasures:
-        return WearMeasures.worst(self.cable_measures())
+        return self.measures_and_states()[0]
 
     def measures_and_states(self, h: float | None = None) -> tuple[WearMeasures, list]:
         """The station-level measures and every cable's segment states (``h``: the step just taken, for the
         sliding speeds; None at rest)."""
-        return self.measures(), self._states(h)
+        states = self._states(h)
+        return WearMeasures.worst(self._cable_measures(states)), states
 
     def _states(self, h: float | None) -> list:
         return [segment_state(rod, rod.previous_x if h else None, h, previous_primitives=rod.previous_primitives)
@@ -251,27 +264,30 @@ class RodSimulator:
         return self.measures_and_states()[1]
 
     def _measure(self, cable: StationCable, rod: Rod) -> WearMeasures:
-        x = rod.x
+        """The cable's WearMeasures: the largest Menger curvature; the largest tension of an edge (EA times its
+        strain) or where the cable enters a node (the node's load along the cable); the clearance to the obstacles
+        (the contact kernels' exact capsule gaps, 0 in contact); the twist rate of its spans; what its nodes carry."""
         h = cable.model.segment_length
-        kappa = vertex_curvatures(x)
-        tension = np.concatenate([rod.tensions(), self._node_tensions(cable, rod)])
         scene, k = self.scenes[cable.robot], self.scenes[cable.robot].n_obstacles
         prims = rod.primitives
-        gap, edge, prim = nearest_gap(x, rod.radius, prims.kind[:k], prims.pos[:k], prims.rot[:k], prims.size[:k],
-                                      MAX_CLEARANCE) if k else (MAX_CLEARANCE, -1, -1)
-        dist, obstacle = max(gap, 0.0), scene.obstacle_names[prim] if prim >= 0 else ""
-        twist = np.abs(rod.twist_rates()) if len(cable.model.spans) else np.zeros(1)
-        ik, it = int(np.argmax(kappa)), int(np.argmax(tension))
-        n_edges = cable.model.segments
-        members, anchors = self._tension_taps[cable.robot][0], self._anchors[cable.robot]
-        forces, torques = holder_loads(rod, members, anchors)
-        return WearMeasures(float(kappa[ik]), float(max(tension.max(), 0.0)), float(dist), float(twist.max()),
-                            curvature_at=(ik + 1) * h, tension_at=(it + 0.5) * h if it < n_edges else 0.0,
-                            clearance_at=(edge + 0.5) * h if edge >= 0 else 0.0, nearest_obstacle=obstacle,
-                            total_twist=float(np.abs(rod.twists()).max()) if len(cable.model.spans) else 0.0,
-                            max_compression=float(max(0.0, -rod.tensions().min())),
-                            max_node_force=float(np.linalg.norm(forces, axis=1).max()),
-                            max_node_torque=float(np.linalg.norm(torques, axis=1).max()))
+        members, vertex, neighbour, node = self._tension_taps[cable.robot]
+        spans = cable.model.span_edges
+        twists = rod.twists() if len(spans) else np.zeros(0)
+        moments = cable.model.torsional_stiffness * twists / cable.model.span_lengths if len(spans) else twists
+        kappa, at_k, tension, at_t, compression, gap, edge, prim, node_force, node_torque = measure(
+            rod.x, rod._rest, cable.model.tensile_stiffness, rod.radius, rod.static_forces(), members,
+            self._anchors[cable.robot], spans, moments, vertex, neighbour, node, prims.kind[:k], prims.pos[:k],
+            prims.rot[:k], prims.size[:k], MAX_CLEARANCE)
+        rates = np.abs(twists) / cable.model.span_lengths if len(spans) else np.zeros(1)
+        # a node's tension is placed at the node (its point's arc length), an edge's at its middle
+        tension_at = (at_t + 0.5) * h if at_t >= 0 else self._anchors[cable.robot][node[-at_t - 1]] * h
+        return WearMeasures(float(kappa), float(max(tension, 0.0)), float(max(gap, 0.0)), float(rates.max()),
+                            curvature_at=at_k * h, tension_at=tension_at,
+                            clearance_at=(edge + 0.5) * h if edge >= 0 else 0.0,
+                            nearest_obstacle=scene.obstacle_names[prim] if prim >= 0 else "",
+                            total_twist=float(np.abs(twists).max()) if len(spans) else 0.0,
+                            max_compression=float(compression), max_node_force=float(node_force),
+                            max_node_torque=float(node_torque))
 
     def _node_tensions(self, cable: StationCable, rod: Rod) -> np.ndarray:
         """Tension where the cable enters each node: the node's load (the static force on the vertices it holds,

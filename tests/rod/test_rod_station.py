@@ -34,6 +34,8 @@ def test_home_equilibrium_matches_mujoco(segments):
     # what the clamps carry: force and torque about the node point, as MuJoCo's load cells read them
     assert fm.max_node_force == pytest.approx(dm.max_node_force, rel=0.01)
     assert fm.max_node_torque == pytest.approx(dm.max_node_torque, rel=0.01)
+    # the worst segment's damage rate (the damage cost variant's C), from the engine's own segment states
+    assert fm.max_damage_rate == pytest.approx(dm.max_damage_rate, rel=0.01) and fm.damage_at == dm.damage_at
 
 
 def test_scene_holds_every_obstacle_and_link_and_measures_clearance_as_mujoco():
