@@ -48,6 +48,21 @@ def test_bench_physics_json(capsys):
     assert main(["bench", "physics", "--json", "--repeats", "1"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["raw_mj_step_steps_per_s"] > 0 and out["move90_steps"] > 0
+    assert out["engine"] == "dynamic" and out["replay_wall_per_motion_s"] > 0
+
+
+def test_bench_physics_on_the_rod_engine_json(capsys):
+    """Both engines report the same replay field over the same weld cycles, so they compare by it."""
+    assert main(["bench", "physics", "--physics", "fast", "--json", "--repeats", "1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["engine"] == "fast" and out["replay_wall_per_motion_s"] > 0 and out["replay_paths"] == 5
+    assert out["settle_converged"] and out["equilibria_per_s"] > 0 and out["sample_solve_us"] > 0
+
+
+def test_only_bench_physics_chooses_the_engine(capsys):
+    assert main(["bench", "restrictions", "--physics", "fast", "--repeats", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "--physics" in err and "bench physics" in err and "Traceback" not in err
 
 
 def test_console_script_module_entry():
