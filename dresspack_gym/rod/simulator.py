@@ -298,14 +298,6 @@ class RodSimulator:
                             max_compression=float(compression), max_node_force=float(node_force),
                             max_node_torque=float(node_torque))
 
-    def _node_tensions(self, cable: StationCable, rod: Rod) -> np.ndarray:
-        """Tension where the cable enters each node: the node's load (the static force on the vertices it holds,
-        their weight included) along the way the cable leaves it, on each side where it continues."""
-        members, vertex, neighbour, node = self._tension_taps[cable.robot]
-        loads = members @ rod.static_forces()
-        way = rod.x[neighbour] - rod.x[vertex]
-        return (loads[node] * way).sum(axis=1) / np.linalg.norm(way, axis=1)
-
     def equilibrium(self) -> Equilibrium:
         worst = max(rod.equilibrium_residual() for rod in self.rods)
         return Equilibrium(worst, 0.0, 0.0, worst < self.config.equilibrium_tolerance)
