@@ -60,11 +60,12 @@ class RodSimulator:
         at_home = np.array_equal(q, self.station.home)
         shapes = self.station.home_cable_shapes if at_home else self.station.initial_cable_shapes(q)
         self.rods = []
-        for cable, shape in zip(self.cables, shapes):
-            pos, dirs = self._targets(cable, q[cable.robot])
+        for cable, scene, shape in zip(self.cables, self.scenes, shapes):
+            primitives = scene.at(q)
+            _, dirs = scene.targets()
             rod = Rod(cable.model, shape, clamp_directors=dirs, radius=cable.radius)
             rod.ref[:] = initial_frames(shape, dirs[0, 0] if len(dirs) else None)
-            rod.primitives = self.scenes[cable.robot].at(q)
+            rod.primitives = primitives
             self.rods.append(rod)
         self.motion_time = 0.0
         self.last_settle = None
@@ -85,21 +86,18 @@ class RodSimulator:
                                        f"got shape {state.shape}")
         at = 0
         q = state[sum(sizes):sum(sizes) + self.q.size].reshape(self.q.shape)
-        for rod, cable, scene, size in zip(self.rods, self.cables, self.scenes, sizes):
+        for rod, scene, size in zip(self.rods, self.scenes, sizes):
             chunk = state[at:at + size]
             n = rod.x.size
             rod.x = chunk[:n].reshape(rod.x.shape).copy()
             rod.v = chunk[n:2 * n].reshape(rod.v.shape).copy()
             rod.ref = chunk[2 * n:].reshape(rod.ref.shape).copy()
-            rod.clamp_directors = self._targets(cable, q[cable.robot])[1]
             rod.primitives = scene.at(q)
+            rod.clamp_directors = scene.targets()[1]
             rod.forget_forces()
             at += size
         self.q = q.copy()
         self.motion_time = float(state[-1])
-
-    def _targets(self, cable: StationCable, q_robot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return cable.targets(self.station.robots[cable.robot].kinematics.link_frames(q_robot))
 
     # ------------------------------------------------------------------ motion
     def motion_limits(self, speed_fraction: float | None = None) -> JointLimits:
@@ -221,7 +219,8 @@ class RodSimulator:
             if done == 1.0:
                 return
         # the links did not get through in MAX_SUBSTEPS: they are jammed against the cable; say so, and jump
-        pos, dirs = self._targets(cable, q1[cable.robot])
+        scene.at(q1)
+        pos, dirs = scene.targets()
         result = rod.step(pos, h * (1.0 - done), clamp_directors=dirs, tolerance=STEP_TOLERANCE, primitives=end)
         self.unconverged_steps += int(not result.converged)
         self.jammed_samples += 1
@@ -231,9 +230,10 @@ class RodSimulator:
         worst = 0.0
         converged = True
         for cable, rod, scene in zip(self.cables, self.rods, self.scenes):
-            pos, dirs = self._targets(cable, self.q[cable.robot])
+            primitives = scene.at(self.q)
+            pos, dirs = scene.targets()
             result = rod.solve_rest(pos, clamp_directors=dirs, tolerance=self.config.equilibrium_tolerance,
-                                    primitives=scene.at(self.q))
+                                    primitives=primitives)
             worst = max(worst, result.residual)
             converged &= result.converged
         self.last_settle = SettleResult(0.0, Equilibrium(worst, 0.0, 0.0, converged))
