@@ -85,6 +85,33 @@ def _residual_gravity(gravity: float) -> float:
     return max(float(gravity), 1.0)
 
 
+def station_joints(station: Station, q, field: str) -> np.ndarray:
+    """``q`` as every robot's joint angles, (n_robots, 6) [rad] ((6,) for a one-robot station), checked: shape,
+    finite, within each robot's limits; a ConfigError names ``field`` otherwise. Both cable engines' check."""
+    q = np.asarray(q, dtype=float)
+    n = station.n_robots
+    if q.shape == (6,) and n == 1:
+        q = q[None, :]
+    if q.shape != (n, 6):
+        raise ConfigError(field, f"expected joint angles of shape (6,) or ({n}, 6) in radians, got {q.shape}")
+    if not np.isfinite(q).all():
+        raise ConfigError(field, "joint angles must be finite")
+    for i, r in enumerate(station.config.robots):
+        check_within_limits(q[i], r.robot.joint_limits, field if n == 1 else f"{field}[{i}]", digits=2,
+                            owner=f" of robot {r.name!r}")
+    return q
+
+
+def station_motion_limits(station: Station, speed_fraction: float | None = None, *,
+                          quasi_static: bool = False) -> JointLimits:
+    """The time law's joint limits of all robots, (n_robots, 6) each, at ``speed_fraction`` (default: the
+    simulation's) of the rated speeds; ``quasi_static`` slows the full-speed motion down in time instead, so
+    accelerations shrink too (f^2)."""
+    frac = station.config.simulation.speed_fraction if speed_fraction is None else float(speed_fraction)
+    full = JointLimits.stack(r.robot.joint_motion_limits for r in station.config.robots)
+    return full.slowed(frac) if quasi_static else full.at_speed(frac)
+
+
 class CableSimulator:
     """One station's physics: move robots, let cables settle, measure wear, save/restore state."""
 
@@ -166,12 +193,8 @@ class CableSimulator:
 
     # ------------------------------------------------------------------------------ motion
     def motion_limits(self, speed_fraction: float | None = None, *, quasi_static: bool = False) -> JointLimits:
-        """The time law's joint limits of all robots, (n_robots, 6) each, at ``speed_fraction`` (default: the
-        simulation's) of the rated speeds; ``quasi_static`` slows the full-speed motion down in time instead, so
-        accelerations shrink too (f^2)."""
-        frac = self.config.speed_fraction if speed_fraction is None else float(speed_fraction)
-        full = JointLimits.stack(r.robot.joint_motion_limits for r in self.station.config.robots)
-        return full.slowed(frac) if quasi_static else full.at_speed(frac)
+        """:func:`station_motion_limits` of this station."""
+        return station_motion_limits(self.station, speed_fraction, quasi_static=quasi_static)
 
     def move_to(self, q_target, *, speed_fraction: float | None = None, settle: bool = True,
                 record_every: float | None = None, until: float | None = None,
@@ -423,18 +446,7 @@ class CableSimulator:
         return [reader.state(static, self.data, sample) for reader, sample in zip(self._readers(), samples)]
 
     def _as_q(self, q, field: str) -> np.ndarray:
-        q = np.asarray(q, dtype=float)
-        n = self.station.n_robots
-        if q.shape == (6,) and n == 1:
-            q = q[None, :]
-        if q.shape != (n, 6):
-            raise ConfigError(field, f"expected joint angles of shape (6,) or ({n}, 6) in radians, got {q.shape}")
-        if not np.isfinite(q).all():
-            raise ConfigError(field, "joint angles must be finite")
-        for i, r in enumerate(self.station.config.robots):
-            check_within_limits(q[i], r.robot.joint_limits, field if n == 1 else f"{field}[{i}]", digits=2,
-                                owner=f" of robot {r.name!r}")
-        return q
+        return station_joints(self.station, q, field)
 
     def _check_finite(self) -> None:
         if not (np.isfinite(self.data.qpos).all() and np.isfinite(self.data.qvel).all()):

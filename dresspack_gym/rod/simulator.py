@@ -9,8 +9,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..physics.damage import damage_rate
 from ..physics.measures import MAX_CLEARANCE, WearMeasures
-from ..physics.simulation import Equilibrium, MotionTrace, SettleResult
-from ..robots.joint_limits import check_within_limits
+from ..physics.simulation import Equilibrium, MotionTrace, SettleResult, station_joints, station_motion_limits
 from ..robots.time_law import JointLimits, SegmentMotion
 from ..stations.station import Station
 from .measuring import measure
@@ -101,8 +100,7 @@ class RodSimulator:
 
     # ------------------------------------------------------------------ motion
     def motion_limits(self, speed_fraction: float | None = None) -> JointLimits:
-        frac = self.config.speed_fraction if speed_fraction is None else float(speed_fraction)
-        return JointLimits.stack(r.robot.joint_motion_limits for r in self.station.config.robots).at_speed(frac)
+        return station_motion_limits(self.station, speed_fraction)
 
     def move_to(self, q_target, *, speed_fraction: float | None = None, settle: bool = True,
                 record_every: float | None = None, until: float | None = None, record_states: bool = False,
@@ -303,17 +301,7 @@ class RodSimulator:
         return Equilibrium(worst, 0.0, 0.0, worst < self.config.equilibrium_tolerance)
 
     def _as_q(self, q, field: str) -> np.ndarray:
-        q = np.asarray(q, dtype=float)
-        n = self.station.n_robots
-        if q.shape == (6,) and n == 1:
-            q = q[None, :]
-        if q.shape != (n, 6) or not np.isfinite(q).all():
-            raise ConfigError(field, f"expected finite joint angles of shape (6,) or ({n}, 6) in radians, "
-                                     f"got {q.shape}")
-        for i, r in enumerate(self.station.config.robots):
-            check_within_limits(q[i], r.robot.joint_limits, field if n == 1 else f"{field}[{i}]", digits=2,
-                                owner=f" of robot {r.name!r}")
-        return q
+        return station_joints(self.station, q, field)
 
     # ------------------------------------------------------------------ robustness maps
     def move_quasi_static(self, q_target, *, speed_fraction: float) -> MotionTrace:
@@ -326,9 +314,9 @@ class RodSimulator:
         frac = float(speed_fraction)
         if not 0.0 < frac <= 1.0:
             raise ConfigError("speed_fraction", f"must be in (0, 1], got {frac}")
-        full = JointLimits.stack(r.robot.joint_motion_limits for r in self.station.config.robots)
         start, delta = self.q.copy(), target - self.q
-        fractions, _ = SegmentMotion(delta, full.slowed(frac)).on_steps(DEFAULT_SAMPLE)
+        limits = station_motion_limits(self.station, frac, quasi_static=True)
+        fractions, _ = SegmentMotion(delta, limits).on_steps(DEFAULT_SAMPLE)
         g_sample = max(float(self.config.gravity), 1.0) * DEFAULT_SAMPLE
         free = [np.setdiff1d(np.arange(c.model.segments + 1), c.model.held_array) for c in self.cables]
         trace = MotionTrace()
