@@ -10,7 +10,6 @@ import numpy as np
 from ..fields import check_choice
 from ..stations.config import StationConfig
 
-
 # The cable engines: MuJoCo's dynamic simulation, or the quasi-static rod engine (dresspack_gym.rod).
 ENGINES = ("dynamic", "fast")
 

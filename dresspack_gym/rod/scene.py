@@ -6,8 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# Kinds as dresspack_gym.rod.contact numbers them.
-PLANE, SPHERE, CAPSULE, BOX, CYLINDER = 0, 1, 2, 3, 4
+from .contact.primitives import BOX, CAPSULE, CYLINDER, PLANE, SPHERE  # noqa: F401 (the kinds, re-exported)
 
 
 @dataclass(frozen=True)
