@@ -180,21 +180,23 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
     x_hat = x0.copy() if math.isinf(h) else x0 + h * v0
     # the start: ``x_start`` (the inertial prediction) unless it lies inside a primitive, then the last state; the
     # frames arrive on x0's tangents and are carried to the start's
-    x = x_start.copy()
-    for j in range(held.shape[0]):
-        x[held[j]] = held_pos[j]
-    if inside(x, contact):
-        x = x0.copy()
-        for j in range(held.shape[0]):
-            x[held[j]] = held_pos[j]
-    t_now, _ = unit_tangents(x)
-    t_base, _ = unit_tangents(x0)
-    ref = transport_frames(ref_start, t_base, t_now)
     full_contact = contact
     margin = BROAD_MARGIN
     dhat = contact[6]
-    broad_at = x.copy()
+    x = x_start.copy()
+    for j in range(held.shape[0]):
+        x[held[j]] = held_pos[j]
+    # the broad phase's pairs hold every pair the start could be inside (the others are a margin clear of it)
     contact = broad_phase(x, full_contact, margin)
+    if math.isinf(contact_energy(x, contact)):
+        x = x0.copy()
+        for j in range(held.shape[0]):
+            x[held[j]] = held_pos[j]
+        contact = broad_phase(x, full_contact, margin)
+    broad_at = x.copy()
+    t_now, _ = unit_tangents(x)
+    t_base, _ = unit_tangents(x0)
+    ref = transport_frames(ref_start, t_base, t_now)
     coords = _held_coords(held)
     free = np.ones(n1, dtype=np.bool_)
     for j in range(held.shape[0]):
