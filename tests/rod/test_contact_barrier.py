@@ -3,6 +3,7 @@
 import ipctk
 import numpy as np
 import pytest
+from contact_shapes import KINDS, SIZES, rotation
 
 from dresspack_gym.rod.contact.barrier import (
     barrier,
@@ -12,22 +13,13 @@ from dresspack_gym.rod.contact.barrier import (
     barrier_energy,
     point_hessian,
 )
-from dresspack_gym.rod.contact.primitives import BOX, CAPSULE, CYLINDER, PLANE, SPHERE, point_distance
+from dresspack_gym.rod.contact.primitives import BOX, CAPSULE, PLANE, SPHERE, point_distance
 from dresspack_gym.rod.contact.segment import segment_gap
 from dresspack_gym.rod.contact.warm import compile_kernels
 
-KINDS = [PLANE, SPHERE, CAPSULE, BOX, CYLINDER]
-SIZES = {PLANE: (0.0, 0.0, 0.0), SPHERE: (0.3, 0.0, 0.0), CAPSULE: (0.2, 0.5, 0.0), BOX: (0.4, 0.1, 0.25),
-         CYLINDER: (0.3, 0.4, 0.0)}
 R, DHAT, KAPPA = 0.01, 0.2, 10.0
 
 compile_kernels()  # one worker compiles, the others load numba's cache
-
-
-def rotation(rng):
-    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
-    q = q * np.sign(np.diag(r))
-    return np.ascontiguousarray(q if np.linalg.det(q) > 0 else -q)
 
 
 def single(kind, rng):

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from contact_shapes import rotation
 
 from dresspack_gym.rod.contact.ccd import KEEP, MAX_ITER, max_step
 from dresspack_gym.rod.contact.mask import pair_mask
@@ -12,12 +13,6 @@ from dresspack_gym.rod.contact.warm import compile_kernels
 R = 0.005
 
 compile_kernels()  # one worker compiles, the others load numba's cache
-
-
-def rotation(rng):
-    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
-    q = q * np.sign(np.diag(r))
-    return np.ascontiguousarray(q if np.linalg.det(q) > 0 else -q)
 
 
 def scene(rng):

@@ -3,6 +3,7 @@
 import ipctk
 import numpy as np
 import pytest
+from contact_shapes import KINDS, SIZES, rotation
 
 from dresspack_gym.rod.contact.barrier import barrier_d1
 from dresspack_gym.rod.contact.friction import (
@@ -13,21 +14,12 @@ from dresspack_gym.rod.contact.friction import (
     friction_force,
     friction_lag,
 )
-from dresspack_gym.rod.contact.primitives import BOX, CAPSULE, CYLINDER, PLANE, SPHERE
+from dresspack_gym.rod.contact.primitives import CYLINDER, PLANE
 from dresspack_gym.rod.contact.warm import compile_kernels
 
-KINDS = [PLANE, SPHERE, CAPSULE, BOX, CYLINDER]
-SIZES = {PLANE: (0.0, 0.0, 0.0), SPHERE: (0.3, 0.0, 0.0), CAPSULE: (0.2, 0.5, 0.0), BOX: (0.4, 0.1, 0.25),
-         CYLINDER: (0.3, 0.4, 0.0)}
 R, DHAT, KAPPA, MU, EPS = 0.01, 0.2, 10.0, 0.4, 1e-3
 
 compile_kernels()  # one worker compiles, the others load numba's cache
-
-
-def rotation(rng):
-    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
-    q = q * np.sign(np.diag(r))
-    return np.ascontiguousarray(q if np.linalg.det(q) > 0 else -q)
 
 
 def rot_z(angle):
