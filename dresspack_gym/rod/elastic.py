@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .frames import cross3, dot3, norm3, signed_angle
+from .frames import cross3, dot3, norm3, reference_twist, signed_angle
 
 # Half-bandwidth (lower) of the Hessian in coordinates: a bend couples three consecutive vertices (9 coordinates).
 KD = 8
@@ -235,26 +235,6 @@ def span_twists(x, ref, t, span_edges, span_dirs):
             acc += reference_twist(ref, t, i)
         tau[s] = acc
     return tau
-
-
-@njit(cache=True)
-def reference_twist(ref, t, i) -> float:
-    """The angle about t_i from edge i-1's director, transported in space onto edge i, to edge i's director."""
-    a0, a1, a2 = t[i - 1, 0], t[i - 1, 1], t[i - 1, 2]
-    b0, b1, b2 = t[i, 0], t[i, 1], t[i, 2]
-    v0, v1, v2 = ref[i - 1, 0], ref[i - 1, 1], ref[i - 1, 2]
-    k0, k1, k2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0  # t_{i-1} x t_i
-    sn = math.sqrt(k0 * k0 + k1 * k1 + k2 * k2)
-    cs = a0 * b0 + a1 * b1 + a2 * b2
-    if sn > 1e-14:  # Rodrigues about the unit axis k by the angle between the tangents
-        k0, k1, k2 = k0 / sn, k1 / sn, k2 / sn
-        kv = k0 * v0 + k1 * v1 + k2 * v2
-        c0, c1, c2 = k1 * v2 - k2 * v1, k2 * v0 - k0 * v2, k0 * v1 - k1 * v0
-        v0, v1, v2 = v0 * cs + c0 * sn + k0 * kv * (1 - cs), v1 * cs + c1 * sn + k1 * kv * (1 - cs), \
-            v2 * cs + c2 * sn + k2 * kv * (1 - cs)
-    w0, w1, w2 = ref[i, 0], ref[i, 1], ref[i, 2]
-    x0, x1, x2 = v1 * w2 - v2 * w1, v2 * w0 - v0 * w2, v0 * w1 - v1 * w0
-    return math.atan2(x0 * b0 + x1 * b1 + x2 * b2, v0 * w0 + v1 * w1 + v2 * w2)
 
 
 @njit(cache=True)

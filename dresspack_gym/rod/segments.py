@@ -11,8 +11,7 @@ from ..physics.measures import cross, vertex_curvatures
 from ..physics.segment_state import SegmentState
 from .contact.friction import friction_lag
 from .contact.report import contact_report
-from .elastic import reference_twist
-from .frames import signed_angle, unit_tangents
+from .frames import reference_twist, signed_angle, unit_tangents
 from .newton import broad_phase
 from .rod import Rod
 from .scene import Primitives

@@ -61,7 +61,7 @@ def test_reference_twist_gradient_and_hessian_with_frames_rebased(seed):
     def m_at(flat, i):
         x = flat.reshape(-1, 3)
         t, _ = fr.unit_tangents(x)
-        return el.reference_twist(fr.transport_frames(ref0, t0, t), t, i)
+        return fr.reference_twist(fr.transport_frames(ref0, t0, t), t, i)
 
     for i in (1, 2):
         g6, h6 = el.twist_vertex(x0[i] - x0[i - 1], x0[i + 1] - x0[i])
