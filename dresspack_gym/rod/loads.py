@@ -17,11 +17,13 @@ def holder_loads(rod: Rod, members: np.ndarray, anchors: np.ndarray) -> tuple[np
     against it). ``members``: (holders, vertices) 0/1, the vertices each holder holds."""
     spans = rod.model.span_edges
     moments = (rod.model.torsional_stiffness * rod.twists() / rod.model.span_lengths) if len(spans) else np.zeros(0)
-    return _loads(rod.x, rod.static_forces(), members, np.asarray(anchors, dtype=np.int64), spans, moments)
+    return holder_loads_kernel(rod.x, rod.static_forces(), members, np.asarray(anchors, dtype=np.int64), spans, moments)
 
 
 @njit(cache=True)
-def _loads(x, forces_v, members, anchors, spans, moments):
+def holder_loads_kernel(x, forces_v, members, anchors, spans, moments):
+    """:func:`holder_loads` on plain arrays (the compiled measure pass calls it directly): ``forces_v`` the static
+    force on every vertex, ``moments`` each span's twist torque GJ tau / L."""
     k, n1 = members.shape
     forces = np.zeros((k, 3))
     torques = np.zeros((k, 3))

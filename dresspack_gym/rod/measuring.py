@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 from .clearance import nearest_gap
-from .loads import _loads
+from .loads import holder_loads_kernel
 
 
 @njit(cache=True)
@@ -34,7 +34,7 @@ def measure(x, rest, ea, radius, forces_v, members, anchors, spans, moments, tap
         if t > tension:
             tension, at_t = t, e
         compression = max(compression, -t)
-    forces, torques = _loads(x, forces_v, members, anchors, spans, moments)
+    forces, torques = holder_loads_kernel(x, forces_v, members, anchors, spans, moments)
     for tap in range(tap_vertex.shape[0]):  # where the cable enters a node: the node's load along the cable
         v, w, h = tap_vertex[tap], tap_neighbour[tap], tap_node[tap]
         u0, u1, u2 = x[w, 0] - x[v, 0], x[w, 1] - x[v, 1], x[w, 2] - x[v, 2]
