@@ -12,19 +12,25 @@ from .loads import holder_loads_kernel
 
 
 @njit(cache=True)
+def menger_curvature(x, i):
+    """Menger curvature 2 |e x f| / (|e| |f| |e + f|) at interior vertex ``i`` of ``x``: exact on an arc."""
+    e0, e1, e2 = x[i, 0] - x[i - 1, 0], x[i, 1] - x[i - 1, 1], x[i, 2] - x[i - 1, 2]
+    f0, f1, f2 = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
+    c0, c1, c2 = e1 * f2 - e2 * f1, e2 * f0 - e0 * f2, e0 * f1 - e1 * f0
+    s0, s1, s2 = e0 + f0, e1 + f1, e2 + f2
+    denom = math.sqrt((e0 * e0 + e1 * e1 + e2 * e2) * (f0 * f0 + f1 * f1 + f2 * f2) * (s0 * s0 + s1 * s1 + s2 * s2))
+    return 2.0 * math.sqrt(c0 * c0 + c1 * c1 + c2 * c2) / max(denom, 1e-15)
+
+
+@njit(cache=True)
 def measure(x, rest, ea, radius, forces_v, members, anchors, spans, moments, tap_vertex, tap_neighbour, tap_node,
             kind, pos, rot, size, cap):
     """(curvature, its vertex, tension, its edge or -(tap + 1) for a node's, compression, clearance, its edge, its
     primitive, node force, node torque) of the cable ``x`` (see RodSimulator._measure for what each is)."""
     n = x.shape[0] - 1
     best_k, at_k = 0.0, 0
-    for i in range(1, n):  # Menger curvature 2 |e x f| / (|e| |f| |e + f|), exact on an arc
-        e0, e1, e2 = x[i, 0] - x[i - 1, 0], x[i, 1] - x[i - 1, 1], x[i, 2] - x[i - 1, 2]
-        f0, f1, f2 = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
-        c0, c1, c2 = e1 * f2 - e2 * f1, e2 * f0 - e0 * f2, e0 * f1 - e1 * f0
-        s0, s1, s2 = e0 + f0, e1 + f1, e2 + f2
-        denom = math.sqrt((e0 * e0 + e1 * e1 + e2 * e2) * (f0 * f0 + f1 * f1 + f2 * f2) * (s0 * s0 + s1 * s1 + s2 * s2))
-        k = 2.0 * math.sqrt(c0 * c0 + c1 * c1 + c2 * c2) / max(denom, 1e-15)
+    for i in range(1, n):
+        k = menger_curvature(x, i)
         if k > best_k:
             best_k, at_k = k, i
     tension, at_t, compression = -np.inf, 0, 0.0

@@ -202,13 +202,11 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
     for j in range(held.shape[0]):
         free[held[j]] = False
     residual = np.inf
-    tau = np.zeros(span_edges.shape[0])
-    grad = np.zeros((n1, 3))
     iterations = 0
     converged = False
+    energy, grad, band, tau, dirs, t_now = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag,
+                                                    x_hat, x0, span_edges, span_dirs, span_len, True, contact)
     for it in range(max_iterations + 1):
-        energy, grad, band, tau, dirs, t_now = assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia,
-                                                        drag, x_hat, x0, span_edges, span_dirs, span_len, True, contact)
         if not math.isfinite(energy):  # even the last state is inside a primitive that moved: nothing to descend
             residual = np.inf
             break
@@ -260,25 +258,42 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
         if kind.shape[0] > 0 and not contact[15]:  # the recovery's penalty may pass through: no CCD there
             alpha = max_step(x, dx, r, kind, pos, rot, size, mask, 0.1, 64)
         # a decrease the energy's round-off cannot resolve: the quadratic model is exact enough there, take the step
-        accepted = alpha == 1.0 and -slope <= TRUST_MODEL * abs(energy)
+        trusted = alpha == 1.0 and -slope <= TRUST_MODEL * abs(energy)
+        settled = settled_step > 0.0 and alpha == 1.0 and reach < settled_step
         trial = x + alpha * dx
+        t_trial, _ = unit_tangents(trial)
+        ref_trial = transport_frames(ref, t_now, t_trial)
+        if trusted and settled:
+            # a full Newton step this short: the next would move no vertex a measurable distance (motion steps
+            # only; an equilibrium is proven by its force residual). The gradient kept is the last iterate's, a step
+            # behind: no assembly at the final x.
+            x, ref = trial, ref_trial
+            converged = True
+            break
+        # the first trial's energy from its assembly, which the next iteration needs anyway where it is accepted
+        e_new, g_new, b_new, tau_new, d_new, t_new = assemble(trial, ref_trial, rest, voronoi, mass, ea, ei, gj,
+                                                              gravity, inertia, drag, x_hat, x0, span_edges,
+                                                              span_dirs, span_len, True, contact)
+        accepted = trusted or e_new <= energy + ARMIJO * alpha * slope + ROUNDOFF * abs(energy)
         for _ in range(0 if accepted else MAX_HALVINGS):
+            alpha *= 0.5
             trial = x + alpha * dx
             e_trial = total_energy(trial, ref, t_now, x_hat, x0, rest, voronoi, mass, ea, ei, gj, gravity, inertia,
                                    drag, span_edges, span_dirs, span_len, contact)
             if e_trial <= energy + ARMIJO * alpha * slope + ROUNDOFF * abs(energy):
                 accepted = True
+                t_trial, _ = unit_tangents(trial)
+                ref_trial = transport_frames(ref, t_now, t_trial)
+                e_new, g_new, b_new, tau_new, d_new, t_new = assemble(
+                    trial, ref_trial, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag, x_hat, x0, span_edges,
+                    span_dirs, span_len, True, contact)
                 break
-            alpha *= 0.5
         if not accepted:
             break
-        t_trial, _ = unit_tangents(trial)
-        ref = transport_frames(ref, t_now, t_trial)
-        x = trial
-        if settled_step > 0.0 and alpha == 1.0 and reach < settled_step:
-            # a full Newton step this short: the next would move no vertex a measurable distance (motion steps only;
-            # an equilibrium is proven by its force residual). The gradient kept is the last iterate's, a step behind.
-            converged = True
+        x, ref = trial, ref_trial
+        energy, grad, band, tau, dirs, t_now = e_new, g_new, b_new, tau_new, d_new, t_new
+        if settled:
+            converged = True  # as above, with the gradient at the final x
             break
     # the last gradient was taken at the final x: less inertia and drag it is minus the net static force
     static = grad.copy()

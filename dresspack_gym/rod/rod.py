@@ -20,9 +20,9 @@ MAX_ITERATIONS = 100
 # The recovery's penalty stiffness [N/m]: far above the stretch of one edge (EA/h ~ 4e4 N/m for the thesis's cable)
 # so that the penalty wins against the held vertex that pulls the cable in.
 RECOVERY_STIFFNESS = 1e7
-# A motion step also ends when a full Newton step moves no vertex this far [m] (a micrometre: far below what any
-# measure resolves); rest solves end on their force residual alone.
-SETTLED_STEP = 1e-6
+# A motion step also ends when a full Newton step moves no vertex this far [m] (a tenth of a millimetre: below what
+# the measures resolve, see simulator.STEP_TOLERANCE); rest solves end on their force residual alone.
+SETTLED_STEP = 1e-4
 # Residual scale: a vertex's weight at g, or at 1 m/s^2 when g is smaller (a weightless rod still needs a scale).
 MIN_GRAVITY = 1.0
 
@@ -87,6 +87,14 @@ class Rod:
         self._twists: np.ndarray | None = None  # the spans' twists at the last solve's final shape
         self.previous_x = self.x.copy()  # the shape before the last step (sliding speeds are read against it)
 
+    @property
+    def step_constants(self) -> tuple:
+        """What a step's solve takes of the rod's constant description, in carried_step's order (held, rest, voronoi,
+        mass, EA, EI, GJ, gravity, damping, span edges, span lengths, force scale)."""
+        m = self.model
+        return (self._held, self._rest, self._voronoi, self._mass, m.tensile_stiffness, m.bending_stiffness,
+                m.torsional_stiffness, self._gravity, m.damping, self._span_edges, self._span_len, self._force_scale)
+
     # ------------------------------------------------------------------ solves
     def step(self, held_pos, h: float, *, clamp_directors=None, tolerance: float = 1e-3,
              primitives: Primitives | None = None, start: np.ndarray | None = None,
@@ -99,10 +107,24 @@ class Rod:
             raise ConfigError("h", f"the step must be positive seconds, got {h}")
         start = self.x + h * self.v if start is None else np.ascontiguousarray(start, dtype=float)
         x_new, ref, result = self._solve(start, held_pos, h, clamp_directors, tolerance, primitives, start_outside)
+        self._advance_to(x_new, ref, h)
+        return result
+
+    def take_step(self, x_new, ref, h: float, *, static, twists, primitives: Primitives,
+                  clamp_directors) -> None:
+        """Take a step of ``h`` seconds solved elsewhere (advance.carried_step): its shape ``x_new`` and frames, the
+        net static gradient and span twists at that shape, the primitives and clamp directors it was solved with."""
+        self.clamp_directors = clamp_directors
+        self.previous_primitives = self.primitives
+        self.primitives = primitives
+        self._static_forces = -static
+        self._twists = twists
+        self._advance_to(x_new, ref, h)
+
+    def _advance_to(self, x_new, ref, h: float) -> None:
         self.previous_x = self.x
         self.v = (x_new - self.x) / h
         self.x, self.ref = x_new, ref
-        return result
 
     def solve_rest(self, held_pos=None, *, clamp_directors=None, tolerance: float = 1e-4,
                    primitives: Primitives | None = None) -> SolveResult:

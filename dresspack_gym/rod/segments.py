@@ -7,11 +7,11 @@ import math
 import numpy as np
 from numba import njit
 
-from ..physics.measures import cross, vertex_curvatures
 from ..physics.segment_state import SegmentState
 from .contact.friction import friction_lag
 from .contact.report import contact_report
-from .frames import reference_twist, signed_angle, unit_tangents
+from .frames import cross3, reference_twist, signed_angle, unit_tangents
+from .measuring import menger_curvature
 from .newton import broad_phase
 from .rod import Rod
 from .scene import Primitives
@@ -56,24 +56,34 @@ def material_angles(ref, t, span_edges, span_dirs, tau):
     return theta
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    """Rows of ``v`` normalised (a zero row stays zero: a degenerate frame gives no bend rather than NaN)."""
-    norm = np.linalg.norm(v, axis=1, keepdims=True)
-    return np.divide(v, norm, out=np.zeros_like(v), where=norm > 1e-15)
+@njit(cache=True)
+def material_frames(ref, t, span_edges, span_dirs, tau):
+    """(n, 3) material director m1 of every edge: ref turned by its material angle (see :func:`material_angles`)
+    about t, the Rodrigues turn of a director perpendicular to t, as MuJoCo's reader builds its d1."""
+    theta = material_angles(ref, t, span_edges, span_dirs, tau)
+    m1 = np.empty_like(ref)
+    for e in range(ref.shape[0]):
+        c, s = math.cos(theta[e]), math.sin(theta[e])
+        tr = cross3(t[e], ref[e])
+        for a in range(3):
+            m1[e, a] = c * ref[e, a] + s * tr[a]
+    return m1
 
 
-def _twists(rod: Rod) -> tuple[np.ndarray, np.ndarray]:
-    """(unit edge tangents, each span's total twist, as Rod.twists gives it)."""
+def material_directors(rod: Rod) -> np.ndarray:
+    """(n, 3) material director m1 of every edge of ``rod`` (see :func:`material_frames`)."""
     t, _ = unit_tangents(rod.x)
-    return t, rod.twists()
+    return material_frames(rod.ref, t, rod.model.span_edges, rod.clamp_directors, rod.twists())
 
 
-def material_directors(rod: Rod, twists: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
-    """(n, 3) material director m1 of every edge (see :func:`material_angles`); ``twists``: :func:`_twists`."""
-    t, tau = _twists(rod) if twists is None else twists
-    theta = material_angles(rod.ref, t, rod.model.span_edges, rod.clamp_directors, tau)
-    # the Rodrigues turn about t of a director perpendicular to t, as MuJoCo's reader builds its d1
-    return np.cos(theta)[:, None] * rod.ref + np.sin(theta)[:, None] * cross(t, rod.ref)
+@njit(cache=True)
+def vertex_curvatures(x):
+    """(n+1,) Menger curvature 2 |e x f| / (|e| |f| |e + f|) of every interior vertex (exact on an arc), 0 at the
+    ends, as physics.measures.vertex_curvatures."""
+    out = np.zeros(x.shape[0])
+    for i in range(1, x.shape[0] - 1):
+        out[i] = menger_curvature(x, i)
+    return out
 
 
 @njit(cache=True)
@@ -95,7 +105,7 @@ def vertex_bend(x, m1, kappa):
         le, lf = math.sqrt(e @ e), math.sqrt(f @ f)
         tv = e / max(le, 1e-300) + f / max(lf, 1e-300)
         ltv = math.sqrt(tv @ tv)
-        b = np.array([e[1] * f[2] - e[2] * f[1], e[2] * f[0] - e[0] * f[2], e[0] * f[1] - e[1] * f[0]])
+        b = cross3(e, f)
         lb = math.sqrt(b @ b)
         if ltv < 1e-15 or lb < 1e-15:
             continue
@@ -106,55 +116,89 @@ def vertex_bend(x, m1, kappa):
         if ld1 < 1e-15:
             continue
         d1 /= ld1
-        d2 = np.array([tv[1] * d1[2] - tv[2] * d1[1], tv[2] * d1[0] - tv[0] * d1[2], tv[0] * d1[1] - tv[1] * d1[0]])
+        d2 = cross3(tv, d1)
         bend[i, 0] = kappa[i] * (b @ d1) / lb
         bend[i, 1] = kappa[i] * (b @ d2) / lb
     return bend
 
 
-def vertex_twist_rates(rod: Rod, tau: np.ndarray) -> np.ndarray:
+@njit(cache=True)
+def vertex_twist_rates(n1, span_edges, tau, span_len):
     """Twist per length [rad/m] at every vertex: its span's tau/L (``tau`` each span's total twist, L its rest
     length, as Rod.twist_rates) on the span's vertices ea < i <= eb (where the twist lives: between the clamp
     edges), 0 at the others (free ends carry no twist)."""
-    out = np.zeros(len(rod.x))
-    spans = rod.model.span_edges
-    if len(spans):
-        for (ea, eb), rate in zip(spans, tau / rod.model.span_lengths):  # a loop over spans, not vertices
-            out[ea + 1:eb + 1] = rate
+    out = np.zeros(n1)
+    for s in range(span_edges.shape[0]):
+        for i in range(span_edges[s, 0] + 1, span_edges[s, 1] + 1):
+            out[i] = tau[s] / span_len[s]
     return out
 
 
-def vertex_strains(rod: Rod) -> np.ndarray:
+@njit(cache=True)
+def vertex_strains(x, rest, held):
     """Axial strain per vertex: each edge's tension/EA split half and half onto its two vertices, the end vertices
-    taking their one edge's whole; an edge whose two vertices are both held (a clamp's own edge) counts as 0, as
-    MuJoCo's reader fills a rigid clamp edge's missing tension with 0 (it is set by the holder, not the cable)."""
-    model = rod.model
-    edge = rod.tensions() / model.tensile_stiffness
-    held = np.zeros(len(rod.x), dtype=bool)
-    held[model.held_array] = True
-    edge = np.where(held[:-1] & held[1:], 0.0, edge)
-    strain = np.zeros(len(rod.x))
-    strain[:-1] += 0.5 * edge
-    strain[1:] += 0.5 * edge
-    strain[[0, -1]] *= 2.0
+    taking their one edge's whole; an edge whose two vertices are both ``held`` (a clamp's own edge) counts as 0,
+    as MuJoCo's reader fills a rigid clamp edge's missing tension with 0 (it is set by the holder, not the cable)."""
+    n1 = x.shape[0]
+    strain = np.zeros(n1)
+    for e in range(n1 - 1):
+        if held[e] and held[e + 1]:
+            continue
+        d0, d1, d2 = x[e + 1, 0] - x[e, 0], x[e + 1, 1] - x[e, 1], x[e + 1, 2] - x[e, 2]
+        eps = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) / rest[e] - 1.0
+        strain[e] += (1.0 if e == 0 else 0.5) * eps
+        strain[e + 1] += (1.0 if e == n1 - 2 else 0.5) * eps
     return strain
 
 
-def vertex_slip(x: np.ndarray, lag: tuple, h: float) -> np.ndarray:
+@njit(cache=True)
+def vertex_slip(x, edge, tpar, normal, anchor, h):
     """Per vertex the largest tangential speed |u|/h of the lagged contact pairs it shares (by weight 1 - t*, t*,
     a zero share left out), u the contact point's displacement relative to the touched surface's material point
-    over the step (friction_lag's anchor); 0 where nothing touches."""
-    edge, tpar, normal, _, anchor = lag
-    slip = np.zeros(len(x))
-    if not len(edge):
-        return slip
-    u = (1.0 - tpar)[:, None] * x[edge] + tpar[:, None] * x[edge + 1] - anchor
-    u -= np.einsum("ij,ij->i", u, normal)[:, None] * normal
-    speed = np.linalg.norm(u, axis=1) / h
-    # a pair's speed goes to the vertices that carry its force (MuJoCo's reader: the max over a vertex's contacts)
-    np.maximum.at(slip, edge, np.where(tpar < 1.0, speed, 0.0))
-    np.maximum.at(slip, edge + 1, np.where(tpar > 0.0, speed, 0.0))
+    over the step (friction_lag's anchor); 0 where nothing touches (MuJoCo's reader: the max over a vertex's
+    contacts)."""
+    slip = np.zeros(x.shape[0])
+    u = np.empty(3)
+    for c in range(edge.shape[0]):
+        i, t = edge[c], tpar[c]
+        for a in range(3):
+            u[a] = (1.0 - t) * x[i, a] + t * x[i + 1, a] - anchor[c, a]
+        un = u[0] * normal[c, 0] + u[1] * normal[c, 1] + u[2] * normal[c, 2]
+        speed = 0.0
+        for a in range(3):
+            speed += (u[a] - un * normal[c, a]) ** 2
+        speed = math.sqrt(speed) / h
+        if t < 1.0:
+            slip[i] = max(slip[i], speed)
+        if t > 0.0:
+            slip[i + 1] = max(slip[i + 1], speed)
     return slip
+
+
+@njit(cache=True)
+def segment_arrays(x, x_prev, h, ref, span_edges, span_dirs, span_len, tau, held, rest, r, kind, pos, rot, size,
+                   mask, pos_prev, rot_prev, dhat, kappa, mu, eps):
+    """:class:`SegmentState`'s arrays in one pass (see :func:`segment_state`; ``h`` 0: no sliding speeds, and
+    ``held`` a per-vertex flag)."""
+    n1 = x.shape[0]
+    curvature = vertex_curvatures(x)
+    t, _ = unit_tangents(x)
+    bend = vertex_bend(x, material_frames(ref, t, span_edges, span_dirs, tau), curvature)
+    twist = vertex_twist_rates(n1, span_edges, tau, span_len)
+    strain = vertex_strains(x, rest, held)
+    normal, friction, slip = np.zeros(n1), np.zeros(n1), np.zeros(n1)
+    if kind.shape[0]:
+        # only the pairs within the barrier's reach now or at the step's start carry force: the others are left out
+        # before the per-pair work
+        near = broad_phase(x, (r, kind, pos, rot, size, mask), dhat)[5]
+        lagged = broad_phase(x_prev, (r, kind, pos_prev, rot_prev, size, mask), dhat)[5]
+        normal, friction, _, _ = contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev,
+                                                near | lagged, dhat, kappa, mu, eps)
+        if h > 0.0:
+            edge, tpar, nrm, _, anchor = friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, lagged,
+                                                      dhat, kappa)
+            slip = vertex_slip(x, edge, tpar, nrm, anchor, h)
+    return curvature, bend, twist, strain, normal, friction, slip
 
 
 def segment_state(rod: Rod, previous_x: np.ndarray | None, h: float | None, *,
@@ -168,31 +212,16 @@ def segment_state(rod: Rod, previous_x: np.ndarray | None, h: float | None, *,
     ``rod.primitives``. With ``previous_x`` None the step is taken as none: no friction, no sliding (a rest
     state); with ``h`` None friction is reported but sliding speeds are 0.
     """
-    x = rod.x
-    n_v = len(x)
-    kappa = np.zeros(n_v)
-    kappa[1:-1] = vertex_curvatures(x)
-    twists = _twists(rod)
-    bend = vertex_bend(x, material_directors(rod, twists), kappa)
-    twist = vertex_twist_rates(rod, twists[1])
-    strain = vertex_strains(rod)
-    normal, friction, slip = np.zeros(n_v), np.zeros(n_v), np.zeros(n_v)
     prims = rod.primitives
-    if len(prims):
-        before = prims if previous_primitives is None else previous_primitives
-        x_prev = x if previous_x is None else np.ascontiguousarray(previous_x, dtype=float)
-        c = rod.contact
-        # only the pairs within the barrier's reach now or at the step's start carry force: the others are left out
-        # before the per-pair work
-        near = broad_phase(x, (rod.radius, prims.kind, prims.pos, prims.rot, prims.size, prims.mask), c.activation)[5]
-        lagged = broad_phase(x_prev, (rod.radius, prims.kind, before.pos, before.rot, prims.size, prims.mask),
-                             c.activation)[5]
-        mask = near | lagged
-        normal, friction, _, _ = contact_report(x, x_prev, rod.radius, prims.kind, prims.pos, prims.rot, prims.size,
-                                                before.pos, before.rot, mask, c.activation, c.stiffness,
-                                                c.friction, c.slip)
-        if previous_x is not None and h is not None and h > 0 and math.isfinite(h):
-            lag = friction_lag(x_prev, rod.radius, prims.kind, before.pos, before.rot, prims.size, prims.pos,
-                               prims.rot, lagged, c.activation, c.stiffness)
-            slip = vertex_slip(x, lag, h)
-    return SegmentState(kappa, bend, twist, strain, normal, friction, slip)
+    # primitives of another set (none before the first solve) stand still: a step against them cannot be read
+    before = prims if previous_primitives is None or len(previous_primitives) != len(prims) else previous_primitives
+    x_prev = rod.x if previous_x is None else np.ascontiguousarray(previous_x, dtype=float)
+    sliding = previous_x is not None and h is not None and h > 0 and math.isfinite(h)
+    held_vertices, rest, *_, span_edges, span_len, _ = rod.step_constants
+    held = np.zeros(len(rod.x), dtype=np.bool_)
+    held[held_vertices] = True
+    c = rod.contact
+    return SegmentState(*segment_arrays(
+        rod.x, x_prev, float(h) if sliding else 0.0, rod.ref, span_edges, rod.clamp_directors, span_len,
+        rod.twists(), held, rest, rod.radius, prims.kind, prims.pos, prims.rot, prims.size, prims.mask, before.pos,
+        before.rot, c.activation, c.stiffness, c.friction, c.slip))

@@ -65,11 +65,15 @@ class StationScene:
             if e in held and e + 1 in held:  # a clamp's own edge is part of the node
                 self.mask[e] = False
 
+    def pose(self, q: np.ndarray) -> None:
+        """MuJoCo's kinematics with the robots at ``q`` (n_robots, 6): the body and geom poses in ``data``."""
+        self.data.qpos[self.station.robot_qpos] = q.ravel()
+        mujoco.mj_kinematics(self.station.model, self.data)
+
     def at(self, q: np.ndarray) -> Primitives:
         """The primitives with the robots at ``q`` (n_robots, 6)."""
         d = self.data
-        d.qpos[self.station.robot_qpos] = q.ravel()
-        mujoco.mj_kinematics(self.station.model, d)
+        self.pose(q)
         return Primitives(self.kind, d.geom_xpos[self.geoms].copy(), d.geom_xmat[self.geoms].reshape(-1, 3, 3).copy(),
                           self.size, self.mask)
 

@@ -44,7 +44,13 @@ def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat
     n_e = x_prev.shape[0] - 1
     n_prims = kind.shape[0]
     bound = bounding_radii(kind, size)
-    most = MAX_CONTACTS * n_e * n_prims  # every pair's contacts (segment.pair_contacts)
+    pairs = 0
+    for i in range(n_e):
+        for j in range(n_prims):
+            pairs += mask[i, j]
+    # every enabled pair's contacts (segment.pair_contacts): sized by the pairs the mask leaves (a broad phase's
+    # handful), not all of them, so the arrays stay small
+    most = MAX_CONTACTS * pairs
     edge = np.empty(most, np.int64)
     tpar = np.empty(most)
     normal = np.empty((most, 3))

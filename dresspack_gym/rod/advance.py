@@ -1,0 +1,127 @@
+"""One motion step of a station cable in one compiled call: targets and primitives read off the kinematics, the
+carried start, its outside check, the lagged friction set and the Newton solve."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .contact.friction import friction_lag
+from .contact.motion import surface_displacements
+from .contact.primitives import bounding_radii
+from .newton import broad_phase, contact_energy, newton_step
+from .station_scene import carried_along
+
+
+@njit(cache=True)
+def pose_primitives(geom_xpos, geom_xmat, geoms):
+    """The primitives' world positions (k, 3) and rotations (k, 3, 3) from MuJoCo's geom poses (xmat rows of 9)."""
+    k = geoms.shape[0]
+    pos = np.empty((k, 3))
+    rot = np.empty((k, 3, 3))
+    for j in range(k):
+        g = geoms[j]
+        for a in range(3):
+            pos[j, a] = geom_xpos[g, a]
+            for b in range(3):
+                rot[j, a, b] = geom_xmat[g, 3 * a + b]
+    return pos, rot
+
+
+@njit(cache=True)
+def held_targets(xpos, xmat, held_body, held_local, clamp_body, clamp_local):
+    """The held vertices' world positions (h, 3) and the clamps' directors per span (c - 1, 2, 3) from MuJoCo's body
+    poses; a body index below 0 is the world (the local values are world values)."""
+    pos = np.empty((held_body.shape[0], 3))
+    for j in range(held_body.shape[0]):
+        b = held_body[j]
+        for a in range(3):
+            if b < 0:
+                pos[j, a] = held_local[j, a]
+            else:
+                pos[j, a] = xpos[b, a] + xmat[b, 3 * a] * held_local[j, 0] + xmat[b, 3 * a + 1] * held_local[j, 1] \
+                    + xmat[b, 3 * a + 2] * held_local[j, 2]
+    c = clamp_body.shape[0]
+    dirs = np.empty((c, 3))
+    for j in range(c):
+        b = clamp_body[j]
+        for a in range(3):
+            if b < 0:
+                dirs[j, a] = clamp_local[j, a]
+            else:
+                dirs[j, a] = xmat[b, 3 * a] * clamp_local[j, 0] + xmat[b, 3 * a + 1] * clamp_local[j, 1] \
+                    + xmat[b, 3 * a + 2] * clamp_local[j, 2]
+    spans = np.empty((max(c - 1, 0), 2, 3))
+    for s in range(c - 1):
+        spans[s, 0] = dirs[s]
+        spans[s, 1] = dirs[s + 1]
+    return pos, spans
+
+
+@njit(cache=True)
+def following(x, v, h, held, held_pos):
+    """The inertial prediction x + h v corrected by each held vertex's miss (its new place less its prediction),
+    interpolated linearly along the cable between held vertices (``held`` ascending) and constant beyond the outer
+    ones: the cable follows its holders into the solve's start."""
+    out = x + h * v
+    k = held.shape[0]
+    if k == 0:
+        return out
+    miss = np.empty((k, 3))
+    for j in range(k):
+        for a in range(3):
+            miss[j, a] = held_pos[j, a] - out[held[j], a]
+    j = 0
+    for i in range(x.shape[0]):
+        while j < k - 1 and held[j + 1] <= i:
+            j += 1
+        if i <= held[0]:
+            w, lo, hi = 0.0, 0, 0
+        elif j == k - 1:
+            w, lo, hi = 0.0, k - 1, k - 1
+        else:
+            w, lo, hi = (i - held[j]) / (held[j + 1] - held[j]), j, j + 1
+        for a in range(3):
+            out[i, a] += (1.0 - w) * miss[lo, a] + w * miss[hi, a]
+    return out
+
+
+@njit(cache=True)
+def carried_step(x, v, ref, held, rest, voronoi, mass, ea, ei, gj, gravity, damping, span_edges, span_len,
+                 force_scale, xpos, xmat, geom_xpos, geom_xmat, geoms, kind, size, mask, held_body, held_local,
+                 clamp_body, clamp_local, prev_pos, prev_rot, lagged, r, dhat, kappa, mu, eps, reach, h, tolerance,
+                 max_iterations, settled_step):
+    """One implicit step of ``h`` s of a station cable whose robots' kinematics were just run (MuJoCo's body poses
+    ``xpos``/``xmat`` and geom poses): the held vertices and clamp directors are read off the bodies, the primitives
+    off the geoms, the solve starts from the holders' followed prediction with the vertices an approaching link
+    meets carried along (see station_scene.carried_along) and lags its friction from ``x`` against the primitives'
+    previous poses (``lagged``: there were any). ``ok`` is False (nothing solved) where that start is not outside
+    every primitive: the caller sub-steps then. Returns (ok, x, ref, iterations, residual, converged, tau, static
+    gradient, primitive pos, rot, held positions, span directors)."""
+    pos, rot = pose_primitives(geom_xpos, geom_xmat, geoms)
+    held_pos, dirs = held_targets(xpos, xmat, held_body, held_local, clamp_body, clamp_local)
+    start = following(x, v, h, held, held_pos)
+    bound = bounding_radii(kind, size)
+    moved = surface_displacements(kind, size, prev_pos, prev_rot, pos, rot, bound)
+    start = carried_along(start, r, kind, prev_pos, prev_rot, size, pos, rot, moved, reach)
+    for j in range(held.shape[0]):
+        start[held[j]] = held_pos[j]
+    empty_i = np.zeros(0, np.int64)
+    empty_1 = np.zeros(0)
+    empty_3 = np.zeros((0, 3))
+    bare = (r, kind, pos, rot, size, mask, dhat, kappa, empty_i, empty_1, empty_3, empty_1, empty_3, mu, eps, False)
+    if math.isinf(contact_energy(start, broad_phase(start, bare, dhat))):
+        return (False, x, ref, 0, np.inf, False, np.zeros(span_edges.shape[0]), np.zeros_like(x), pos, rot,
+                held_pos, dirs)
+    if lagged:
+        near = broad_phase(x, (r, kind, prev_pos, prev_rot, size, mask), dhat)[5]
+        lag = friction_lag(x, r, kind, prev_pos, prev_rot, size, pos, rot, near, dhat, kappa)
+        contact = (r, kind, pos, rot, size, mask, dhat, kappa, lag[0], lag[1], lag[2], lag[3], lag[4], mu, eps, False)
+    else:
+        contact = bare
+    x_new, ref_new, iterations, residual, converged, tau, static = newton_step(
+        start, ref, x, v, held, held_pos, rest, voronoi, mass, ea, ei, gj, gravity, h, damping, span_edges, dirs,
+        span_len, force_scale, tolerance, max_iterations, contact, settled_step)
+    return (True, x_new, ref_new, iterations, residual, converged, tau, static, pos, rot, held_pos, dirs)
