@@ -11,7 +11,7 @@ from numba import njit
 from .contact.friction import friction_lag
 from .contact.motion import surface_displacements
 from .contact.primitives import bounding_radii
-from .newton import broad_phase, contact_energy, newton_step
+from .newton import BROAD_MARGIN, broad_phase, contact_energy, newton_step
 from .station_scene import carried_along
 
 
@@ -112,7 +112,8 @@ def carried_step(x, v, ref, held, rest, voronoi, mass, ea, ei, gj, gravity, damp
     empty_1 = np.zeros(0)
     empty_3 = np.zeros((0, 3))
     bare = (r, kind, pos, rot, size, mask, dhat, kappa, empty_i, empty_1, empty_3, empty_1, empty_3, mu, eps, False)
-    if math.isinf(contact_energy(start, broad_phase(start, bare, dhat))):
+    near_start = broad_phase(start, bare, BROAD_MARGIN)  # the solve's own first broad phase
+    if math.isinf(contact_energy(start, near_start)):
         return (False, x, ref, 0, np.inf, False, np.zeros(span_edges.shape[0]), np.zeros_like(x), pos, rot,
                 held_pos, dirs)
     if lagged:
@@ -123,5 +124,5 @@ def carried_step(x, v, ref, held, rest, voronoi, mass, ea, ei, gj, gravity, damp
         contact = bare
     x_new, ref_new, iterations, residual, converged, tau, static = newton_step(
         start, ref, x, v, held, held_pos, rest, voronoi, mass, ea, ei, gj, gravity, h, damping, span_edges, dirs,
-        span_len, force_scale, tolerance, max_iterations, contact, settled_step)
+        span_len, force_scale, tolerance, max_iterations, contact, settled_step, near_start[5])
     return (True, x_new, ref_new, iterations, residual, converged, tau, static, pos, rot, held_pos, dirs)

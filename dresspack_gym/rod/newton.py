@@ -105,31 +105,44 @@ def assemble(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, inertia, drag, x_
     return energy, grad, band, tau, dirs, t
 
 
+# Edges per block of the broad phase's first pass: a block's bounding ball against each primitive's prunes most
+# pairs of a long cable before any pair's own bound is taken.
+BROAD_BLOCK = 8
+
+
 @njit(cache=True)
 def broad_phase(x, contact, margin):
-    """``contact`` with its pair mask cut to the pairs whose gap may be below ``margin`` at ``x``: first whole
-    primitives against the cable's bounding ball, then each remaining pair by its gap's lower bound."""
+    """``contact`` with its pair mask cut to the pairs whose gap may be below ``margin`` at ``x``: first blocks of
+    BROAD_BLOCK edges against whole primitives by their bounding balls (a plane: by the block's lowest vertex),
+    then each remaining pair by its gap's lower bound."""
     r, kind, pos, rot, size, mask = contact[0], contact[1], contact[2], contact[3], contact[4], contact[5]
     near = mask.copy()
     bound = bounding_radii(kind, size)
-    n1 = x.shape[0]
-    c0, c1, c2 = 0.0, 0.0, 0.0
-    for v in range(n1):
-        c0, c1, c2 = c0 + x[v, 0] / n1, c1 + x[v, 1] / n1, c2 + x[v, 2] / n1
-    spread = 0.0
-    for v in range(n1):
-        spread = max(spread, math.sqrt((x[v, 0] - c0) ** 2 + (x[v, 1] - c1) ** 2 + (x[v, 2] - c2) ** 2))
-    for j in range(kind.shape[0]):
-        if kind[j] != 0:  # a plane has no bounding ball: its pairs are bounded one by one (exactly)
-            gap = math.sqrt((pos[j, 0] - c0) ** 2 + (pos[j, 1] - c1) ** 2 + (pos[j, 2] - c2) ** 2) - spread \
-                - bound[j] - r
+    n_e = x.shape[0] - 1
+    for lo in range(0, n_e, BROAD_BLOCK):
+        hi = min(lo + BROAD_BLOCK, n_e)  # edges lo .. hi - 1, vertices lo .. hi
+        c0, c1, c2 = 0.5 * (x[lo, 0] + x[hi, 0]), 0.5 * (x[lo, 1] + x[hi, 1]), 0.5 * (x[lo, 2] + x[hi, 2])
+        spread = 0.0
+        for v in range(lo, hi + 1):
+            spread = max(spread, math.sqrt((x[v, 0] - c0) ** 2 + (x[v, 1] - c1) ** 2 + (x[v, 2] - c2) ** 2))
+        for j in range(kind.shape[0]):
+            if kind[j] == 0:  # a plane: the block's lowest vertex above it (exact for every edge in the block)
+                low = np.inf
+                for v in range(lo, hi + 1):
+                    low = min(low, (x[v, 0] - pos[j, 0]) * rot[j, 0, 2] + (x[v, 1] - pos[j, 1]) * rot[j, 1, 2]
+                              + (x[v, 2] - pos[j, 2]) * rot[j, 2, 2])
+                gap = low - r
+            else:
+                gap = math.sqrt((pos[j, 0] - c0) ** 2 + (pos[j, 1] - c1) ** 2 + (pos[j, 2] - c2) ** 2) - spread \
+                    - bound[j] - r
             if gap >= margin:
-                for i in range(n1 - 1):
+                for i in range(lo, hi):
                     near[i, j] = False
                 continue
-        for i in range(n1 - 1):
-            if near[i, j] and lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= margin:
-                near[i, j] = False
+            for i in range(lo, hi):
+                if near[i, j] and lower_bound(x[i], x[i + 1], r, kind[j], pos[j], rot[j], size[j],
+                                              bound[j]) >= margin:
+                    near[i, j] = False
     return (r, kind, pos, rot, size, near) + contact[6:]
 
 
@@ -160,7 +173,8 @@ def static_gradient(x, ref, rest, voronoi, mass, ea, ei, gj, gravity, span_edges
 
 @njit(cache=True)
 def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass, ea, ei, gj, gravity, h, damping,
-                span_edges, span_dirs, span_len, force_scale, tolerance, max_iterations, contact, settled_step=0.0):
+                span_edges, span_dirs, span_len, force_scale, tolerance, max_iterations, contact, settled_step=0.0,
+                start_near=None):
     """Minimise the incremental potential from ``x_start`` (frames ``ref_start`` on the tangents of ``x0``, the last
     state).
 
@@ -171,7 +185,9 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
     (``recovering``: the penalty of :mod:`.recovery`, dhat its margin and kappa its stiffness, instead of the
     barrier), the primitives static during the solve; every step is cut by continuous collision detection, so an
     iterate never passes through a primitive. With ``settled_step`` > 0 a full Newton step that moves no vertex that
-    far [m] also ends the solve as converged (for motion steps). Returns (x, ref, iterations, residual, converged,
+    far [m] also ends the solve as converged (for motion steps). ``start_near``: the caller's broad phase at the
+    start (the pair mask of :func:`broad_phase` at ``x_start``, held vertices placed, margin BROAD_MARGIN), having
+    found the start outside every primitive. Returns (x, ref, iterations, residual, converged,
     tau, the static gradient at x).
     """
     n1 = x_start.shape[0]
@@ -187,8 +203,11 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
     for j in range(held.shape[0]):
         x[held[j]] = held_pos[j]
     # the broad phase's pairs hold every pair the start could be inside (the others are a margin clear of it)
-    contact = broad_phase(x, full_contact, margin)
-    if math.isinf(contact_energy(x, contact)):
+    if start_near is not None:
+        contact = full_contact[:5] + (start_near,) + full_contact[6:]
+    else:
+        contact = broad_phase(x, full_contact, margin)
+    if start_near is None and math.isinf(contact_energy(x, contact)):
         x = x0.copy()
         for j in range(held.shape[0]):
             x[held[j]] = held_pos[j]

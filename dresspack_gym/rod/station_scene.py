@@ -153,6 +153,10 @@ def carried_along(x, r, kind, pos, rot, size, pos_end, rot_end, moved, reach):
             for j in range(kind.shape[0]):
                 if moved[j] <= 1e-12 or kind[j] == 0:
                     continue
+                ball = math.sqrt((out[v, 0] - pos_end[j, 0]) ** 2 + (out[v, 1] - pos_end[j, 1]) ** 2
+                                 + (out[v, 2] - pos_end[j, 2]) ** 2)
+                if ball - bound[j] - r >= reach:  # beyond its bounding ball: not within reach of it
+                    continue
                 d = point_distance(kind[j], pos_end[j], rot_end[j], size[j], out[v], n, h) - r
                 if d < reach:
                     for a in range(3):
