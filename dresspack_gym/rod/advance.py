@@ -117,7 +117,16 @@ def carried_step(x, v, ref, held, rest, voronoi, mass, ea, ei, gj, gravity, damp
         return (False, x, ref, 0, np.inf, False, np.zeros(span_edges.shape[0]), np.zeros_like(x), pos, rot,
                 held_pos, dirs)
     if lagged:
-        near = broad_phase(x, (r, kind, prev_pos, prev_rot, size, mask), dhat)[5]
+        # the pairs within dhat of x at the previous poses lie within dhat + the largest move of a vertex and of a
+        # primitive of the start's pairs (margin BROAD_MARGIN): those serve the lag unless the moves were larger
+        shift = 0.0
+        for i in range(x.shape[0]):
+            shift = max(shift, math.sqrt((start[i, 0] - x[i, 0]) ** 2 + (start[i, 1] - x[i, 1]) ** 2
+                                         + (start[i, 2] - x[i, 2]) ** 2))
+        if dhat + shift + moved.max() < BROAD_MARGIN:
+            near = near_start[5]
+        else:
+            near = broad_phase(x, (r, kind, prev_pos, prev_rot, size, mask), dhat)[5]
         lag = friction_lag(x, r, kind, prev_pos, prev_rot, size, pos, rot, near, dhat, kappa)
         contact = (r, kind, pos, rot, size, mask, dhat, kappa, lag[0], lag[1], lag[2], lag[3], lag[4], mu, eps, False)
     else:
