@@ -70,19 +70,27 @@ def bend_into(e, f, coeff, exact, grad6, hess6, jac):
         g_pp = -4.0 * coeff * s / q3
         g_ss = 4.0 * coeff * p / q3
         g_ps = 2.0 * coeff * (p - s) / q3
+        dp = jac[0]  # scratch rows: dP and ds over (e, f)
+        ds = jac[1]
+        for a in range(3):
+            dp[a] = lf * e[a] / le
+            dp[3 + a] = le * f[a] / lf
+            ds[a] = f[a]
+            ds[3 + a] = e[a]
         for a in range(6):
-            dpa = lf * e[a] / le if a < 3 else le * f[a - 3] / lf
-            dsa = f[a] if a < 3 else e[a - 3]
-            for b in range(6):
-                dpb = lf * e[b] / le if b < 3 else le * f[b - 3] / lf
-                dsb = f[b] if b < 3 else e[b - 3]
-                hess6[a, b] = g_pp * dpa * dpb + g_ss * dsa * dsb + g_ps * (dpa * dsb + dsa * dpb)
+            for b in range(a + 1):
+                v = g_pp * dp[a] * dp[b] + g_ss * ds[a] * ds[b] + g_ps * (dp[a] * ds[b] + ds[a] * dp[b])
+                hess6[a, b] = v
+                hess6[b, a] = v
+        ce = g_p * lf / le
+        cf = g_p * le / lf
+        cx = g_p / (le * lf)
         for a in range(3):
             for b in range(3):
                 eye = 1.0 if a == b else 0.0
-                hess6[a, b] += g_p * lf / le * (eye - e[a] * e[b] / (le * le))
-                hess6[3 + a, 3 + b] += g_p * le / lf * (eye - f[a] * f[b] / (lf * lf))
-                cross_term = g_p * e[a] * f[b] / (le * lf) + g_s * eye
+                hess6[a, b] += ce * (eye - e[a] * e[b] / (le * le))
+                hess6[3 + a, 3 + b] += cf * (eye - f[a] * f[b] / (lf * lf))
+                cross_term = cx * e[a] * f[b] + g_s * eye
                 hess6[a, 3 + b] += cross_term
                 hess6[3 + b, a] += cross_term
     else:
@@ -149,19 +157,18 @@ def twist_into(e, f, grad6, hess6):
     chi = 1.0 + dot / (le * lf)
     d = le * lf + dot
     c = (e[1] * f[2] - e[2] * f[1], e[2] * f[0] - e[0] * f[2], e[0] * f[1] - e[1] * f[0])
+    kb = (2.0 * c[0] / d, 2.0 * c[1] / d, 2.0 * c[2] / d)
+    te = (e[0] / le, e[1] / le, e[2] / le)
+    tf = (f[0] / lf, f[1] / lf, f[2] / lf)
+    tt = ((te[0] + tf[0]) / chi, (te[1] + tf[1]) / chi, (te[2] + tf[2]) / chi)
+    see, sff, sef, sx = -0.25 / (le * le), -0.25 / (lf * lf), 0.5 / (le * lf), 2.0 / (chi * le)
     for a in range(3):
-        kb_a = 2.0 * c[a] / d
-        grad6[a] = 0.5 * kb_a / le
-        grad6[3 + a] = 0.5 * kb_a / lf
-        te_a, tf_a = e[a] / le, f[a] / lf
-        tt_a = (te_a + tf_a) / chi
+        grad6[a] = 0.5 * kb[a] / le
+        grad6[3 + a] = 0.5 * kb[a] / lf
         for b in range(3):
-            kb_b = 2.0 * c[b] / d
-            te_b, tf_b = e[b] / le, f[b] / lf
-            tt_b = (te_b + tf_b) / chi
-            hess6[a, b] = -0.25 / (le * le) * (kb_a * (te_b + tt_b) + (te_a + tt_a) * kb_b)
-            hess6[3 + a, 3 + b] = -0.25 / (lf * lf) * (kb_a * (tf_b + tt_b) + (tf_a + tt_a) * kb_b)
-            v = 0.5 / (le * lf) * (2.0 / chi * _skew(e, a, b) / le - kb_a * tt_b)
+            hess6[a, b] = see * (kb[a] * (te[b] + tt[b]) + (te[a] + tt[a]) * kb[b])
+            hess6[3 + a, 3 + b] = sff * (kb[a] * (tf[b] + tt[b]) + (tf[a] + tt[a]) * kb[b])
+            v = sef * (sx * _skew(e, a, b) - kb[a] * tt[b])
             hess6[a, 3 + b] = v
             hess6[3 + b, a] = v
 
@@ -210,14 +217,20 @@ def edges_to_vertices_hess(h6):
 
 @njit(cache=True)
 def add_vertex_hess(band, c0, h6):
-    """Add the vertex-space Hessian of the (e, f) Hessian ``h6`` (first coordinate ``c0``) into the lower band."""
-    for va in range(3):
-        for vb in range(va + 1):
-            for i in range(3):
-                for j in range(3):
-                    r, c = 3 * va + i, 3 * vb + j
-                    if r >= c:
-                        band[r - c, c0 + c] += vertex_block(h6, va, vb, i, j)
+    """Add the vertex-space Hessian of the (e, f) Hessian ``h6`` (first coordinate ``c0``) into the lower band:
+    J^T H J with e = x_i - x_{i-1}, f = x_{i+1} - x_i, block by block (vertex_block's entries, written out)."""
+    for i in range(3):
+        for j in range(3):
+            ee, ef, fe, ff = h6[i, j], h6[i, 3 + j], h6[3 + i, j], h6[3 + i, 3 + j]
+            # (va, vb) blocks of the lower triangle: (0,0) ee; (1,0) fe - ee; (1,1) ee - ef - fe + ff; (2,0) -fe;
+            # (2,1) fe - ff; (2,2) ff
+            if i >= j:
+                band[i - j, c0 + j] += ee
+                band[i - j, c0 + 3 + j] += ee - ef - fe + ff
+                band[i - j, c0 + 6 + j] += ff
+            band[3 + i - j, c0 + j] += fe - ee
+            band[6 + i - j, c0 + j] -= fe
+            band[3 + i - j, c0 + 3 + j] += fe - ff
 
 
 @njit(cache=True)
