@@ -10,7 +10,7 @@ from numba import njit
 from ..physics.segment_state import SegmentState
 from .contact.friction import friction_lag
 from .contact.report import contact_report
-from .frames import cross3, reference_twist, signed_angle, unit_tangents
+from .frames import reference_twist, signed_angle, unit_tangents
 from .measuring import menger_curvature
 from .newton import broad_phase
 from .rod import Rod
@@ -64,9 +64,10 @@ def material_frames(ref, t, span_edges, span_dirs, tau):
     m1 = np.empty_like(ref)
     for e in range(ref.shape[0]):
         c, s = math.cos(theta[e]), math.sin(theta[e])
-        tr = cross3(t[e], ref[e])
-        for a in range(3):
-            m1[e, a] = c * ref[e, a] + s * tr[a]
+        t0, t1, t2, r0, r1, r2 = t[e, 0], t[e, 1], t[e, 2], ref[e, 0], ref[e, 1], ref[e, 2]
+        m1[e, 0] = c * r0 + s * (t1 * r2 - t2 * r1)
+        m1[e, 1] = c * r1 + s * (t2 * r0 - t0 * r2)
+        m1[e, 2] = c * r2 + s * (t0 * r1 - t1 * r0)
     return m1
 
 
@@ -100,25 +101,28 @@ def vertex_bend(x, m1, kappa):
     n1 = x.shape[0]
     bend = np.zeros((n1, 2))
     for i in range(1, n1 - 1):
-        e = x[i] - x[i - 1]
-        f = x[i + 1] - x[i]
-        le, lf = math.sqrt(e @ e), math.sqrt(f @ f)
-        tv = e / max(le, 1e-300) + f / max(lf, 1e-300)
-        ltv = math.sqrt(tv @ tv)
-        b = cross3(e, f)
-        lb = math.sqrt(b @ b)
+        e0, e1, e2 = x[i, 0] - x[i - 1, 0], x[i, 1] - x[i - 1, 1], x[i, 2] - x[i - 1, 2]
+        f0, f1, f2 = x[i + 1, 0] - x[i, 0], x[i + 1, 1] - x[i, 1], x[i + 1, 2] - x[i, 2]
+        le = max(math.sqrt(e0 * e0 + e1 * e1 + e2 * e2), 1e-300)
+        lf = max(math.sqrt(f0 * f0 + f1 * f1 + f2 * f2), 1e-300)
+        t0, t1, t2 = e0 / le + f0 / lf, e1 / le + f1 / lf, e2 / le + f2 / lf
+        ltv = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        b0, b1, b2 = e1 * f2 - e2 * f1, e2 * f0 - e0 * f2, e0 * f1 - e1 * f0
+        lb = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
         if ltv < 1e-15 or lb < 1e-15:
             continue
-        tv /= ltv
-        d1 = m1[i - 1] + m1[i]
-        d1 = d1 - (d1 @ tv) * tv
-        ld1 = math.sqrt(d1 @ d1)
+        t0, t1, t2 = t0 / ltv, t1 / ltv, t2 / ltv
+        d0, d1, d2 = m1[i - 1, 0] + m1[i, 0], m1[i - 1, 1] + m1[i, 1], m1[i - 1, 2] + m1[i, 2]
+        along = d0 * t0 + d1 * t1 + d2 * t2
+        d0, d1, d2 = d0 - along * t0, d1 - along * t1, d2 - along * t2
+        ld1 = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
         if ld1 < 1e-15:
             continue
-        d1 /= ld1
-        d2 = cross3(tv, d1)
-        bend[i, 0] = kappa[i] * (b @ d1) / lb
-        bend[i, 1] = kappa[i] * (b @ d2) / lb
+        d0, d1, d2 = d0 / ld1, d1 / ld1, d2 / ld1
+        # d2 = t_v x d1
+        c0, c1, c2 = t1 * d2 - t2 * d1, t2 * d0 - t0 * d2, t0 * d1 - t1 * d0
+        bend[i, 0] = kappa[i] * (b0 * d0 + b1 * d1 + b2 * d2) / lb
+        bend[i, 1] = kappa[i] * (b0 * c0 + b1 * c1 + b2 * c2) / lb
     return bend
 
 

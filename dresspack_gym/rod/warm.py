@@ -1,13 +1,43 @@
 """Compile every kernel of the rod engine once into numba's disk cache: ``python -m dresspack_gym.rod.warm``.
 
 The setup script runs it, so that the first simulation, and the test workers, load compiled code instead of each
-compiling it (about a minute on 2 cores)."""
+compiling it (about a minute on 2 cores). Caches compiled from other sources of the engine are cleared first."""
 
 from __future__ import annotations
 
+import hashlib
 import time
+from pathlib import Path
 
 import numpy as np
+
+ROD = Path(__file__).resolve().parent
+# The sources the caches were compiled from: numba keys a cached kernel on its own file's time stamp only, so a kernel
+# whose callee in another file changed would load stale code; a change anywhere in the engine clears every cache.
+STAMP = ROD / "__pycache__" / "rod_sources.sha256"
+
+
+def sources_digest(root: Path = ROD) -> str:
+    """SHA-256 over the source files under ``root`` (paths and contents)."""
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(str(path.relative_to(root)).encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def clear_stale_caches(root: Path = ROD) -> bool:
+    """Delete every numba cache file under ``root`` when its sources differ from those the caches were compiled
+    from (the digest kept in ``root/__pycache__``); whether it did."""
+    stamp = root / STAMP.relative_to(ROD)
+    digest = sources_digest(root)
+    if stamp.exists() and stamp.read_text() == digest:
+        return False
+    for cached in list(root.rglob("*.nbi")) + list(root.rglob("*.nbc")):
+        cached.unlink(missing_ok=True)
+    stamp.parent.mkdir(exist_ok=True)
+    stamp.write_text(digest)
+    return True
 
 
 def compile_all() -> float:
@@ -19,6 +49,7 @@ def compile_all() -> float:
     from .simulator import RodSimulator
 
     start = time.perf_counter()
+    clear_stale_caches()
     compile_kernels()
     station = Station(load_station("default"))
     sim = RodSimulator(station)  # a rest solve with contact, the measures
