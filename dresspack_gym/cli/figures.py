@@ -5,7 +5,8 @@ from __future__ import annotations
 import json
 
 from ..errors import ConfigError
-from .args import add_station_argument, ensure_parent, number, output_file
+from ..io.outputs import FIGURE_SUFFIXES, PICTURE_SUFFIXES, replacing, write_text
+from .args import add_station_argument, file_to_write, number
 from .common import load_simulated
 
 
@@ -15,8 +16,11 @@ def cmd_render(args) -> int:
     station, sim = load_simulated(args.station)
     renderer = StationRenderer(station.model, width=args.width, height=args.height)
     cam = default_camera(station.model, azimuth=args.azimuth, elevation=args.elevation, distance=args.distance)
-    save_png(renderer.render(sim.data, cam), ensure_parent(args.out))
-    renderer.close()
+    try:
+        with replacing(args.out) as tmp:
+            save_png(renderer.render(sim.data, cam), tmp)
+    finally:
+        renderer.close()
     print(f"wrote {args.out}")
     return 0
 
@@ -32,7 +36,8 @@ def cmd_restrictions(args) -> int:
     if args.plot:
         from ..plots.restrictions import plot_restrictions
 
-        summary = plot_restrictions(cfg, ensure_parent(args.plot))
+        with replacing(args.plot) as tmp:
+            summary = plot_restrictions(cfg, tmp)
         for name, frac in summary.items():
             print(f"{name}: {100 * frac:.1f} % of the (j5, j6) plane is forbidden at Home's j4")
         print(f"wrote {args.plot}")
@@ -51,9 +56,10 @@ def cmd_twist_sweep(args) -> int:
               disable=args.json) as bar:
         sweep = twist_sweep(sim, span_deg=args.span, step_deg=args.step, progress=bar)
     if args.plot:
-        plot_twist_sweep(sweep, ensure_parent(args.plot))
+        with replacing(args.plot) as tmp:
+            plot_twist_sweep(sweep, tmp)
     if args.out:
-        ensure_parent(args.out).write_text(json.dumps(sweep.as_dict(), indent=1))
+        write_text(args.out, json.dumps(sweep.as_dict(), indent=1))
     if args.json:
         print(json.dumps(sweep.as_dict()))
         return 0
@@ -71,7 +77,8 @@ def add_render(sub) -> None:
 
     r = sub.add_parser("render", help="write a PNG picture of the station at Home")
     add_station_argument(r, deprecated_positional=True)
-    r.add_argument("--out", required=True, type=output_file, help="output PNG path (missing folders are made)")
+    r.add_argument("--out", required=True, type=file_to_write(*PICTURE_SUFFIXES),
+                   help="output PNG path (missing folders are made)")
     r.add_argument("--width", type=number(1, OFFSCREEN_WIDTH, integer=True, unit="px"), default=960,
                    help="picture width [px] (default %(default)s)")
     r.add_argument("--height", type=number(1, OFFSCREEN_HEIGHT, integer=True, unit="px"), default=720,
@@ -89,7 +96,8 @@ def add_restrictions(sub) -> None:
     """``dresspack restrictions``."""
     x = sub.add_parser("restrictions", help="list a station's joint restrictions and plot the forbidden j5/j6 zones")
     add_station_argument(x, deprecated_positional=True)
-    x.add_argument("--plot", type=output_file, help="output PNG path for the forbidden-zone plot (thesis Figure 4.2)")
+    x.add_argument("--plot", type=file_to_write(*FIGURE_SUFFIXES),
+                   help="output PNG (or .pdf, .svg) path for the forbidden-zone plot (thesis Figure 4.2)")
     x.set_defaults(func=cmd_restrictions)
 
 
@@ -101,7 +109,8 @@ def add_twist_sweep(sub) -> None:
                     help="largest change of j4 + j6 from Home, both ways [deg] (default 400)")
     tw.add_argument("--step", type=number(0, 720, lo_open=True, unit="deg"), default=10.0,
                     help="step of j4 + j6 [deg] (default 10)")
-    tw.add_argument("--plot", type=output_file, help="output PNG path (default: no plot)")
-    tw.add_argument("--out", type=output_file, help="output JSON path (default: no file)")
+    tw.add_argument("--plot", type=file_to_write(*FIGURE_SUFFIXES), help="output PNG (or .pdf, .svg) path (default: "
+                                                                         "no plot)")
+    tw.add_argument("--out", type=file_to_write(".json"), help="output JSON path (default: no file)")
     tw.add_argument("--json", action="store_true", help="print the sweep as one JSON object (no progress bar)")
     tw.set_defaults(func=cmd_twist_sweep)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 from ..errors import ConfigError
+from ..io.outputs import write_text
 from .args import add_station_argument, number, output_dir, seed
 
 
@@ -27,8 +28,8 @@ def cmd_robots(args) -> int:
 
         args.export.mkdir(parents=True, exist_ok=True)
         for r in robots:
-            (args.export / f"{r.name}.urdf").write_text(to_urdf(r))
-            (args.export / f"{r.name}.xml").write_text(to_mjcf(r))
+            write_text(args.export / f"{r.name}.urdf", to_urdf(r))
+            write_text(args.export / f"{r.name}.xml", to_mjcf(r))
     if args.json:
         print(json.dumps(rows))
         return 0

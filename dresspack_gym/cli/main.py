@@ -5,9 +5,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shlex
 import sys
+from pathlib import Path
 
 from ..errors import DresspackError
+from ..io.outputs import check_not_an_input
+from .common import INTERRUPTED
 from .figures import add_render, add_restrictions, add_twist_sweep
 from .inspection import add_inspect
 from .machine import add_bench, add_robots
@@ -65,9 +69,16 @@ def main(argv: list[str] | None = None, extensions=None) -> int:
     as_json = "--json" in argv  # every failure of a --json call is one JSON object on stdout, exit code 2
     _Parser.json_errors = as_json
     try:
-        args = build_parser(extensions).parse_args(argv)
+        parser = build_parser(extensions)
+        args = parser.parse_args(argv)
         args.argv = argv  # the command line as given: what an interrupted command prints to resume it
+        check_not_an_input(*_outputs_and_inputs(parser, args))
         return args.func(args)
+    except KeyboardInterrupt:
+        # the long commands that save as they go say what they saved; every other one writes its files only at
+        # its end (each whole: dresspack_gym.io.outputs), so an interrupt leaves nothing of its own behind
+        print(f"\ninterrupted: nothing was saved; run it again with: dresspack {shlex.join(argv)}", file=sys.stderr)
+        return INTERRUPTED
     except DresspackError as exc:
         if as_json:
             print(json.dumps({"error": str(exc), "field": getattr(exc, "field", "")}))
@@ -81,6 +92,24 @@ def main(argv: list[str] | None = None, extensions=None) -> int:
         return 1
     finally:
         _Parser.json_errors = False
+
+
+def _outputs_and_inputs(parser: argparse.ArgumentParser, args) -> tuple[list, list]:
+    """(flag, path) of every output the command line names (the arguments of an output type: ``writes``) and of
+    every other argument that names an existing file or folder (an input it may read)."""
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    outputs, inputs = [], []
+    for action in sub.choices[args.command]._actions:
+        value = getattr(args, action.dest, None)
+        if value is None or action.dest in ("help", "command"):
+            continue
+        name = action.option_strings[0] if action.option_strings else action.dest
+        values = value if isinstance(value, list) else [value]
+        if getattr(action.type, "writes", None):
+            outputs += [(name, Path(v)) for v in values]
+        else:
+            inputs += [(name, Path(v)) for v in values if isinstance(v, (str, Path)) and v and Path(v).exists()]
+    return outputs, inputs
 
 
 if __name__ == "__main__":

@@ -8,7 +8,8 @@ import shlex
 import sys
 from pathlib import Path
 
-from .args import add_station_argument, ensure_parent, number, output_dir, output_file, positive_int, seed
+from ..io.outputs import write_text
+from .args import add_station_argument, file_to_write, number, output_dir, positive_int, seed
 from .common import INTERRUPTED, robot_index
 
 MAX_WORKERS = 256  # worker processes (one per core; Ray clusters may have more)
@@ -41,7 +42,7 @@ def cmd_robustness(args) -> int:
         print(f"\ninterrupted: {saved} configurations saved in {results}; resume with: "
               f"dresspack {shlex.join(args.argv)}", file=sys.stderr)
         return INTERRUPTED
-    (Path(args.out) / "summary.json").write_text(json.dumps(summary, indent=2))
+    write_text(Path(args.out) / "summary.json", json.dumps(summary, indent=2))
     plots = plot_map(args.out, grid, settings.threshold) if summary["n_configs"] else []
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -88,7 +89,7 @@ def cmd_wear_map(args) -> int:
     settings = WearMapSettings(samples=args.samples, seed=args.seed)
     out = args.out or shipped_map_path(config, robot)
     wear_map = build_wear_map(config, robot, settings, progress=not args.json)
-    wear_map.save(ensure_parent(out))
+    wear_map.save(out)
     info = {**wear_map.info, "path": str(out)}
     if args.json:
         print(json.dumps(info))
@@ -181,8 +182,9 @@ def add_wear_map(sub) -> None:
     wm.add_argument("--samples", type=number(1, 1_000_000, integer=True), default=16000,
                     help="configurations drawn (default 16000; those the cable cannot span are skipped)")
     wm.add_argument("--seed", type=seed, default=0, help="the map's own sampling seed (default 0)")
-    wm.add_argument("--out", type=output_file, help="output .npz (default: the shipped location for this robot "
-                                                    "and dresspack, configs/wear_maps/<key>.npz)")
+    wm.add_argument("--out", type=file_to_write(".npz"),
+                    help="output .npz (default: the shipped location for this robot and dresspack, "
+                         "configs/wear_maps/<key>.npz)")
     wm.add_argument("--json", action="store_true", help="print the map's summary as one JSON object (no progress "
                                                          "bar)")
     wm.set_defaults(func=cmd_wear_map)

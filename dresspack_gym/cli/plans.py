@@ -5,7 +5,8 @@ from __future__ import annotations
 import json
 
 from ..errors import ConfigError
-from .args import add_station_argument, ensure_parent, number, output_file
+from ..io.outputs import replacing, write_text
+from .args import add_station_argument, file_to_write, number, output_file
 
 
 def _checked_plan(args):
@@ -61,7 +62,7 @@ def cmd_export(args) -> int:
         print(f"  all checks passed: a {args.format} program would be written (dry run: nothing written)")
         return 0
     if args.out:
-        ensure_parent(args.out).write_text(text)
+        write_text(args.out, text)
         msg = f"wrote {args.out} ({args.format}, {len(path.joints)} waypoints, {path.times[-1]:.2f} s)"
         print(json.dumps({**summary, "out": str(args.out)}) if args.json else msg)
     elif args.json:
@@ -83,10 +84,11 @@ def cmd_animate(args) -> int:
     placement = cfg.robots[robot]
     check_program(traj, placement.robot, _speed_fraction(None, meta, cfg),
                   f" of robot {placement.name!r} ({placement.robot.name})", identity)
-    result = animate(CableSimulator(Station(cfg)), traj, ensure_parent(args.out), robot=robot, fps=args.fps,
-                     width=args.width, height=args.height, shadows=args.shadows,
-                     progress=lambda label, total: tqdm(total=total, desc=label, unit="frame", dynamic_ncols=True))
-    print(f"wrote {result['path']} ({result['frames']} frames, {result['duration_s']:.1f} s)")
+    with replacing(args.out) as tmp:
+        result = animate(CableSimulator(Station(cfg)), traj, tmp, robot=robot, fps=args.fps, width=args.width,
+                         height=args.height, shadows=args.shadows,
+                         progress=lambda label, total: tqdm(total=total, desc=label, unit="frame", dynamic_ncols=True))
+    print(f"wrote {args.out} ({result['frames']} frames, {result['duration_s']:.1f} s)")
     return 0
 
 
@@ -111,11 +113,12 @@ def add_export(sub) -> None:
 
 def add_animate(sub) -> None:
     """``dresspack animate``."""
+    from ..io.animation import VIDEO_FORMATS
     from ..stations.rendering import OFFSCREEN_HEIGHT, OFFSCREEN_WIDTH
 
     an = sub.add_parser("animate", help="video of a planned trajectory with the wear measures under it (.mp4/.gif)")
     an.add_argument("plan", help="trajectory .npz from `dresspack plan --out` or an evaluation's trajectories/")
-    an.add_argument("--out", type=output_file, required=True, help="video path: .mp4 or .gif")
+    an.add_argument("--out", type=file_to_write(*VIDEO_FORMATS), required=True, help="video path: .mp4 or .gif")
     add_station_argument(an, "station YAML or shipped name (default: the one the plan was made for)", default=None)
     an.add_argument("--robot", type=number(0, 63, integer=True), default=None, help="robot index (default: the plan's)")
     an.add_argument("--fps", type=number(1, 60), default=20.0,
