@@ -6,6 +6,7 @@ import json
 import sys
 
 from dresspack_gym.cli.args import add_station_argument, file_to_write, number, seed
+from dresspack_gym.cli.common import ctrl_c_remembered
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.io.outputs import FIGURE_SUFFIXES, replacing
 from dresspack_gym.physics.wear_cost import COST_VARIANTS
@@ -112,11 +113,18 @@ def cmd_plan(args) -> int:
         note = auto_fallback(args.cost_to_go, args.policy)
         if note:
             print(note, file=sys.stderr)
-    try:
-        run = plan_station(args.station, args.planner, seed=args.seed, iterations=args.iterations,
-                           evaluations=args.evaluations, routes=args.routes, time_budget=args.time_budget,
-                           welds=args.welds, cost_variant=args.cost_variant, robot=args.robot, **extra)
-    except PlanningError as exc:  # a failed plan is a result, not a crash
+    with ctrl_c_remembered() as pressed:
+        try:
+            run, failure = plan_station(args.station, args.planner, seed=args.seed, iterations=args.iterations,
+                                        evaluations=args.evaluations, routes=args.routes,
+                                        time_budget=args.time_budget, welds=args.welds,
+                                        cost_variant=args.cost_variant, robot=args.robot, **extra), None
+        except PlanningError as exc:  # a failed plan is a result, not a crash
+            run, failure = None, exc
+    if pressed():  # a Ctrl-C that OMPL swallowed as a failed check: the command still ends as interrupted
+        raise KeyboardInterrupt
+    if failure is not None:
+        exc = failure
         if args.json:
             print(json.dumps({"method": args.planner, "success": False, "error": str(exc)}, indent=2))
         else:

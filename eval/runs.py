@@ -9,8 +9,6 @@ from __future__ import annotations
 import json
 import math
 import signal
-import threading
-from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -34,6 +32,7 @@ from dresspack.agents.planners.leg_cost import check_time_weight
 from dresspack.agents.planners.registry import PLANNERS, POLICY_METHODS, WEAR_AWARE, make_planner
 from tqdm.auto import tqdm
 
+from dresspack_gym.cli.common import ctrl_c_remembered as _ctrl_c_remembered
 from dresspack_gym.errors import ConfigError, DresspackError
 from dresspack_gym.io.artefacts import read_json
 from dresspack_gym.io.loading import load_station
@@ -291,27 +290,6 @@ def _finished_runs(spec: EvalSpec, out: Path, tasks: dict, todo: list[tuple], jo
                 raise DresspackError(error)
             bar.set_postfix_str(f"done {_describe((row['method'], row['welds'], row['seed']))}")
             yield row, rep
-
-
-@contextmanager
-def _ctrl_c_remembered():
-    """Ctrl-C raises KeyboardInterrupt as usual and is also remembered (``pressed()``): pressed while OMPL's C++
-    planner is calling back into Python, the interrupt surfaces inside that callback, where the planner may swallow
-    it as a failed check and go on, so the evaluation also stops after the run in progress."""
-    if threading.current_thread() is not threading.main_thread():  # signals reach the main thread only
-        yield lambda: False
-        return
-    pressed = []
-
-    def on_ctrl_c(signum, frame):
-        pressed.append(signum)
-        raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGINT, on_ctrl_c)
-    try:
-        yield lambda: bool(pressed)
-    finally:
-        signal.signal(signal.SIGINT, previous)
 
 
 class RunEvaluator:

@@ -65,9 +65,14 @@ def cmd_robustness_paths(args) -> int:
     from ..shipped import find_shipped
 
     grid = RobustnessGrid.from_dict(read_yaml(find_shipped(args.grid, "grids", "grid"), "grid"))
-    report = compare_paths(grid, load_station(args.station), args.out, RobustnessSettings(), args.k_paths,
-                           args.sample, args.seed, backend=args.backend, workers=args.workers,
-                           progress=not args.json)
+    try:
+        report = compare_paths(grid, load_station(args.station), args.out, RobustnessSettings(), args.k_paths,
+                               args.sample, args.seed, backend=args.backend, workers=args.workers,
+                               progress=not args.json)
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: the configurations mapped so far are saved in {args.out}/two_path and "
+              f"{args.out}/k_path; resume with: dresspack {shlex.join(args.argv)}", file=sys.stderr)
+        return INTERRUPTED
     if args.json:
         print(json.dumps(report, indent=2))
     else:
