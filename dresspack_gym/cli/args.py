@@ -79,7 +79,9 @@ output_dir = _output_type(True)  # an output folder, made if missing
 
 
 def ensure_parent(path: str | Path) -> Path:
-    """Make the folders above ``path`` (checked by :func:`output_file`), just before it is written."""
+    """Make the folders above ``path`` (checked by :func:`output_file`), just before it is written. The commands
+    write through dresspack_gym.io.outputs.replacing instead, which also writes the file whole and removes the
+    folders it made when the writer fails."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     return path
