@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import json
+import sys
 
-from dresspack_gym.cli.args import add_station_argument, ensure_parent, number, output_file, seed
+from dresspack_gym.cli.args import add_station_argument, file_to_write, number, seed
+from dresspack_gym.cli.common import ctrl_c_remembered
 from dresspack_gym.errors import ConfigError
+from dresspack_gym.io.outputs import FIGURE_SUFFIXES, replacing
 from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
 from .planners.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, MAX_WALL_TIME, MAX_WORK
@@ -72,9 +75,9 @@ def add_plan_command(sub) -> None:
                         "continuation by the policy), auto (the cost-to-go model shipped with the policy, if it ships "
                         "one), a model.pt of dresspack train-cost-model --config cost_to_go, or the name of a model "
                         "shipped with the policy")
-    p.add_argument("--plot", type=output_file, default=None,
+    p.add_argument("--plot", type=file_to_write(*FIGURE_SUFFIXES), default=None,
                    help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3; missing folders are made)")
-    p.add_argument("--out", type=output_file, default=None,
+    p.add_argument("--out", type=file_to_write(".npz"), default=None,
                    help="save the planned trajectory (.npz) for `dresspack export` (missing folders are made)")
     p.add_argument("--json", action="store_true", help="print the plan's summary (or its failure) as one JSON object")
     p.set_defaults(func=cmd_plan)
@@ -86,6 +89,8 @@ def cmd_plan(args) -> int:
     from .planners.base import PlanningError
     from .planners.registry import PEAK_AWARE, POLICY_METHODS, WEAR_AWARE, plan_station
 
+    if args.welds is not None and not all(w.strip() for w in args.welds):
+        raise ConfigError("--welds", f"an empty weld name in {args.welds}: give each weld's name, one per argument")
     extra = {"policy": args.policy} if args.planner in POLICY_METHODS else {}
     if args.tension_peak_time is not None:
         if args.planner not in PEAK_AWARE:
@@ -102,11 +107,24 @@ def cmd_plan(args) -> int:
             raise ConfigError("time_weight", f"--time-weight applies to {', '.join(WEAR_AWARE)} only, not "
                                              f"{args.planner}")
         extra["time_weight"] = args.time_weight
-    try:
-        run = plan_station(args.station, args.planner, seed=args.seed, iterations=args.iterations,
-                           evaluations=args.evaluations, routes=args.routes, time_budget=args.time_budget,
-                           welds=args.welds, cost_variant=args.cost_variant, robot=args.robot, **extra)
-    except PlanningError as exc:  # a failed plan is a result, not a crash
+    if args.planner == "ppo-search":
+        from .learned.search import auto_fallback
+
+        note = auto_fallback(args.cost_to_go, args.policy)
+        if note:
+            print(note, file=sys.stderr)
+    with ctrl_c_remembered() as pressed:
+        try:
+            run, failure = plan_station(args.station, args.planner, seed=args.seed, iterations=args.iterations,
+                                        evaluations=args.evaluations, routes=args.routes,
+                                        time_budget=args.time_budget, welds=args.welds,
+                                        cost_variant=args.cost_variant, robot=args.robot, **extra), None
+        except PlanningError as exc:  # a failed plan is a result, not a crash
+            run, failure = None, exc
+    if pressed():  # a Ctrl-C that OMPL swallowed as a failed check: the command still ends as interrupted
+        raise KeyboardInterrupt
+    if failure is not None:
+        exc = failure
         if args.json:
             print(json.dumps({"method": args.planner, "success": False, "error": str(exc)}, indent=2))
         else:
@@ -117,13 +135,16 @@ def cmd_plan(args) -> int:
         from dresspack_gym.physics.trajectory import plan_fingerprint, save_trajectory
 
         station = run.station
-        save_trajectory(ensure_parent(args.out), run.plan.trajectory, station=str(args.station),
-                        robot=station.config.robots[run.task.robot].name,
-                        speed_fraction=station.config.simulation.speed_fraction,
-                        fingerprint=plan_fingerprint(station.config, run.task.robot))
+        with replacing(args.out) as tmp:
+            save_trajectory(tmp, run.plan.trajectory, station=str(args.station),
+                            robot=station.config.robots[run.task.robot].name,
+                            speed_fraction=station.config.simulation.speed_fraction,
+                            fingerprint=plan_fingerprint(station.config, run.task.robot))
         s["out"] = str(args.out)
     if args.plot:
-        s["plot"] = plot_replays({args.planner: run.replay}, ensure_parent(args.plot))
+        with replacing(args.plot) as tmp:
+            plot_replays({args.planner: run.replay}, tmp)
+        s["plot"] = str(args.plot)
     if args.json:
         print(json.dumps(s, indent=2, default=float))
         return 0

@@ -28,7 +28,8 @@ from dresspack_gym.cli.args import (
     seed,
     warn_deprecated,
 )
-from dresspack_gym.errors import DresspackError
+from dresspack_gym.errors import ConfigError, DresspackError
+from dresspack_gym.io.outputs import output_folder
 from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
 from .report import write_report
@@ -98,8 +99,17 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
 
 
 def spec_from_args(args) -> EvalSpec:
+    """The evaluation the command line asks for; contradictory or empty arguments refused with the reason."""
+    given = getattr(args, "_given_as", {})
+    if args.drawn_tasks and "welds" in given:
+        raise ConfigError("--drawn-tasks", f"draws its {args.drawn_tasks} tasks instead of the ones {given['welds']} "
+                                           "names: give --drawn-tasks or --welds, not both")
+    for task in args.welds:
+        if not all(w.strip() for w in task.split(",")):
+            raise ConfigError("--welds", f"{task!r} has an empty weld name: one task per argument, its weld names "
+                                         "separated by single commas (e.g. sill_rear,roof_rail_top)")
     return EvalSpec(station=args.station, methods=tuple(args.planners),
-                    tasks=tuple(tuple(w for w in t.split(",") if w) for t in args.welds), seeds=tuple(args.seeds),
+                    tasks=tuple(tuple(t.split(",")) for t in args.welds), seeds=tuple(args.seeds),
                     iterations=args.iterations, evaluations=args.evaluations, routes=args.routes,
                     time_budget=args.time_budget,
                     start_noise_deg=args.start_noise_deg, policy=args.policy, cost_variant=args.cost_variant,
@@ -112,6 +122,12 @@ def evaluate_and_report(args) -> int:
     """Run, write the report, print the summary (JSON or a short table)."""
     try:
         spec = spec_from_args(args)
+        if "ppo-search" in spec.methods:
+            from dresspack.agents.learned.search import auto_fallback
+
+            note = auto_fallback(spec.cost_to_go, spec.policy)
+            if note:
+                print(note, file=sys.stderr)
         if args.robustness_map is not None:  # checked now, not after the whole evaluation
             from dresspack_gym.maps.robustness.query import RobustnessMap
 
@@ -144,8 +160,9 @@ def compare_plans_and_report(args) -> int:
     from .station_compare import compare_station_plans, station_table
 
     say = None if args.json else (lambda msg: print(msg, flush=True))
-    try:
-        rows = compare_station_plans(args.station_plans, args.station, args.out, args.cost_variant, progress=say)
+    try:  # the comparison is written only when every plan is replayed: a refused one leaves no folder behind
+        with output_folder(args.out, keep_on_interrupt=False) as out:
+            rows = compare_station_plans(args.station_plans, args.station, out, args.cost_variant, progress=say)
     except DresspackError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -9,8 +9,6 @@ from __future__ import annotations
 import json
 import math
 import signal
-import threading
-from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -34,7 +32,9 @@ from dresspack.agents.planners.leg_cost import check_time_weight
 from dresspack.agents.planners.registry import PLANNERS, POLICY_METHODS, WEAR_AWARE, make_planner
 from tqdm.auto import tqdm
 
+from dresspack_gym.cli.common import ctrl_c_remembered as _ctrl_c_remembered
 from dresspack_gym.errors import ConfigError, DresspackError
+from dresspack_gym.io.artefacts import read_json
 from dresspack_gym.io.loading import load_station
 from dresspack_gym.io.provenance import code_fingerprint, library_versions
 from dresspack_gym.physics.simulation import CableSimulator
@@ -195,7 +195,8 @@ def run_evaluation(spec: EvalSpec, out: str | Path, *, progress: bool = True,
         raise ConfigError("out", f"{out} is an existing file: give a folder for the report")
     spec_file, code, libraries = out / "spec.json", code_fingerprint(CODE), library_versions(LIBRARIES)
     if spec_file.is_file():
-        stored = json.loads(spec_file.read_text())
+        stored = read_json(spec_file, "out", "evaluation spec (spec.json)",
+                           recover=f"delete {out} (or give another --out) to start over")
         stored_code = stored.pop("code", None)  # None: written before the code was recorded
         if stored_code != code:
             raise ConfigError("out", f"{out} holds rows of other code (spec.json's code: {stored_code or 'none'}; "
@@ -275,33 +276,20 @@ def _finished_runs(spec: EvalSpec, out: Path, tasks: dict, todo: list[tuple], jo
     import multiprocessing
 
     context = multiprocessing.get_context("spawn")  # no inherited MuJoCo, OMPL or torch state in the workers
-    with context.Pool(min(jobs, len(todo)), initializer=_init_worker, initargs=(spec, out, tasks)) as pool:
+    # the workers start with Ctrl-C ignored (an ignored signal stays ignored across exec, and Python then installs
+    # no handler of its own): one pressed while a worker still imports would end it with a traceback, and one that
+    # lands while a worker writes its result to the pool's pipe can leave the pool's terminate() waiting on it
+    ctrl_c = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        pool = context.Pool(min(jobs, len(todo)), initializer=_init_worker, initargs=(spec, out, tasks))
+    finally:
+        signal.signal(signal.SIGINT, ctrl_c)
+    with pool:
         for row, rep, error in pool.imap_unordered(_run_in_worker, _slowest_first(todo)):
             if error is not None:
                 raise DresspackError(error)
             bar.set_postfix_str(f"done {_describe((row['method'], row['welds'], row['seed']))}")
             yield row, rep
-
-
-@contextmanager
-def _ctrl_c_remembered():
-    """Ctrl-C raises KeyboardInterrupt as usual and is also remembered (``pressed()``): pressed while OMPL's C++
-    planner is calling back into Python, the interrupt surfaces inside that callback, where the planner may swallow
-    it as a failed check and go on, so the evaluation also stops after the run in progress."""
-    if threading.current_thread() is not threading.main_thread():  # signals reach the main thread only
-        yield lambda: False
-        return
-    pressed = []
-
-    def on_ctrl_c(signum, frame):
-        pressed.append(signum)
-        raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGINT, on_ctrl_c)
-    try:
-        yield lambda: bool(pressed)
-    finally:
-        signal.signal(signal.SIGINT, previous)
 
 
 class RunEvaluator:
@@ -395,5 +383,6 @@ def _read_rows(path: Path) -> dict[str, dict]:
                 row = json.loads(line)
             except json.JSONDecodeError:
                 continue  # a line cut by an interruption: that run is simply done again
-            rows[row["key"]] = row
+            if isinstance(row, dict) and isinstance(row.get("key"), str):
+                rows[row["key"]] = row
     return rows

@@ -20,7 +20,8 @@ from __future__ import annotations
 import contextlib
 import json
 import multiprocessing
-import os
+import shlex
+import signal
 import sys
 import time
 from pathlib import Path
@@ -30,6 +31,8 @@ import numpy as np
 from dresspack_gym.cli.args import ALL_CORES, MAX_JOBS, number, output_dir
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.fields import check_choice
+from dresspack_gym.io.artefacts import read_json, read_npz
+from dresspack_gym.io.outputs import output_folder, replacing, write_text
 from dresspack_gym.io.provenance import code_fingerprint, file_digest, library_versions
 
 from .cost_config import MAX_EPISODES, CostStudyConfig, CounterfactualConfig, load_cost_config
@@ -217,10 +220,10 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
     spec["cost_to_go_digest"] = None if cost_to_go is None else file_digest(cost_to_go)
     spec["code"] = code_fingerprint(ROLLOUT_CODE)
     spec["libraries"] = library_versions(LIBRARIES)
-    (out / "episodes").mkdir(parents=True, exist_ok=True)
     spec_file = out / "spec.json"
     if spec_file.is_file():
-        old = json.loads(spec_file.read_text())
+        old = read_json(spec_file, "--out", "counterfactual data spec (spec.json)",
+                        recover=f"give another --out, or delete {out} to start over")
         for k in ("libraries", "policy_digest"):  # written before these were recorded
             old.setdefault(k, spec[k])
         changed = [k for k in (*SPEC_FIELDS, "policy_file", "policy_digest", "cost_to_go_digest", "code", "libraries")
@@ -229,7 +232,9 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
             raise ConfigError(f"counterfactuals.{changed[0]}",
                               f"{out} holds labels made with {changed[0]}={old.get(changed[0])!r}, not "
                               f"{spec[changed[0]]!r}: use another --out folder")
-    spec_file.write_text(json.dumps(spec, indent=2) + "\n")
+    load_counterfactuals(out, field="--out")  # a damaged shard is found now, not after the new episodes
+    (out / "episodes").mkdir(parents=True, exist_ok=True)
+    write_text(spec_file, json.dumps(spec, indent=2) + "\n")
     todo = [(k, cfg.seed, cfg.rollout, cfg.continued, cfg.every_action) for k in range(cfg.episodes)
             if not shard_path(out, k).is_file()]
     jobs = max(1, min(jobs, len(todo)))
@@ -246,8 +251,13 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
 
         results = ray_imap_unordered(_init_worker, init, _episode_job, todo, jobs, ray_address)
     elif jobs > 1:
-        # spawn: each worker builds its own MuJoCo model, torch and env from nothing the parent holds
-        pool = multiprocessing.get_context("spawn").Pool(jobs, initializer=_init_worker, initargs=init)
+        # spawn: each worker builds its own MuJoCo model, torch and env from nothing the parent holds; they start
+        # with Ctrl-C ignored (it stays ignored across exec), which the parent alone answers
+        ctrl_c = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            pool = multiprocessing.get_context("spawn").Pool(jobs, initializer=_init_worker, initargs=init)
+        finally:
+            signal.signal(signal.SIGINT, ctrl_c)
         results = pool.imap_unordered(_episode_job, todo)
     else:
         results = map(_episode_job, todo)
@@ -255,9 +265,8 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
         for result in results:
             arrays = shard_arrays(result)
             path = shard_path(out, result["index"])
-            tmp = path.with_suffix(".tmp.npz")
-            np.savez(tmp, **arrays)
-            os.replace(tmp, path)  # a shard on disk is always a whole episode
+            with replacing(path) as tmp:  # a shard on disk is always a whole episode
+                np.savez(tmp, **arrays)
             labels, written = labels + len(result["rows"]), written + 1
             bar.update(1)
             bar.set_postfix(labels=labels)
@@ -311,7 +320,9 @@ def _cpu_time() -> float:
 
 def _write_summary(out: Path, episodes: int, labels: int, wall: float, cpu: float, jobs: int) -> dict:
     path = out / "summary.json"
-    sessions = json.loads(path.read_text())["sessions"] if path.is_file() else []
+    sessions = read_json(path, "--out", "counterfactual summary (summary.json)", keys=("sessions",),
+                         recover=f"delete it: the next run writes it again from {out}/episodes")["sessions"] \
+        if path.is_file() else []
     if episodes:
         sessions.append({"episodes": episodes, "labels": labels, "jobs": jobs, "wall_time_s": round(wall, 1),
                          "cpu_time_s": round(cpu, 1), "labels_per_min": round(60.0 * labels / wall, 1),
@@ -321,17 +332,21 @@ def _write_summary(out: Path, episodes: int, labels: int, wall: float, cpu: floa
                "rows": int(len(data["action"])) if data else 0,
                "states": int(len(np.unique(np.stack([data["episode"], data["step"]]), axis=1)[0])) if data else 0,
                "sessions": sessions}
-    path.write_text(json.dumps(summary, indent=2) + "\n")
+    write_text(path, json.dumps(summary, indent=2) + "\n")
     return summary
 
 
-def load_counterfactuals(folder: str | Path, episodes: int | None = None) -> dict[str, np.ndarray]:
+def load_counterfactuals(folder: str | Path, episodes: int | None = None, field: str = "--data"
+                         ) -> dict[str, np.ndarray]:
     """Every shard's rows in episode order (the first ``episodes`` shards if given); empty dict if none. The
-    policy's probabilities and the costs to go are read where every shard has them."""
+    policy's probabilities and the costs to go are read where every shard has them. A damaged shard is a
+    ConfigError of ``field`` naming it and how to make it again."""
     paths = sorted((Path(folder) / "episodes").glob("ep_*[0-9].npz"))[:episodes]
     per_row = ("obs", "action", "target", "q", "time", "wear", "wear_parts", "reached", "terminated", "chosen",
                "step", "episode")
-    shards = [np.load(p) for p in paths]
+    shards = [read_npz(p, field, "counterfactual label shard (.npz)", keys=per_row,
+                       recover=f"delete it and run `dresspack counterfactuals --out {folder}` again with the same "
+                               "settings: it makes that episode again") for p in paths]
     if not shards:
         return {}
     later = [k for k in ("prob", "to_go", "to_go_finished", "proposal", "settled", "to_go_settled")
@@ -349,7 +364,7 @@ def load_label_folders(folders, episodes: int | None = None) -> tuple[dict[str, 
         rows = load_counterfactuals(folder, episodes)
         if not rows or not spec_file.is_file():
             raise ConfigError("--data", f"{folder} holds no counterfactual shards (episodes/ep_*.npz, spec.json)")
-        spec = json.loads(spec_file.read_text())
+        spec = read_json(spec_file, "--data", "counterfactual data spec (spec.json)", keys=("policy_file",))
         if specs and _policy_identity(spec) != _policy_identity(specs[0]):
             raise ConfigError("--data", f"{folder} holds labels of {spec['policy_file']}, {folders[0]} of "
                                         f"{specs[0]['policy_file']}: one model is fit to one policy's labels")
@@ -395,10 +410,13 @@ def cmd_counterfactuals(args) -> int:
     cfg: CostStudyConfig = load_cost_config(args.config)
     cf = cfg.counterfactuals if args.episodes is None else replace(cfg.counterfactuals, episodes=args.episodes)
     try:
-        summary = generate(cf, args.out, jobs=args.jobs, progress=not args.no_progress, max_minutes=args.max_minutes,
-                           backend=args.backend, ray_address=args.ray_address)
+        with output_folder(args.out):  # a refused start leaves no folder behind; an interrupted one its episodes
+            summary = generate(cf, args.out, jobs=args.jobs, progress=not args.no_progress,
+                               max_minutes=args.max_minutes, backend=args.backend, ray_address=args.ray_address)
     except KeyboardInterrupt:
-        print("\ninterrupted: the finished episodes are kept; the same command continues", file=sys.stderr)
+        saved = len(list((Path(args.out) / "episodes").glob("ep_*[0-9].npz")))
+        print(f"\ninterrupted: {saved} episodes saved in {Path(args.out) / 'episodes'}; resume with: dresspack "
+              f"{shlex.join(args.argv)}", file=sys.stderr)
         return 130
     print(json.dumps(summary, indent=2))
     return 0

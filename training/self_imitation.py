@@ -6,6 +6,8 @@ from __future__ import annotations
 import contextlib
 import json
 import multiprocessing
+import shlex
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +15,7 @@ import yaml
 
 from dresspack_gym.cli.args import number, seed
 from dresspack_gym.errors import ConfigError
+from dresspack_gym.io.artefacts import read_json
 from dresspack_gym.io.provenance import code_fingerprint
 
 # Episode k resets the env with seed + k: apart from the training envs' seeds (seed, seed + 1, ...), the callback's
@@ -164,7 +167,8 @@ def self_imitate(policy: str | Path, out: str | Path, *, episodes: int = IMITATI
                 "code": code_fingerprint(ROLLOUT_CODE)}
     spec = out / "spec.json"
     if spec.is_file():  # resuming: the rollouts on disk must be the ones these settings make
-        old = json.loads(spec.read_text())
+        old = read_json(spec, "--out", "self-imitation spec (spec.json)",
+                        recover=f"give another --out, or delete {out} to start over")
         keys = ("policy", "samples", "first_seed", "code")
         changed = [k for k in keys if old.get(k) != settings[k]]
         if changed:
@@ -229,8 +233,16 @@ def add_self_imitate_command(sub) -> None:
 
 
 def cmd_self_imitate(args) -> int:
-    summary = self_imitate(args.policy, args.out, episodes=args.episodes, samples=args.samples, first_seed=args.seed,
-                           epochs=args.epochs, learning_rate=args.learning_rate, jobs=args.jobs)
+    try:
+        summary = self_imitate(args.policy, args.out, episodes=args.episodes, samples=args.samples,
+                               first_seed=args.seed, epochs=args.epochs, learning_rate=args.learning_rate,
+                               jobs=args.jobs)
+    except KeyboardInterrupt:
+        log = Path(args.out) / "rollouts.jsonl"
+        saved = len(_read_log(log)) if log.is_file() else 0
+        print(f"\ninterrupted: {saved} episodes' rollouts saved in {log}; resume with: dresspack "
+              f"{shlex.join(args.argv)}", file=sys.stderr)
+        return 130
     print(f"argmax: success {100 * summary['argmax_success_rate']:.1f} %, return {summary['argmax_mean_return']:.2f}; "
           f"best of {summary['samples']}: success {100 * summary['best_success_rate']:.1f} %, return "
           f"{summary['best_mean_return']:.2f}; on the {summary['both_finished']} both finish, ∫C "

@@ -18,6 +18,7 @@ import yaml
 
 from dresspack_gym.cli.args import number, output_dir
 from dresspack_gym.errors import ConfigError
+from dresspack_gym.io.outputs import output_folder, replacing, write_text
 
 from .cost_config import MAX_EPISODES, CostStudyConfig, load_cost_config
 
@@ -53,10 +54,11 @@ def train_cost_model(cfg: CostStudyConfig, data_dir, out: str | Path, *, episode
     data = labelled(data, cfg.model.label)
     spec = specs[0]
     n_actions = policy_actions(spec["policy_file"])
+    episode_ids = np.unique(data["episode"])
+    if folds > len(episode_ids):
+        raise ConfigError("--folds", f"{folds} folds need as many episodes; the data have {len(episode_ids)}")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "config.yaml").write_text(yaml.safe_dump(
-        {**cfg.to_dict(), "data": folders[0] if len(folders) == 1 else folders}, sort_keys=False))
     writer = None
     if tensorboard:
         from torch.utils.tensorboard import SummaryWriter
@@ -83,9 +85,6 @@ def train_cost_model(cfg: CostStudyConfig, data_dir, out: str | Path, *, episode
     # state's ranking: the moves alone say how well the model orders real alternatives
     moving = held & (np.abs(data["target"] - data["q"]).max(axis=1) > 0)
     if folds > 1:
-        episode_ids = np.unique(data["episode"])
-        if folds > len(episode_ids):
-            raise ConfigError("--folds", f"{folds} folds need as many episodes; the data have {len(episode_ids)}")
         out_of_fold = out_of_fold_predictions(data, x, n_actions, asdict(cfg.model), episode_ids, folds)
     metrics = {"held_out": rank_metrics(predicted[held], true[held], states[held], chosen[held]),
                "held_out_moves_only": rank_metrics(predicted[moving], true[moving], states[moving]),
@@ -98,8 +97,12 @@ def train_cost_model(cfg: CostStudyConfig, data_dir, out: str | Path, *, episode
                   if folds > 1 else {}),
                "final_train_loss": record["train_loss"][-1], "final_held_out_loss": record["held_out_loss"][-1],
                "loss_by_epoch": {"train": record["train_loss"], "held_out": record["held_out_loss"]}}
-    model.save(out / "model.pt", extra={"policy_file": spec["policy_file"]})
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    # written last, each whole: a run stopped before this point leaves no model.pt that --force would be needed for
+    write_text(out / "config.yaml", yaml.safe_dump({**cfg.to_dict(), "data": folders[0] if len(folders) == 1
+                                                    else folders}, sort_keys=False))
+    with replacing(out / "model.pt") as tmp:
+        model.save(tmp, extra={"policy_file": spec["policy_file"]})
+    write_text(out / "metrics.json", json.dumps(metrics, indent=2) + "\n")
     return metrics
 
 
@@ -133,7 +136,10 @@ def policy_actions(policy_file: str | Path) -> int:
     """How many actions the policy in ``policy_file`` (a MaskablePPO .zip) chooses among."""
     from sb3_contrib import MaskablePPO
 
-    return int(MaskablePPO.load(policy_file, device="cpu").action_space.n)
+    from dresspack_gym.io.artefacts import reading
+
+    with reading(policy_file, "policy", "MaskablePPO model (.zip)", "the labels' spec.json names it as policy_file"):
+        return int(MaskablePPO.load(policy_file, device="cpu").action_space.n)
 
 
 def add_train_cost_model_command(sub) -> None:
@@ -157,8 +163,9 @@ def cmd_train_cost_model(args) -> int:
     if (Path(args.out) / "model.pt").exists() and not args.force:
         raise ConfigError("--out", f"{args.out} already holds a model.pt: choose another --out or replace it with "
                                    "--force")
-    metrics = train_cost_model(load_cost_config(args.config), args.data, args.out, episodes=args.episodes,
-                               folds=args.folds or 0)
+    cfg = load_cost_config(args.config)
+    with output_folder(args.out, keep_on_interrupt=False):  # a refused or stopped fit leaves no folder it made
+        metrics = train_cost_model(cfg, args.data, args.out, episodes=args.episodes, folds=args.folds or 0)
     print(json.dumps({k: metrics[k] for k in ("episodes", "rows", "final_train_loss", "final_held_out_loss")}))
     print(f"held out: {_ranking(metrics['held_out'])}; run folder {args.out}")
     if "cross_validation" in metrics:

@@ -11,6 +11,7 @@ import yaml
 
 from dresspack_gym.env.dresspack_env import DresspackEnv
 from dresspack_gym.errors import ConfigError
+from dresspack_gym.io.artefacts import reading
 from dresspack_gym.physics.trajectory import Trajectory
 from dresspack_gym.shipped import find_shipped, shipped_root
 from dresspack_gym.stations.station import Station
@@ -41,13 +42,21 @@ def resolve_policy(ref: str | Path | None) -> tuple[Path, dict]:
                 break
         else:
             raise ConfigError("policy", f"{path} holds no model.zip, best/best_model.zip or final_model.zip")
-    elif path.suffix == ".zip":
-        model, folder = path, path.parent if (path.parent / "config.yaml").is_file() else path.parent.parent
+    elif path.suffix == ".zip":  # beside its run's config.yaml, or one folder down (best/, checkpoints/)
+        folder = next((f for f in (path.parent, path.parent.parent) if (f / "config.yaml").is_file()), None)
+        if folder is None:
+            raise ConfigError("policy", f"{path}: neither {path.parent} nor {path.parent.parent} holds the "
+                                        "config.yaml of its training run (the config that defines the env)")
+        model = path
     else:
         raise ConfigError("policy", f"{path} is neither a run folder nor a model .zip")
     if not (folder / "config.yaml").is_file():
         raise ConfigError("policy", f"{folder} has no config.yaml (the training config that defines the env)")
-    return model, yaml.safe_load((folder / "config.yaml").read_text())
+    with reading(folder / "config.yaml", "policy", "training config (YAML)"):
+        config = yaml.safe_load((folder / "config.yaml").read_text())
+    if not isinstance(config, dict):
+        raise ConfigError("policy", f"{folder / 'config.yaml'} is not a training config (a YAML mapping)")
+    return model, config
 
 
 def moving_masks(env: DresspackEnv, masks: np.ndarray) -> np.ndarray:
@@ -71,7 +80,8 @@ class PolicyAgent:
     def __init__(self, model_path: Path):
         from sb3_contrib import MaskablePPO
 
-        self.model = MaskablePPO.load(model_path, device="cpu")
+        with reading(model_path, "policy", "MaskablePPO model (.zip)"):
+            self.model = MaskablePPO.load(model_path, device="cpu")
         self.n_actions = int(self.model.action_space.n)
 
     def reset(self, seed: int) -> None:

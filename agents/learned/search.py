@@ -76,6 +76,21 @@ def resolve_cost_to_go(ref: str | Path | None, policy_file: Path) -> Path | None
                                     f"({names or 'it ships none'})")
 
 
+def auto_fallback(ref: str | Path | None, policy) -> str | None:
+    """The one line that says what runs where ``auto`` finds no cost-to-go model beside the policy ``policy``
+    (ppo-search then simulates the continuations, as ``none``); None where nothing falls back."""
+    if ref != AUTO:
+        return None
+    from .policy import resolve_policy
+
+    model_file, _ = resolve_policy(policy)
+    shipped = model_file.parent / f"{SHIPPED_COST_TO_GO}.pt"
+    if shipped.is_file():
+        return None
+    return (f"--cost-to-go auto: {model_file.parent} ships no {shipped.name}; ppo-search ranks its proposals by "
+            f"simulating their continuations (as --cost-to-go {NONE})")
+
+
 def load_cost_to_go(path, n_actions: int) -> CostModel:
     """A cost-to-go model (``dresspack train-cost-model --config cost_to_go``'s model.pt) for a policy of
     ``n_actions`` actions, or a ConfigError naming the field."""

@@ -22,8 +22,9 @@ def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = 
            unit: str = ""):
     """An argparse ``type``: a finite float (or an int) in [lo, hi] (``lo_open``: (lo, hi])."""
     kind = "an integer" if integer else "a number"
-    left = "(" if lo_open else "["
-    allowed = f"{kind} in {left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}]{' ' + unit if unit else ''}"
+    left = "(" if lo_open or lo is None else "["
+    right = "inf)" if hi is None else f"{hi}]"  # an open end: infinity itself is no value
+    allowed = f"{kind} in {left}{'-inf' if lo is None else lo}, {right}{' ' + unit if unit else ''}"
 
     def parse(text: str):
         try:
@@ -31,7 +32,7 @@ def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = 
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r} is not {kind}: must be {allowed}") from None
         if not math.isfinite(value):
-            raise argparse.ArgumentTypeError(f"{text} is not allowed: must be {allowed}")
+            raise argparse.ArgumentTypeError(f"{text} is not allowed: must be finite, {allowed}")
         below = lo is not None and (value <= lo if lo_open else value < lo)
         if below or (hi is not None and value > hi):
             raise argparse.ArgumentTypeError(f"{text} is not allowed: must be {allowed}")
@@ -46,39 +47,41 @@ seed = number(0, MAX_SEED, integer=True)
 positive_int = number(1, None, integer=True)
 
 
-def _blocked_by_file(path: Path) -> Path | None:
-    """The first existing ancestor of ``path`` that is a file (no folder can be made below it), if any."""
-    for parent in path.resolve().parents:
-        if parent.exists():
-            return None if parent.is_dir() else parent
-    return None
+def _output_type(folder: bool, suffixes: tuple[str, ...] = ()):
+    """An argparse ``type`` for a path a command writes (``folder``: a folder it writes in): checked before any
+    work by the one owner of outputs (dresspack_gym.io.outputs): of the right kind, a suffix the writer writes,
+    its folder creatable and taking new files. Marked ``writes``: :func:`main` also refuses it when it names an
+    input."""
+
+    def parse(text: str) -> Path:
+        from ..io.outputs import output_problem
+
+        path = Path(text).expanduser()
+        problem = output_problem(path, folder=folder, suffixes=suffixes)
+        if problem is not None:
+            raise argparse.ArgumentTypeError(f"{text!r} {problem}" if problem.startswith("is an existing")
+                                             else f"cannot {'create' if folder else 'write'} {text!r}: {problem}")
+        return path
+
+    parse.__name__ = "folder" if folder else "file"
+    parse.writes = "folder" if folder else "file"
+    return parse
 
 
-def output_file(text: str) -> Path:
-    """An argparse ``type`` for a file to write: not an existing folder, and its folder creatable.
-    Missing parent folders are made by :func:`ensure_parent` when the file is written."""
-    path = Path(text).expanduser()
-    if path.is_dir():
-        raise argparse.ArgumentTypeError(f"{text!r} is an existing folder: give a file path")
-    blocker = _blocked_by_file(path)
-    if blocker is not None:
-        raise argparse.ArgumentTypeError(f"cannot write {text!r}: {str(blocker)!r} is a file, not a folder")
-    return path
+def file_to_write(*suffixes: str):
+    """An argparse ``type`` for a file a command writes, in one of ``suffixes`` (any if none); missing parent
+    folders are made when it is written."""
+    return _output_type(False, tuple(s.lower() for s in suffixes))
 
 
-def output_dir(text: str) -> Path:
-    """An argparse ``type`` for an output folder (created if missing): not an existing file."""
-    path = Path(text).expanduser()
-    if path.exists() and not path.is_dir():
-        raise argparse.ArgumentTypeError(f"{text!r} is an existing file: give a folder path")
-    blocker = _blocked_by_file(path)
-    if blocker is not None:
-        raise argparse.ArgumentTypeError(f"cannot create {text!r}: {str(blocker)!r} is a file, not a folder")
-    return path
+output_file = file_to_write()  # a file to write, any suffix
+output_dir = _output_type(True)  # an output folder, made if missing
 
 
 def ensure_parent(path: str | Path) -> Path:
-    """Make the folders above ``path`` (checked by :func:`output_file`), just before it is written."""
+    """Make the folders above ``path`` (checked by :func:`output_file`), just before it is written. The commands
+    write through dresspack_gym.io.outputs.replacing instead, which also writes the file whole and removes the
+    folders it made when the writer fails."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     return path

@@ -22,6 +22,8 @@ import numpy as np
 
 from ..cable.shape import reference_shape
 from ..errors import ConfigError
+from ..io.artefacts import reading
+from ..io.outputs import replacing
 from ..physics.simulation import CableSimulator
 from ..shipped import shipped_root
 from ..stations.config import StationConfig
@@ -160,18 +162,18 @@ class WearMap:
     # ------------------------------------------------------------------------------ files
     def save(self, path: str | Path) -> Path:
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".tmp.npz")
-        np.savez_compressed(tmp, configurations=self.configurations, features=self.features.astype(np.float32),
-                            deviation=self.deviation.astype(np.float32), measures=self.measures.astype(np.float32),
-                            converged=self.converged,
-                            info=np.array(json.dumps({**self.info, "settings": asdict(self.settings)})))
-        tmp.replace(path)  # never a half-written map under the real name
+        with replacing(path) as tmp:  # never a half-written map under the real name
+            np.savez_compressed(tmp, configurations=self.configurations, features=self.features.astype(np.float32),
+                                deviation=self.deviation.astype(np.float32),
+                                measures=self.measures.astype(np.float32), converged=self.converged,
+                                info=np.array(json.dumps({**self.info, "settings": asdict(self.settings)})))
         return path
 
     @staticmethod
     def load(path: str | Path, config: StationConfig, robot: int = 0) -> "WearMap":
-        with np.load(Path(path), allow_pickle=False) as z:
+        what = "wear map (.npz of `dresspack wear-map`)"
+        recover = "build it again with `dresspack wear-map`"
+        with reading(path, "wear_map", what, recover), np.load(Path(path), allow_pickle=False) as z:
             info = json.loads(str(z["info"]))
             settings = WearMapSettings(**info.pop("settings"))
             if info.get("key") != map_key(config, robot):

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
+from ..io.artefacts import read_json, read_npz, reading
 from ..physics.trajectory import Trajectory
 from ..robots import time_law
 
@@ -185,22 +186,29 @@ def load_schedule(folder, station) -> tuple[StationSchedule, dict]:
     if not (folder / "plan.json").is_file():
         raise ConfigError("station_plans", f"{folder} holds no plan.json: give folders written by "
                                            "`dresspack station-plan` (e.g. station_plans/time)")
-    data = json.loads((folder / "plan.json").read_text())
+    what = "station plan (plan.json of `dresspack station-plan`)"
+    data = read_json(folder / "plan.json", "station_plans", what, keys=("robots", "config"))
     cfg = station.config
     names = [r.name for r in cfg.robots]
+    if not isinstance(data["robots"], dict) or not isinstance(data["config"], dict) \
+            or "weld_time" not in data["config"]:
+        raise ConfigError("station_plans", f"{folder / 'plan.json'} is not a {what}: its robots or config.weld_time "
+                                           "are missing")
     if list(data["robots"]) != names:
         raise ConfigError("station", f"the plan in {folder} is for robots {list(data['robots'])}, station "
                                      f"{cfg.name!r} has {names}: give the station it was planned on")
-    weld_time = float(data["config"]["weld_time"])
     robots = []
-    for r, (name, info) in enumerate(data["robots"].items()):
-        limits = cfg.robots[r].robot.joint_motion_limits.at_speed(cfg.simulation.speed_fraction)
-        with np.load(folder / info["trajectory"]) as npz:
+    with reading(folder / "plan.json", "station_plans", what):  # wrong types or sizes inside a readable file
+        weld_time = float(data["config"]["weld_time"])
+        for r, (name, info) in enumerate(data["robots"].items()):
+            limits = cfg.robots[r].robot.joint_motion_limits.at_speed(cfg.simulation.speed_fraction)
+            npz = read_npz(folder / str(info["trajectory"]), "station_plans", "trajectory (.npz)",
+                           keys=("waypoints", "stops"))
             waypoints, stops = npz["waypoints"], np.r_[0, npz["stops"]]
             meta = json.loads(str(npz["meta"])) if "meta" in npz else {}
-        legs = tuple(waypoints[a:b + 1] for a, b in pairwise(stops))
-        # the trajectory's meta keeps the legs' start times unrounded (plan.json rounds them to 0.1 ms)
-        starts = np.array(meta.get("leg_start", info["leg_start"]), dtype=float)
-        robots.append(RobotSchedule(r, tuple(info["welds"]), legs, starts, limits, weld_time,
-                                    tuple(info.get("fly_by", ()))))
+            legs = tuple(waypoints[a:b + 1] for a, b in pairwise(stops))
+            # the trajectory's meta keeps the legs' start times unrounded (plan.json rounds them to 0.1 ms)
+            starts = np.array(meta.get("leg_start", info["leg_start"]), dtype=float)
+            robots.append(RobotSchedule(r, tuple(info["welds"]), legs, starts, limits, weld_time,
+                                        tuple(info.get("fly_by", ()))))
     return StationSchedule(tuple(robots), station.home.copy()), data

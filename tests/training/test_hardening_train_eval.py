@@ -102,9 +102,10 @@ def test_resume_with_a_broken_config_names_the_file(tmp_path, capsys):
     assert "not a valid training config" in capsys.readouterr().err
 
 
-def _ctrl_c_once(tmp_path: Path, k: int) -> tuple[int, float, bool]:
+def _ctrl_c_once(tmp_path: Path, k: int) -> tuple[int, float, bool, list[str]]:
     """Start a 2-process training run, press Ctrl-C (SIGINT to the whole process group, as a terminal does)
-    once it steps, and return (exit code, seconds from the signal to exit, a checkpoint was saved)."""
+    once it steps, and return (exit code, seconds from the signal to exit, a checkpoint was saved, the stderr
+    lines)."""
     run = tmp_path / f"ctrl_c_{k}"
     cfg = {**SMOKE, "vec_env": "subproc", "total_timesteps": 100_000, "eval_every": 0, "checkpoint_every": 10**6}
     path = tmp_path / f"ctrl_c_{k}.yaml"
@@ -119,11 +120,12 @@ def _ctrl_c_once(tmp_path: Path, k: int) -> tuple[int, float, bool]:
     os.killpg(proc.pid, signal.SIGINT)
     t0 = time.time()
     try:
-        code = proc.wait(timeout=60)
+        _, err = proc.communicate(timeout=60)
     except subprocess.TimeoutExpired:
         os.killpg(proc.pid, signal.SIGKILL)
-        return -1, 60.0, False
-    return code, time.time() - t0, bool(list((run / "checkpoints").glob("ckpt_*_steps.zip")))
+        return -1, 60.0, False, []
+    lines = [line for line in err.splitlines() if line.strip()]
+    return proc.returncode, time.time() - t0, bool(list((run / "checkpoints").glob("ckpt_*_steps.zip"))), lines
 
 
 REPEATS = int(os.environ.get("DRESSPACK_CTRLC_REPEATS", "1"))
@@ -131,8 +133,16 @@ REPEATS = int(os.environ.get("DRESSPACK_CTRLC_REPEATS", "1"))
 
 @pytest.mark.parametrize("k", range(REPEATS))
 def test_ctrl_c_in_training_always_exits_with_a_checkpoint(tmp_path, k):
-    code, seconds, saved = _ctrl_c_once(tmp_path, k)
-    assert code == 130 and saved and seconds < 45, (code, seconds, saved)
+    code, seconds, saved, lines = _ctrl_c_once(tmp_path, k)
+    assert code == 130 and saved and seconds < 45 and len(lines) == 1, (code, seconds, saved, lines)
+    assert lines[0].startswith("interrupted: saved ") and "continue with: dresspack train --resume " in lines[0]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("k", range(20))
+def test_ctrl_c_in_training_under_load(tmp_path, busy_machine, k):
+    code, seconds, saved, lines = _ctrl_c_once(tmp_path, k)
+    assert code == 130 and saved and seconds < 45 and len(lines) == 1, (code, seconds, saved, lines)
 
 
 # ----------------------------------------------------------------------------------------------- eval, plan
