@@ -9,46 +9,67 @@ import numpy as np
 
 
 def physics_benchmark(station_ref: str = "default", repeats: int = 3, raw_steps: int = 2000,
-                      engine: str = "dynamic") -> dict:
-    """On ``engine`` (physics.profiles.ENGINES): the wall seconds per second of motion over fixed weld-cycle replays
-    (``replay_wall_per_motion_s``, the field both engines compare by) and the engine's own figures (MuJoCo: raw
-    steps/s, a settled 90 deg j1 move, settling; the rod engine: equilibria/s and a sample's time by part)."""
+                      engine: str = "dynamic", segments: int | None = None) -> dict:
+    """On ``engine`` (physics.profiles.ENGINES), its cables at ``segments`` (default: the station's own): the wall
+    seconds per second of motion over fixed weld-cycle replays (``replay_wall_per_motion_s``, the field both engines
+    compare by) and the engine's own figures (MuJoCo: raw steps/s, a settled 90 deg move, settling; the rod engine:
+    equilibria/s, a sample's time by part, and MuJoCo's replay of the same cycles as the station stands, timed in
+    the same run, with the ratio of the two)."""
+    from dataclasses import replace
+
+    from ..fields import check_choice
     from ..io.loading import load_station
     from ..physics.profiles import ENGINES
     from ..stations.station import Station
-    from ..fields import check_choice
 
     check_choice("physics", engine, list(ENGINES))
-    station = Station(load_station(station_ref))
+    config = load_station(station_ref)
+    reference = Station(config)
+    if segments is not None:
+        config = replace(config, robots=tuple(replace(r, dresspack=replace(r.dresspack, segments=segments))
+                                              for r in config.robots))
+    station = Station(config) if segments is not None else reference
     common = {"station": station.config.name, "engine": engine,
-              "cable_segments": [c.n_vertices - 1 for c in station.cables],
-              **_replay_benchmark(station, engine, repeats)}
+              "cable_segments": [c.n_vertices - 1 for c in station.cables]}
     if engine == "fast":
-        return {**common, **_rod_benchmark(station, repeats)}
-    return {**common, **_mujoco_benchmark(station, repeats, raw_steps)}
+        return {**common, **_replay_benchmark(station, engine, repeats, against=reference),
+                **_rod_benchmark(station, repeats)}
+    return {**common, **_replay_benchmark(station, engine, repeats), **_mujoco_benchmark(station, repeats, raw_steps)}
 
 
 # Fixed weld cycles of the replay benchmark: Home -> a random via -> a named weld -> Home, drawn from this seed.
 REPLAY_PATHS, REPLAY_SEED = 5, 0
 
 
-def _replay_benchmark(station, engine: str, repeats: int) -> dict:
+def _replay_benchmark(station, engine: str, repeats: int, against=None) -> dict:
     """Wall seconds per second of motion replaying REPLAY_PATHS fixed weld cycles (best of repeats), after one
-    warm-up replay (the rod engine's compiled kernels load from disk on first use)."""
+    warm-up replay (the rod engine's compiled kernels load from disk on first use). With ``against`` (a station),
+    MuJoCo replays the same cycles on it in turn with the engine's, so both see the same load, and the ratio of
+    the two is reported."""
     from ..physics.profiles import make_simulator, random_paths
     from ..physics.trajectory import replay
     from ..stations.validity import MotionValidity
 
     paths = random_paths(station, 0, MotionValidity(station, 0, 0.005), REPLAY_PATHS, seed=REPLAY_SEED)
-    sim = make_simulator(station, engine)
-    replay(sim, paths[0], record_states=False)
-    walls, motion = [], 0.0
+    sims = {"engine": make_simulator(station, engine)}
+    if against is not None:
+        sims["dynamic"] = make_simulator(against, "dynamic")
+    for sim in sims.values():
+        replay(sim, paths[0], record_states=False)
+    walls = {k: [] for k in sims}
+    motion = 0.0
     for _ in range(repeats):
-        t0 = time.perf_counter()
-        motion = sum(replay(sim, p, record_states=False).cycle_time for p in paths)
-        walls.append(time.perf_counter() - t0)
-    return {"replay_paths": REPLAY_PATHS, "replay_motion_s": round(motion, 3),
-            "replay_wall_per_motion_s": round(min(walls) / motion, 5)}
+        for k, sim in sims.items():
+            t0 = time.perf_counter()
+            motion = sum(replay(sim, p, record_states=False).cycle_time for p in paths)
+            walls[k].append(time.perf_counter() - t0)
+    out = {"replay_paths": REPLAY_PATHS, "replay_motion_s": round(motion, 3),
+           "replay_wall_per_motion_s": round(min(walls["engine"]) / motion, 5)}
+    if against is not None:
+        out["dynamic_segments"] = [c.n_vertices - 1 for c in against.cables]
+        out["dynamic_replay_wall_per_motion_s"] = round(min(walls["dynamic"]) / motion, 5)
+        out["replay_speedup_vs_dynamic"] = round(min(walls["dynamic"]) / min(walls["engine"]), 2)
+    return out
 
 
 def _rod_benchmark(station, repeats: int) -> dict:

@@ -55,8 +55,11 @@ def cmd_bench(args) -> int:
     options = {} if args.repeats is None else {"repeats": args.repeats}
     if args.what == "physics":
         options["engine"] = args.physics
+        options["segments"] = args.segments
     elif args.physics != "dynamic":
         raise ConfigError("--physics", f"only 'bench physics' chooses the engine; 'bench {args.what}' runs on MuJoCo")
+    elif args.segments is not None:
+        raise ConfigError("--segments", f"only 'bench physics' sets the cables' segments, not 'bench {args.what}'")
     result = bench(args.station, **options)
     if args.json:
         print(json.dumps(result, indent=2))
@@ -96,5 +99,8 @@ def add_bench(sub) -> None:
     b.add_argument("--physics", choices=["dynamic", "fast"], default="dynamic",
                    help="the cable engine of 'bench physics': dynamic (MuJoCo, default) or fast (the rod engine); "
                         "both report replay_wall_per_motion_s over the same fixed weld cycles")
+    b.add_argument("--segments", type=number(2, 400, integer=True), default=None,
+                   help="'bench physics': the cables' segments of the engine measured (default: the station's own); "
+                        "the fast engine's run also times MuJoCo's replay of the station as it stands")
     b.add_argument("--json", action="store_true", help="print the timings as one JSON object")
     b.set_defaults(func=cmd_bench)

@@ -57,6 +57,19 @@ def test_bench_physics_on_the_rod_engine_json(capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["engine"] == "fast" and out["replay_wall_per_motion_s"] > 0 and out["replay_paths"] == 5
     assert out["settle_converged"] and out["equilibria_per_s"] > 0 and out["sample_solve_us"] > 0
+    # MuJoCo's replay of the same cycles in the same run, and the ratio the speed bar is stated by
+    assert out["dynamic_replay_wall_per_motion_s"] > 0
+    assert out["replay_speedup_vs_dynamic"] == pytest.approx(
+        out["dynamic_replay_wall_per_motion_s"] / out["replay_wall_per_motion_s"], rel=0.02)
+
+
+def test_bench_physics_at_other_segments(capsys):
+    """--segments sets the measured engine's resolution; MuJoCo's comparison replay keeps the station's own."""
+    assert main(["bench", "physics", "--physics", "fast", "--segments", "12", "--json", "--repeats", "1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["cable_segments"] == [12] and out["dynamic_segments"] != [12]
+    assert main(["bench", "collision", "--segments", "12"]) == 2
+    assert "--segments" in capsys.readouterr().err
 
 
 def test_only_bench_physics_chooses_the_engine(capsys):
