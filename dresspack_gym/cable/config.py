@@ -98,7 +98,10 @@ class FatigueConfig:
     strain = strain_radius x curvature, shear strain = strain_radius x twist rate (counted as the von Mises
     equivalent gamma / sqrt(3)), axial strain = tension / ``axial_stiffness`` (default: the dresspack's EA, the
     conductors stretching with the bundle; give the conductors' own E A where the bundle's EA is a lumped model
-    value, as the thesis's 1400 N is: 38 N of pull is then a 2.7 % strain).
+    value, as the thesis's 1400 N is: 38 N of pull is then a 2.7 % strain). ``torsion_radius`` [m]: the radius at
+    which twist shears the conductors (default: ``strain_radius``); a core laid around the cable's axis is sheared
+    at its distance from that axis, where a strand sliding in bending bends about its own (physics/ratings.py
+    calibrates both on cable makers' rated bending and torsion tests).
     """
 
     strain_radius: float = 1.0e-4
@@ -107,6 +110,12 @@ class FatigueConfig:
     eps_f: float = 0.5 * 2 ** 0.6 * _DUCTILITY ** 0.6  # e' (plastic line at 2N = 1)
     c: float = -0.6  # Coffin-Manson exponent
     axial_stiffness: float | None = None  # [N] tension per unit conductor strain; None: the dresspack's EA
+    torsion_radius: float | None = None  # [m] radius of the torsional shear; None: strain_radius
+
+    @property
+    def shear_radius(self) -> float:
+        """The radius the twist rate shears the conductors at: ``torsion_radius``, else ``strain_radius``."""
+        return self.strain_radius if self.torsion_radius is None else self.torsion_radius
 
     @staticmethod
     def from_dict(data: Mapping[str, Any], path: str) -> "FatigueConfig":
@@ -119,7 +128,9 @@ class FatigueConfig:
             eps_f=s.number("eps_f", d.eps_f, lo=0.0, lo_open=True, hi=10.0),
             c=s.number("c", d.c, lo=-2.0, hi=0.0, lo_open=True),
             axial_stiffness=(s.number("axial_stiffness", lo=0.0, lo_open=True, hi=1e10, unit="N")
-                             if s.has("axial_stiffness") else None))
+                             if s.has("axial_stiffness") else None),
+            torsion_radius=(s.number("torsion_radius", lo=0.0, lo_open=True, hi=0.2, unit="m")
+                            if s.has("torsion_radius") else None))
         if out.c >= 0 or out.b >= 0:
             raise ConfigError(path, "the strain-life exponents b and c must be negative")
         s.done()

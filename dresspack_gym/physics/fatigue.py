@@ -4,9 +4,10 @@ counting (ASTM E1049, the ``rainflow`` package), a Coffin-Manson-Basquin strain-
 Strains (dresspack YAML ``fatigue:``, see config.FatigueConfig): at N_FIBRES points around a conductor of radius
 r (``strain_radius``) the normal strain is r (kappa_1 sin phi - kappa_2 cos phi) + axial strain, with (kappa_1,
 kappa_2) the curvature in the material frame, so a fibre keeps its identity while the cable bends and twists; the
-shear strain r * twist rate is counted as its von Mises equivalent. Per segment, the damage per cycle is the worst
-fibre's normal-strain damage plus the shear damage (Miner), and the life is its inverse. A model: the curve and r
-are assumptions (see the docs); the cycle counting and Miner's sum are exact for the strains given.
+shear strain r_t * twist rate (r_t: ``torsion_radius``, default r) is counted as its von Mises equivalent. Per
+segment, the damage per cycle is the worst fibre's normal-strain damage plus the shear damage (Miner), and the life
+is its inverse. A model: the curve and the radii are calibrated on rated tests (ratings.py) or assumed (see the
+docs); the cycle counting and Miner's sum are exact for the strains given.
 """
 
 from __future__ import annotations
@@ -110,7 +111,7 @@ def fatigue_life(states: list[SegmentState], config: FatigueConfig, arc: np.ndar
     if config.axial_stiffness is not None and tensile_stiffness is not None:
         scale = tensile_stiffness / config.axial_stiffness
     eps = fibre_strains(states, config, scale)
-    shear = config.strain_radius * np.array([s.twist_rate for s in states]) / np.sqrt(3.0)  # (T, n)
+    shear = config.shear_radius * np.array([s.twist_rate for s in states]) / np.sqrt(3.0)  # (T, n)
     n = eps.shape[1]
     # every fibre's and every segment's rainflow cycles first, then all their lives in one batched inversion (the
     # bisection is elementwise; per fibre it was most of an episode end's time)
