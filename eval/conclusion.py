@@ -1,4 +1,6 @@
-"""The report's opening answer from the rows: the best on W·T + ∫C dt and on life, by how much, where each fails."""
+"""The report's opening answer from the rows: one verdict, the best on the station's objective W·T + ∫C dt, with the
+fatigue life of every method beside it and, where the longest-lived cable is another method's, the segment and the
+strain that shorten the chosen one's; by how much, and where each method fails."""
 
 from __future__ import annotations
 
@@ -48,12 +50,8 @@ def conclude(rows: list[dict], methods, time_weight: float = 1.0) -> dict:
         life = _per_task(rows, ranked, common, lambda r: r.get("life_cycles"), _geometric_mean)
         if all(len(life[m]) == len(common) for m in ranked):
             lives = {m: _geometric_mean([life[m][t] for t in common]) for m in ranked}
-            bullets.append(_ranking("fatigue life (higher is better)", lives, lower_better=False,
-                                    over=over.replace("mean", "geometric mean"), unit=" cycles", alone=alone))
-            by_objective, by_life = min(score, key=score.get), max(lives, key=lives.get)
-            if by_objective != by_life:
-                bullets.append(f"The two answers differ: {by_objective} has the lowest {name}, {by_life}'s cable "
-                               "lives longest; choose by what the cell pays for.")
+            bullets.append(_life_beside(rows, sorted(ranked, key=score.get), common, lives))
+            bullets.append(_verdict(rows, score, lives, common, name))
         unsolved = [m for m in methods if not objective[m]]
         few = [f"{m} ({len(objective[m])} of {len(tasks)})" for m in methods if m not in ranked and objective[m]]
         if few:
@@ -62,6 +60,51 @@ def conclude(rows: list[dict], methods, time_weight: float = 1.0) -> dict:
             bullets.append(f"Not ranked, having solved no task: {', '.join(unsolved)}.")
     bullets += [_failures(rows, m) for m in methods]
     return {"bullets": bullets, "table": _table(rows, ranked, common, time_weight)}
+
+
+# what the strain that fails a segment does to the cable there, as a sentence's clause (fatigue.FatigueLife causes)
+CAUSES = {"bending": ("it is bent back and forth", "bending"), "stretch": ("it is pulled and released", "axial"),
+          "twist": ("it is twisted back and forth", "shear")}
+
+
+def _spread(values) -> float:
+    """The geometric standard deviation (a factor >= 1): lives span decades, so their spread is a factor."""
+    return float(np.exp(np.std(np.log(np.maximum(values, 1e-300)))))
+
+
+def _run_lives(rows, method, common) -> list[dict]:
+    return [r for r in rows if r["method"] == method and r["task"] in common and r["success"]
+            and r.get("life_cycles") is not None]
+
+
+def _life_beside(rows, order, common, lives) -> str:
+    """Every ranked method's fatigue life in the objective's order, with its spread over the method's runs."""
+    parts = []
+    for m in order:
+        runs = [r["life_cycles"] for r in _run_lives(rows, m, common)]
+        spread = f"×/÷ {_spread(runs):.2f}" if len(runs) > 1 else "one run"
+        parts.append(f"{m} {significant(lives[m], 3)} cycles ({spread})")
+    return ("Fatigue life beside it (station cycles to the first conductor failure, geometric mean over the same "
+            "tasks, ×/÷ its spread over the runs; higher is better): " + ", ".join(parts) + ".")
+
+
+def _verdict(rows, score, lives, common, name) -> str:
+    """The one answer: the best on the objective; where another method's cable lives longer, which segment of the
+    chosen method's cable fails first and by what strain, and how to plan for life instead."""
+    best, longest = min(score, key=score.get), max(lives, key=lives.get)
+    if best == longest or lives[longest] <= lives[best]:
+        return (f"The answer is {best}: the lowest {name}, the station's objective, and its cable also lives "
+                f"longest ({significant(lives[best], 3)} cycles).")
+    weakest = min(_run_lives(rows, best, common), key=lambda r: r["life_cycles"])
+    where = (f"at {weakest['weakest_segment_m']:.2f} m along the cable"
+             if weakest.get("weakest_segment_m") is not None else "at one segment")
+    cause = CAUSES.get(weakest.get("weakest_cause") or "")
+    why = (f", where {cause[0]} ({cause[1]} strain amplitude {100 * weakest['weakest_strain_amplitude']:.2g} %)"
+           if cause and weakest.get("weakest_strain_amplitude") is not None else "")
+    return (f"The answer is {best}, the lowest {name}, the station's objective; but {longest}'s cable lives "
+            f"{lives[longest] / lives[best]:.1f}× as long ({significant(lives[longest], 3)} cycles against "
+            f"{significant(lives[best], 3)}): {best}'s cable fails first {where}{why}, which {name} does not count "
+            f"as fatigue. To plan for cable life instead, plan with --cost-variant life.")
 
 
 def _objective(row: dict, time_weight: float) -> float | None:
@@ -132,7 +175,7 @@ def _failures(rows: list[dict], method: str) -> str:
 def _table(rows, ranked, common, time_weight) -> dict:
     """The ranked methods, best first, with the per-task means the answer rests on."""
     header = ["method", f"{objective_name(time_weight)} (lower is better)", "cycle time T [s]", "∫C dt",
-              "life [cycles] (higher is better)", "tasks compared"]
+              "life [cycles] ×/÷ spread (higher is better)", "tasks compared"]
     if not ranked or not common:
         return {"header": header, "rows": []}
 
@@ -144,6 +187,11 @@ def _table(rows, ranked, common, time_weight) -> dict:
     objective = mean(lambda r: _objective(r, time_weight))
     cycle, cost = mean(lambda r: r.get("cycle_time")), mean(lambda r: r.get("cost"))
     life = mean(lambda r: r.get("life_cycles"), _geometric_mean)
-    body = [[m, *(significant(v[m], 3) if v[m] is not None else "–" for v in (objective, cycle, cost, life)),
-             str(len(common))] for m in sorted(ranked, key=objective.get)]
+
+    def life_cell(m):
+        runs = [r["life_cycles"] for r in _run_lives(rows, m, common)]
+        return significant(life[m], 3) + (f" ×/÷ {_spread(runs):.2f}" if len(runs) > 1 else "")
+
+    body = [[m, *(significant(v[m], 3) if v[m] is not None else "–" for v in (objective, cycle, cost)),
+             life_cell(m) if life[m] is not None else "–", str(len(common))] for m in sorted(ranked, key=objective.get)]
     return {"header": header, "rows": body}

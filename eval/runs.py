@@ -341,6 +341,7 @@ class RunEvaluator:
                    waypoints=len(result.trajectory.waypoints),
                    **{k: s[k] for k in METRICS if k != "planning_time"},
                    cost_terms=s["cost_terms"], max_cost=s["max_cost"], weakest_segment_m=s["weakest_segment_m"],
+                   weakest_cause=s["weakest_cause"], weakest_strain_amplitude=s["weakest_strain_amplitude"],
                    unconverged_stops=s["unconverged_stops"])  # settles that missed the residual: flagged
         if "inference_s" in result.info:  # a policy: the network's share of its planning time
             row["inference_time"] = result.info["inference_s"]

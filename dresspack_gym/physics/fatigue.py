@@ -77,6 +77,8 @@ class FatigueLife:
     normal: np.ndarray  # of which from normal strain (worst fibre)
     shear: np.ndarray  # of which from torsional shear
     max_strain_amplitude: np.ndarray  # largest normal-strain cycle amplitude seen by the segment
+    weakest_cause: str = ""  # what fails the weakest segment: "bending", "stretch" or "twist" ("" if nothing does)
+    weakest_amplitude: float = 0.0  # the largest strain amplitude of that cause there (shear as gamma / sqrt 3)
 
     @property
     def life_cycles(self) -> np.ndarray:
@@ -90,7 +92,8 @@ class FatigueLife:
     def summary(self) -> dict:
         i = self.weakest_segment
         return {"life_cycles": float(self.life_cycles[i]), "weakest_segment_m": float(self.arc[i]),
-                "max_strain_amplitude": float(self.max_strain_amplitude.max(initial=0.0))}
+                "max_strain_amplitude": float(self.max_strain_amplitude.max(initial=0.0)),
+                "weakest_cause": self.weakest_cause, "weakest_strain_amplitude": self.weakest_amplitude}
 
 
 def fibre_strains(states: list[SegmentState], config: FatigueConfig, axial_scale: float = 1.0) -> np.ndarray:
@@ -134,4 +137,24 @@ def fatigue_life(states: list[SegmentState], config: FatigueConfig, arc: np.ndar
     for i in range(n):
         tors[i] = float(np.sum(damage[k:k + len(twist[i])]))
         k += len(twist[i])
-    return FatigueLife(np.asarray(arc, dtype=float), normal + tors, normal, tors, amp)
+    cause, amplitude = _cause(states, config, scale, int(np.argmax(normal + tors)), shear)
+    return FatigueLife(np.asarray(arc, dtype=float), normal + tors, normal, tors, amp, cause, amplitude)
+
+
+def _cause(states: list[SegmentState], config: FatigueConfig, axial_scale: float, i: int,
+           shear: np.ndarray) -> tuple[str, float]:
+    """(cause, strain amplitude) of segment ``i``'s fatigue: of its bending alone (worst fibre, no axial strain), its
+    axial strain alone and its shear, the one whose Miner damage is largest, and the largest cycle amplitude of it."""
+    phi = 2.0 * np.pi * np.arange(N_FIBRES) / N_FIBRES
+    bend = np.array([s.bend[i] for s in states])  # (T, 2)
+    fibres = config.strain_radius * (bend[:, 0:1] * np.sin(phi) - bend[:, 1:2] * np.cos(phi))
+    histories = {"bending": [fibres[:, f] for f in range(N_FIBRES)],
+                 "stretch": [axial_scale * np.array([s.strain[i] for s in states])], "twist": [shear[:, i]]}
+    best, best_damage, best_amp = "", 0.0, 0.0
+    for name, hs in histories.items():
+        damages = [miner_damage(h, config) for h in hs]
+        j = int(np.argmax(damages))
+        if damages[j] > best_damage:
+            cycles = count_cycles(hs[j])
+            best, best_damage, best_amp = name, damages[j], max(a for a, _ in cycles)
+    return best, float(best_amp)

@@ -97,3 +97,24 @@ def test_torsion_radius_is_read_checked_and_defaults_to_the_strain_radius():
         RatedTest("x", "stretch", 1.0, "https://example.org")
     with pytest.raises(ConfigError, match="exactly one bending"):
         calibrate(dresspack("thesis_stud_welding"), RATED_TESTS[1:])
+
+
+def test_the_weakest_segment_names_the_strain_that_fails_it(rated):
+    """Bending cycle: bending at r/(2R); torsion cycle: twist at r_t rate / sqrt(3); a pull cycle: stretch at e/2."""
+    from dresspack_gym.physics.fatigue import fatigue_life
+    from dresspack_gym.physics.segment_state import SegmentState
+
+    arc = np.arange(25) * 0.04
+    bent = fatigue_life(bending_cycle(rated, 4.0), rated.fatigue, arc).summary()
+    assert bent["weakest_cause"] == "bending"
+    assert bent["weakest_strain_amplitude"] == pytest.approx(rated.fatigue.strain_radius / (2 * 4.0 * 0.06), rel=1e-6)
+    twisted = fatigue_life(torsion_cycle(rated, 150.0), rated.fatigue, arc).summary()
+    assert twisted["weakest_cause"] == "twist"
+    assert twisted["weakest_strain_amplitude"] == pytest.approx(
+        rated.fatigue.shear_radius * math.radians(150.0) / math.sqrt(3.0), rel=1e-6)
+    zeros = np.zeros(3)
+    pulls = [SegmentState(zeros, np.zeros((3, 2)), zeros, np.full(3, e), zeros, zeros, zeros) for e in (0.0, 0.01)]
+    pulled = fatigue_life(pulls, rated.fatigue, np.arange(3) * 0.1).summary()
+    assert pulled["weakest_cause"] == "stretch" and pulled["weakest_strain_amplitude"] == pytest.approx(0.005)
+    still = fatigue_life(pulls[:1] * 2, rated.fatigue, np.arange(3) * 0.1).summary()
+    assert still["weakest_cause"] == "" and still["weakest_strain_amplitude"] == 0.0
