@@ -49,7 +49,8 @@ def add_plan_command(sub) -> None:
                    help="weld point names, one per argument, in visiting order (default: all the robot's)")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis",
                    help="wear cost the wear-aware planners minimise and the replay reports: thesis (4.10), "
-                        "normalized, or damage (the worst segment's damage rate; see the README); default: %(default)s")
+                        "normalized, damage (the worst segment's damage rate) or life (w_life x the worst segment's "
+                        "fatigue damage of one excursion to each state; see docs/wear.md); default: %(default)s")
     p.add_argument("--tension-peak-time", type=number(0, MAX_TENSION_PEAK_TIME, unit="s"), default=None,
                    metavar="SECONDS",
                    help="ompl-wear and ompl-wear-fmt only: charge each leg's highest tension term w_F F² as if it "

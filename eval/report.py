@@ -161,7 +161,9 @@ def _intro(spec: EvalSpec, station: Station, written: dict) -> str:
             f"({starts}; every task ends at Home). Every trajectory is replayed in the same cable simulator "
             f"(timestep {station.config.simulation.timestep * 1000:g} ms); wear cost C is "
             + {"thesis": "eq. (4.10) with the station's weights", "normalized": "the normalized eq. (4.10)",
-               "damage": "the worst segment's damage rate (dresspack damage weights)"}[spec.cost_variant]
+               "damage": "the worst segment's damage rate (dresspack damage weights)",
+               "life": "w_life × the worst segment's fatigue damage of one excursion to each state (the dresspack's "
+                       "strain–life model)"}[spec.cost_variant]
             + f" and ∫C dt its time integral. Planners get {spec.iterations} OMPL iterations per "
             f"connection, {spec.routes} sampled routes per leg (ompl-wear) and {spec.evaluations} cable-leg "
             f"evaluations of refinement per plan{search}"

@@ -65,7 +65,7 @@ def plan_station(station_ref: str | Station, planner: str = "ompl", *, robot: in
     (e.g. ``policy=`` for ``ppo``). The budget is ``iterations`` / ``evaluations`` / ``routes`` (work units, see
     :class:`~dresspack.agents.planners.budget.Budget`), with ``time_budget`` [s] as an optional wall-time cap.
     ``cost_variant`` is the wear cost the wear-aware planners minimise and the replay reports (thesis, normalized,
-    damage)."""
+    damage, life)."""
     cost_function(cost_variant)  # a bad name fails before planning, naming the field
     station = station_ref if isinstance(station_ref, Station) else Station(load_station(station_ref))
     if planner in WEAR_AWARE:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from ..physics.fatigue import peak_excursion_damage
 from ..physics.measures import ClearanceProbe, WearMeasures
 from ..physics.wear_cost import cost_function
 from ..stations.station import Station
@@ -31,6 +32,7 @@ class MapStateCost:
         self.cost_fn = cost_function(cost_variant)
         self.cfg = station.config.wear_cost
         self.cable = station.cables[robot]
+        self.dresspack = station.config.robots[robot].dresspack
         self.probe = ClearanceProbe(station)
         self.data = mujoco.MjData(station.model)  # obstacles are static: one kinematics pass places them
         mujoco.mj_kinematics(station.model, self.data)
@@ -49,7 +51,9 @@ class MapStateCost:
             out = {"unspannable": UNSPANNABLE_RATE}
         else:
             clearance, _, nearest = self.probe.min_distance(self.data, self.cable, pred.points, signed=True)
-            m = WearMeasures(pred.max_curvature, pred.max_tension, max(clearance, 0.0), pred.max_twist_rate)
+            m = WearMeasures(pred.max_curvature, pred.max_tension, max(clearance, 0.0), pred.max_twist_rate,
+                             excursion_damage=peak_excursion_damage(pred.max_curvature, pred.max_twist_rate,
+                                                                    pred.max_tension, self.dresspack))
             out = self.cost_fn(m, self.cfg).terms()
             # A plane (the floor) only supports a sagging cable, it cannot catch it: only solids obstruct. The
             # solids are queried again only when the deepest penetration is a plane's.

@@ -15,6 +15,7 @@ from functools import reduce
 import numpy as np
 
 from ..cable.config import DAMAGE_TERMS, DamageWeights, DresspackConfig
+from .fatigue import excursion_damage
 from .segment_state import SegmentState
 
 
@@ -58,6 +59,15 @@ def damage_rate(state: SegmentState, dresspack: DresspackConfig) -> np.ndarray:
     # every segment (all terms are >= 0), so it is left out
     weighted = [getattr(w, k) * values[k] for k in VALUE_TERMS if getattr(w, k) != 0.0]
     return reduce(np.add, weighted) if weighted else np.zeros_like(state.curvature)
+
+
+def worst_rates(state: SegmentState, dresspack: DresspackConfig) -> dict[str, float]:
+    """The per-state damage fields of a cable's WearMeasures, as both engines fill them from their segment states:
+    the worst segment's damage rate and where it is, and the worst segment's fatigue damage of one excursion."""
+    rate = damage_rate(state, dresspack)
+    k = int(np.argmax(rate))
+    return {"max_damage_rate": float(rate[k]), "damage_at": k * dresspack.segment_length,
+            "excursion_damage": excursion_damage(state, dresspack.fatigue, dresspack.tensile_stiffness)}
 
 
 @dataclass(frozen=True)

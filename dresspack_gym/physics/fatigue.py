@@ -106,6 +106,31 @@ def fibre_strains(states: list[SegmentState], config: FatigueConfig, axial_scale
     return r * (bend[..., 0:1] * np.sin(phi) - bend[..., 1:2] * np.cos(phi)) + axial[..., None]
 
 
+def excursion_damage(state: SegmentState, config: FatigueConfig, tensile_stiffness: float | None = None) -> float:
+    """The worst segment's fatigue damage (Miner) of one excursion from unstrained to ``state`` and back: its
+    outermost fibre's normal strain cycle of amplitude (r kappa + axial strain) / 2 plus its shear cycle of amplitude
+    r_t |twist rate| / (2 sqrt 3). A state's own measure of how much life being there uses (the life cost variant);
+    the life of a whole cycle is :func:`fatigue_life`'s rainflow count."""
+    scale = 1.0
+    if config.axial_stiffness is not None and tensile_stiffness is not None:
+        scale = tensile_stiffness / config.axial_stiffness
+    normal = 0.5 * (config.strain_radius * state.curvature + scale * np.abs(state.strain))
+    shear = 0.5 * config.shear_radius * np.abs(state.twist_rate) / np.sqrt(3.0)
+    n = len(normal)
+    life = cycles_to_failure(np.concatenate([normal, shear]), config)
+    damage = np.where(life < MAX_LIFE, 1.0 / life, 0.0)
+    return float(np.max(damage[:n] + damage[n:], initial=0.0))
+
+
+def peak_excursion_damage(curvature: float, twist_rate: float, tension: float, dresspack) -> float:
+    """:func:`excursion_damage` of a cable known by its peak measures only (a wear map's prediction): the peaks
+    taken at one segment, which bounds the damage of the segments where they lie apart."""
+    one = np.array([0.0])
+    state = SegmentState(np.array([curvature]), np.zeros((1, 2)), np.array([twist_rate]),
+                         np.array([tension / dresspack.tensile_stiffness]), one, one, one)
+    return excursion_damage(state, dresspack.fatigue, dresspack.tensile_stiffness)
+
+
 def fatigue_life(states: list[SegmentState], config: FatigueConfig, arc: np.ndarray,
                  tensile_stiffness: float | None = None) -> FatigueLife:
     """Per-segment fatigue life of the station cycle sampled by ``states`` (one period of the repeated cycle);

@@ -37,6 +37,7 @@ class WearMeasures:
     max_node_torque: float = 0.0  # [N m], largest torque a clamp carries
     max_damage_rate: float = 0.0  # damage per second of the worst segment (damage.damage_rate; value terms)
     damage_at: float = 0.0
+    excursion_damage: float = 0.0  # fatigue damage of one excursion to this state, worst segment (fatigue.py)
 
     @staticmethod
     def worst(items: list["WearMeasures"]) -> "WearMeasures":
@@ -51,7 +52,8 @@ class WearMeasures:
                             max(m.max_twist_rate for m in items), kc.curvature_at, kt.tension_at, kd.clearance_at,
                             kd.nearest_obstacle, max(m.total_twist for m in items),
                             max(m.max_compression for m in items), max(m.max_node_force for m in items),
-                            max(m.max_node_torque for m in items), kr.max_damage_rate, kr.damage_at)
+                            max(m.max_node_torque for m in items), kr.max_damage_rate, kr.damage_at,
+                            max(m.excursion_damage for m in items))
 
 
 def cable_points(data: mujoco.MjData, cable: CableIndex) -> np.ndarray:
@@ -246,7 +248,7 @@ class CableArrays:
         return np.where(self.has_side, np.append(pull, -np.inf)[self.side_table].max(axis=1), 0.0)
 
     def measure(self, station: Station, data: mujoco.MjData, probe: "ClearanceProbe", sample: CableSample, *,
-                max_damage_rate: float = 0.0, damage_at: float = 0.0) -> WearMeasures:
+                max_damage_rate: float = 0.0, damage_at: float = 0.0, excursion_damage: float = 0.0) -> WearMeasures:
         """The cable's :class:`WearMeasures` (see :func:`measure_cable`) from its ``sample`` of ``data``."""
         cable, points = self.cable, sample.points
         if not np.isfinite(points).all():
@@ -276,7 +278,8 @@ class CableArrays:
         return WearMeasures(*values, curvature_at=(ik + 1) * h, tension_at=tension_at,
                             clearance_at=(edge + 0.5) * h if edge >= 0 else 0.0, nearest_obstacle=obstacle,
                             total_twist=extra[0], max_compression=extra[1], max_node_force=extra[2],
-                            max_node_torque=extra[3], max_damage_rate=max_damage_rate, damage_at=damage_at)
+                            max_node_torque=extra[3], max_damage_rate=max_damage_rate, damage_at=damage_at,
+                            excursion_damage=excursion_damage)
 
 
 def edge_tensions(model: mujoco.MjModel, data: mujoco.MjData, cable: CableIndex) -> np.ndarray:

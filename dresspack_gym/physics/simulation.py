@@ -19,7 +19,7 @@ from ..errors import ConfigError, SimulationError
 from ..robots.joint_limits import check_within_limits
 from ..robots.time_law import JointLimits, SegmentMotion
 from ..stations.station import Station, as_slice
-from .damage import damage_rate
+from .damage import worst_rates
 from .measures import CableSample, ClearanceProbe, WearMeasures, cable_points, node_loads
 from .segment_state import SegmentState, SegmentStateReader
 
@@ -377,10 +377,7 @@ class CableSimulator:
                         states: list[SegmentState]) -> list[WearMeasures]:
         out = []
         for reader, r, sample, s in zip(self._readers(), self.station.config.robots, samples, states):
-            rate = damage_rate(s, r.dresspack)
-            k = int(np.argmax(rate))
-            out.append(reader.arrays.measure(self.station, static, self.probe, sample, max_damage_rate=float(rate[k]),
-                                             damage_at=k * reader.cable.segment_length))
+            out.append(reader.arrays.measure(self.station, static, self.probe, sample, **worst_rates(s, r.dresspack)))
         return out
 
     def node_loads(self, robot: int = 0):

@@ -11,8 +11,8 @@ from .measures import WearMeasures
 
 @dataclass(frozen=True)
 class WearCost:
-    """C = C_kappa + C_F + C_d (+ the optional twist term C_t) for one configuration; the damage variant's C is
-    its ``damage`` term alone."""
+    """C = C_kappa + C_F + C_d (+ the optional twist term C_t) for one configuration; the damage and life variants'
+    C is their ``damage`` term alone."""
 
     curvature: float
     tension: float
@@ -61,8 +61,16 @@ def damage_cost(m: WearMeasures, cfg: WearCostConfig) -> WearCost:
     return WearCost(0.0, 0.0, 0.0, 0.0, damage=m.max_damage_rate)
 
 
-# The named wear-cost variants (eq. 4.10, its normalised form, per-segment damage), chosen by name in one place.
-COST_VARIANTS = {"thesis": wear_cost, "normalized": normalized_wear_cost, "damage": damage_cost}
+def life_cost(m: WearMeasures, cfg: WearCostConfig) -> WearCost:
+    """The life variant: C = w_life x the worst segment's fatigue damage of one excursion to this state (the
+    dresspack's calibrated strain-life model, fatigue.excursion_damage), so that ∫C dt charges how much cable life
+    the motion's states use and for how long, traded against cycle time like the other variants."""
+    return WearCost(0.0, 0.0, 0.0, 0.0, damage=cfg.w_life * m.excursion_damage)
+
+
+# The named wear-cost variants (eq. 4.10, its normalised form, per-segment damage, fatigue life), chosen by name in
+# one place.
+COST_VARIANTS = {"thesis": wear_cost, "normalized": normalized_wear_cost, "damage": damage_cost, "life": life_cost}
 
 
 def cost_function(variant: str, field: str = "cost_variant"):

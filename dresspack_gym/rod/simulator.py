@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import ConfigError
-from ..physics.damage import damage_rate
+from ..physics.damage import worst_rates
 from ..physics.measures import MAX_CLEARANCE, WearMeasures
 from ..physics.simulation import Equilibrium, MotionTrace, SettleResult, station_joints, station_motion_limits
 from ..robots.time_law import JointLimits, SegmentMotion
@@ -267,10 +267,8 @@ class RodSimulator:
     def _cable_measures(self, states: list) -> list[WearMeasures]:
         out = []
         for cable, rod, state in zip(self.cables, self.rods, states):
-            rate = damage_rate(state, self.station.config.robots[cable.robot].dresspack)
-            k = int(np.argmax(rate))
-            out.append(replace(self._measure(cable, rod), max_damage_rate=float(rate[k]),
-                               damage_at=k * cable.model.segment_length))
+            out.append(replace(self._measure(cable, rod),
+                               **worst_rates(state, self.station.config.robots[cable.robot].dresspack)))
         return out
 
     def measures(self) -> WearMeasures:

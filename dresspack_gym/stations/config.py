@@ -49,6 +49,10 @@ class WearCostConfig:
     twist_scale: float = math.pi  # rad/m
     normalized_weights: tuple[float, float, float] = (1.0, 1.0, 1.0)  # curvature, tension, distance
     normalized_twist_weight: float = 0.0  # the normalised variant's twist term (optional, like w_twist)
+    # The life variant: C = w_life x the worst segment's fatigue damage of one excursion to the state (fatigue.py
+    # excursion_damage). 1e4: a state whose one excursion uses 1/10,000 of the cable's life costs as much per second
+    # as a second of cycle time.
+    w_life: float = 1e4
 
     @staticmethod
     def from_dict(data: Mapping[str, Any], path: str = "wear_cost") -> "WearCostConfig":
@@ -68,6 +72,7 @@ class WearCostConfig:
             twist_scale=s.number("twist_scale", d.twist_scale, lo=0.0, lo_open=True, hi=1e3, unit="rad/m"),
             normalized_weights=s.vector("normalized_weights", 3, d.normalized_weights, lo=0.0),
             normalized_twist_weight=s.number("normalized_twist_weight", d.normalized_twist_weight, lo=0.0, hi=WEIGHT_MAX),
+            w_life=s.number("w_life", d.w_life, lo=0.0, hi=WEIGHT_MAX),
         )
         s.done()
         return out
