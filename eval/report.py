@@ -274,7 +274,8 @@ def _life_blocks(rows: list[dict], methods, replays: dict[str, Replay]) -> list[
     table = {"header": ["method", "shortest life [cycles]", "geometric-mean life", "weakest segment (shortest)",
                         "damage per cycle (worst segment)"], "rows": body}
     text = ("Fatigue life per station cycle from rainflow-counted conductor strains and the dresspack's strain–life "
-            "curve (a model: see the README's damage section; use it to rank, not as months of service).")
+            "curve (a model: read it as service life only where the dresspack's fatigue model is calibrated on its "
+            "cable's rated tests, as stud_welding_rated's is; docs/wear.md, Calibrated life).")
     ranked = [m for m in methods if m in life_mean]
     if len(ranked) >= 3:
         by_life = _ranks([-life_mean[m] for m in ranked])  # longest life first

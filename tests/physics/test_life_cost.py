@@ -72,3 +72,31 @@ def test_both_engines_fill_the_excursion_damage_from_their_segment_states(engine
     assert m.excursion_damage == pytest.approx(expected, rel=1e-12) and expected > 0
     assert cost_function("life")(m, station.config.wear_cost).total == pytest.approx(
         station.config.wear_cost.w_life * expected)
+
+
+def test_the_planners_leg_cost_and_the_station_planners_option_rates_take_the_life_variant():
+    """LegCost (ompl-wear, thesis-local, ppo-search) with cost_variant='life': J = T + ∫ w_life x excursion damage dt
+    over the leg, more than its time; the station planner's settled option rate is w_life x the excursion damage."""
+    pytest.importorskip("ompl")
+    from dresspack.agents.planners.leg_cost import LegCost
+    from dresspack.agents.stations.option_costs import OptionCosts
+
+    from dresspack_gym.physics.simulation import CableSimulator
+    from dresspack_gym.physics.trajectory import Trajectory, replay
+    from dresspack_gym.stations.tasks import make_task
+
+    station = Station(load_station("default"))
+    task = make_task(station, 0, None, ["b_pillar_outer"])
+    legs = LegCost(station, time_weight=1.0, wear_weight=1.0, cost_variant="life")
+    waypoints = np.stack([task.start, task.goals[0]])
+    j, _, summary = legs.cost(legs.start_state(task.start), waypoints)
+    rep = replay(CableSimulator(station), Trajectory(waypoints, (1,)), cost_variant="life", record_states=False)
+    assert j == pytest.approx(rep.cycle_time + rep.integrated_cost(), rel=1e-9)
+    assert summary["cost"] > 0
+    w = station.config.wear_cost.w_life
+    rate = OptionCosts(station, "life").rate(0, station.home[0])
+    sim = CableSimulator(station)
+    sim.reset(station.home)
+    dp = station.config.robots[0].dresspack
+    assert rate == pytest.approx(w * excursion_damage(sim.segment_states()[0], dp.fatigue, dp.tensile_stiffness),
+                                 rel=1e-6)
