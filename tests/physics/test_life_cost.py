@@ -50,6 +50,9 @@ def test_the_life_variant_charges_w_life_times_the_excursion_damage():
     assert cost.total == cost.damage == pytest.approx(0.2)
     assert cost.curvature == cost.tension == cost.distance == cost.twist == 0.0
     assert "life" in COST_VARIANTS
+    # the station's measure is its worst cable's
+    other = WearMeasures(1.0, 10.0, 0.5, 1.0, excursion_damage=7e-5)
+    assert WearMeasures.worst([m, other]).excursion_damage == 7e-5
     with pytest.raises(ConfigError, match="wear_cost.w_life"):
         WearCostConfig.from_dict({"w_life": -1.0})
 
