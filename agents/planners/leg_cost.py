@@ -52,7 +52,11 @@ class LegCost:
     tension term charges the free-hanging cable's tension all the time, so its integral mostly measures motion
     time and barely sees a brief peak (70 N for 0.1 s costs w_F F² Δt ≈ 0.5 at w_F = 1e-3, less than the half
     second a lower route takes). The peak is what overloads a hose and its retraction system, and what the thesis
-    reports of its routes (the low one "never exceeds 40 N"). 0 (the default) is (4.10)'s integral alone."""
+    reports of its routes (the low one "never exceeds 40 N"). 0 (the default) is (4.10)'s integral alone.
+
+    With ``cost_variant="life"`` the leg's wear is its own fatigue damage: w_life x the Miner damage of the worst
+    segment over the leg's strain history (rainflow-counted, the leg taken as one period), the damage per cycle the
+    leg adds, in place of the states' excursion integral (which stands in for it where only states are known)."""
 
     def __init__(self, station: Station, robot: int = 0, *, time_weight: float = 1.0, wear_weight: float = 1.0,
                  tension_peak_time: float = 0.0, cost_variant: str = "thesis", record_every: float = 0.05):
@@ -62,6 +66,7 @@ class LegCost:
         self.tension_peak_time = check_tension_peak_time(tension_peak_time)
         cost_function(cost_variant)  # a bad name fails here, naming the field, not in the first replay
         self.cost_variant = cost_variant
+        self.w_life = station.config.wear_cost.w_life
         self.record_every = record_every
         # the time law the replay moves the robot by (the simulator's, at the station's programmed speed)
         self._limits = station.config.robots[robot].robot.joint_motion_limits.at_speed(
@@ -93,17 +98,23 @@ class LegCost:
         if hit is not None:
             return hit
         traj = Trajectory(np.asarray(waypoints), (len(waypoints) - 1,))
-        above = self._above(traj, bound)
+        life = self.cost_variant == "life"
+        # the life variant's J comes from the whole leg's strain history: no sample-by-sample lower bound of it
+        above = None if life else self._above(traj, bound)
         rep = replay(self.sim, traj, robot=self.robot, record_every=self.record_every,
                      cost_variant=self.cost_variant, start_state=start_state, give_up=above,
-                     record_states=False)  # a leg is no station cycle: no fatigue count (C carries the damage rate)
+                     record_states=life)  # other variants: C carries the wear, no per-segment count needed
         self.evaluations += 1
         if rep.given_up:
             self.given_up += 1
             return math.inf, None, None
         s = rep.summary()
         peak = float(np.max(rep.cost_terms["tension"])) if self.tension_peak_time else 0.0
-        j = self.time_weight * rep.cycle_time + self.wear_weight * (s["cost"] + self.tension_peak_time * peak)
+        wear = self.w_life * float(rep.fatigue.damage_per_cycle.max()) if life else s["cost"]
+        j = self.time_weight * rep.cycle_time + self.wear_weight * (wear + self.tension_peak_time * peak)
+        if life and j > bound + BOUND_SLACK * max(1.0, abs(bound)):
+            self.given_up += 1
+            return math.inf, None, None
         out = (j, self.sim.get_state(), s)
         self._cache[key] = out
         return out

@@ -78,8 +78,9 @@ def test_both_engines_fill_the_excursion_damage_from_their_segment_states(engine
 
 
 def test_the_planners_leg_cost_and_the_station_planners_option_rates_take_the_life_variant():
-    """LegCost (ompl-wear, thesis-local, ppo-search) with cost_variant='life': J = T + ∫ w_life x excursion damage dt
-    over the leg, more than its time; the station planner's settled option rate is w_life x the excursion damage."""
+    """LegCost (ompl-wear, thesis-local, ppo-search) with cost_variant='life': J = T + w_life x the worst segment's
+    fatigue damage over the leg (its rainflow count); the station planner's settled option rate is w_life x the
+    excursion damage."""
     pytest.importorskip("ompl")
     from dresspack.agents.planners.leg_cost import LegCost
     from dresspack.agents.stations.option_costs import OptionCosts
@@ -93,10 +94,15 @@ def test_the_planners_leg_cost_and_the_station_planners_option_rates_take_the_li
     legs = LegCost(station, time_weight=1.0, wear_weight=1.0, cost_variant="life")
     waypoints = np.stack([task.start, task.goals[0]])
     j, _, summary = legs.cost(legs.start_state(task.start), waypoints)
-    rep = replay(CableSimulator(station), Trajectory(waypoints, (1,)), cost_variant="life", record_states=False)
-    assert j == pytest.approx(rep.cycle_time + rep.integrated_cost(), rel=1e-9)
-    assert summary["cost"] > 0
+    rep = replay(CableSimulator(station), Trajectory(waypoints, (1,)), cost_variant="life")
     w = station.config.wear_cost.w_life
+    leg_damage = rep.fatigue.damage_per_cycle.max()
+    assert leg_damage > 0 and summary["cost"] > 0
+    assert j == pytest.approx(rep.cycle_time + w * leg_damage, rel=1e-9)
+    # a bound below J gives the leg up (once simulated: J needs the whole leg's history); one above returns J itself
+    legs.reset()
+    assert legs.cost(legs.start_state(task.start), waypoints, bound=0.5 * j)[0] == math.inf and legs.given_up == 1
+    assert legs.cost(legs.start_state(task.start), waypoints, bound=2 * j)[0] == j
     rate = OptionCosts(station, "life").rate(0, station.home[0])
     sim = CableSimulator(station)
     sim.reset(station.home)
