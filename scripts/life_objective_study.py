@@ -34,7 +34,8 @@ def measure(out: Path) -> list[dict]:
     rows = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines() if line.strip()]
     thesis = spec["cost_variant"] == "thesis"
     sim = None if thesis else CableSimulator(Station(load_station(spec["station"])))
-    label = "" if spec["cost_variant"] == "thesis" else f" (--cost-variant {spec['cost_variant']})"
+    label = "" if thesis else f" (--cost-variant {spec['cost_variant']})"
+    label += "" if spec.get("time_weight", 1.0) == 1.0 else f" (--time-weight {spec['time_weight']:g})"
     table = []
     for method in spec["methods"]:
         mine = [r for r in rows if r["method"] == method]
