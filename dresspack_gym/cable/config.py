@@ -7,7 +7,7 @@ Every ``from_dict`` validates strictly (unknown keys, types, units, ranges) and 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 import numpy as np
@@ -110,7 +110,9 @@ class FatigueConfig:
     eps_f: float = 0.5 * 2 ** 0.6 * _DUCTILITY ** 0.6  # e' (plastic line at 2N = 1)
     c: float = -0.6  # Coffin-Manson exponent
     axial_stiffness: float | None = None  # [N] tension per unit conductor strain; None: the dresspack's EA
-    torsion_radius: float | None = None  # [m] radius of the torsional shear; None: strain_radius
+    # [m] radius of the torsional shear; None: strain_radius. Left out of the repr, which keys the wear maps
+    # (maps/wear_map.map_key): the life model changes no settled shape, so a dresspack's maps stay its own.
+    torsion_radius: float | None = field(default=None, repr=False)
 
     @property
     def shear_radius(self) -> float:

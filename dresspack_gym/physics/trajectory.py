@@ -64,8 +64,9 @@ class Trajectory:
 
 
 # Fields that say nothing about where the robot and the obstacles are or how the robot moves: a plan stays valid
-# when a file is moved (source, mesh paths are compared by file name), re-described or its wear weights retuned.
-_NOT_FINGERPRINTED = ("source", "description", "wear_cost", "simulation", "robustness_map")
+# when a file is moved (source, mesh paths are compared by file name), re-described, its wear weights retuned or
+# its cable's life model given a torsion radius.
+_NOT_FINGERPRINTED = ("source", "description", "wear_cost", "simulation", "robustness_map", "torsion_radius")
 
 
 def _canonical(x):
