@@ -9,7 +9,7 @@ import pytest
 from dresspack_gym.cable.config import FatigueConfig
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.io.loading import load_station
-from dresspack_gym.physics.fatigue import cycles_to_failure, excursion_damage, peak_excursion_damage
+from dresspack_gym.physics.fatigue import MAX_LIFE, cycles_to_failure, excursion_damage, peak_excursion_damage
 from dresspack_gym.physics.measures import WearMeasures
 from dresspack_gym.physics.profiles import make_simulator
 from dresspack_gym.physics.segment_state import SegmentState
@@ -29,15 +29,23 @@ def state(kappa=0.0, twist=0.0, strain=0.0, n=3):
 
 def test_one_excursion_is_one_cycle_of_half_the_strain():
     """Bent to kappa: amplitude r kappa / 2; twisted to tau: r_t tau / (2 sqrt 3); pulled: strain / 2 on the fibre
-    already bent (both add); the worst segment's damages add (Miner)."""
+    already bent (both add); the worst segment's damages add (Miner). The curve is read from its interpolated table
+    (within 1e-5 of the bisection's inverse)."""
     life = lambda a: cycles_to_failure(a, CURVE)[0]  # noqa: E731
-    assert excursion_damage(state(kappa=4.0), CURVE) == pytest.approx(1 / life(3e-4 * 4.0 / 2), rel=1e-9)
+    assert excursion_damage(state(kappa=4.0), CURVE) == pytest.approx(1 / life(3e-4 * 4.0 / 2), rel=1e-5)
     tau = math.radians(150.0)
     assert excursion_damage(state(twist=-tau), CURVE) == pytest.approx(1 / life(2e-3 * tau / (2 * math.sqrt(3))),
-                                                                       rel=1e-9)
+                                                                       rel=1e-5)
     both = excursion_damage(state(kappa=4.0, twist=tau, strain=0.001), CURVE)
     assert both == pytest.approx(1 / life((3e-4 * 4.0 + 0.001) / 2) + 1 / life(2e-3 * tau / (2 * math.sqrt(3))),
-                                 rel=1e-9)
+                                 rel=1e-5)
+    # across the curve: the table's lives within 1e-5 of the bisection's, from the longest life counted to N = 1
+    amps = np.logspace(-6, -0.5, 500)
+    amps = amps[cycles_to_failure(amps, CURVE) < MAX_LIFE]
+    assert amps[0] < 1e-4
+    table = np.array([1 / excursion_damage(state(kappa=2 * a / 3e-4), CURVE) for a in amps])
+    exact = cycles_to_failure(amps, CURVE)
+    np.testing.assert_allclose(table, exact, rtol=1e-5)
     assert excursion_damage(state(), CURVE) == 0.0
     # more strain, more damage
     assert excursion_damage(state(kappa=8.0), CURVE) > excursion_damage(state(kappa=4.0), CURVE)
