@@ -209,6 +209,10 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
     from tqdm.auto import tqdm
 
     check_choice("backend", backend, BACKENDS)
+    if backend == "ray":
+        from dresspack_gym.ray_pool import require_ray
+
+        require_ray()
 
     out = Path(out)
     spec = {k: getattr(cfg, k) for k in SPEC_FIELDS}
