@@ -28,10 +28,10 @@ from dresspack.agents.learned.cost_model import (
     rank_metrics,
     state_ids,
 )
-from dresspack.agents.learned.policy import resolve_policy
+from dresspack.agents.learned.policy import policy_actions, resolve_policy
 from dresspack.training.cost_config import MAX_EPISODES, load_cost_config
 from dresspack.training.counterfactuals import load_label_folders
-from dresspack.training.train_cost_model import out_of_fold_predictions, policy_actions
+from dresspack.training.train_cost_model import out_of_fold_predictions
 
 
 def main() -> None:
