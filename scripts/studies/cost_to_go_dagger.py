@@ -2,8 +2,8 @@
 labels): the shipped model, never fit on them, against models fit on the first labels plus the other folds of the
 DAgger episodes (a cross-validation by episode over the DAgger labels).
 
-    PYTHONPATH=. .venv/bin/python scripts/cost_to_go_dagger.py --first runs/ctg/data --dagger runs/ctg/dagger \
-        --out docs/cost_to_go_dagger.json
+    PYTHONPATH=. .venv/bin/python scripts/studies/cost_to_go_dagger.py --first runs/ctg/data --dagger runs/ctg/dagger \
+        --out docs/data/cost_to_go_dagger.json
 
 ``--first``: labels of the policy's own rollouts (``dresspack counterfactuals --config cost_to_go``); ``--dagger``:
 labels of the ranked rule's (``--config cost_to_go_ranked``). Both are read as ``train-cost-model`` reads several
