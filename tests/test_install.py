@@ -51,7 +51,9 @@ def installed(tmp_path_factory):
     venv = tmp / "venv"
     assert run([sys.executable, "-m", "venv", venv]).returncode == 0  # its own pip, none of this venv's packages
     start = time.perf_counter()
-    inst = run([venv / "bin" / "python", "-m", "pip", "install", "-q", wheel, TORCH])  # as a user would: no extras
+    # as a user would: no extras (--no-compile: Python compiles what a command imports when it runs; compiling all
+    # of torch and the rest up front is most of an install's time on a slow disk)
+    inst = run([venv / "bin" / "python", "-m", "pip", "install", "-q", "--no-compile", wheel, TORCH])
     assert inst.returncode == 0, inst.stderr
     print(f"pip install of the wheel and its dependencies: {time.perf_counter() - start:.0f} s")
     return wheel, venv, tmp

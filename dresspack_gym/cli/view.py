@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shlex
+import sys
 
 from ..errors import ConfigError
 from .args import add_station_argument, number
@@ -53,6 +54,8 @@ def cmd_view(args) -> int:
         title = f"{args.plan} on {cfg.name}"
     require_display(instead)  # before the replay: no minute of simulating for a window that cannot open
     sim = CableSimulator(Station(cfg))
+    if traj is not None:
+        print("replaying the plan in the cable simulator, then opening MuJoCo's viewer", file=sys.stderr)
     frames = record_frames(sim, traj, robot=robot, fps=args.fps, speed_fraction=fraction)
     view(sim, frames, robot=robot, instead=instead, title=title, at=args.at)
     return 0
