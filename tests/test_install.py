@@ -18,7 +18,8 @@ import pytest
 
 from dresspack_gym.cli.main import build_parser
 
-# pip resolves every dependency from the package index (about 2 min on 2 cores, mostly unpacking torch)
+# pip resolves every dependency from the package index (about 2 min on 2 cores, mostly unpacking torch; the
+# module about 4 min)
 pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -52,7 +53,7 @@ def installed(tmp_path_factory):
     assert run([sys.executable, "-m", "venv", venv]).returncode == 0  # its own pip, none of this venv's packages
     start = time.perf_counter()
     # as a user would: no extras (--no-compile: Python compiles what a command imports when it runs; compiling all
-    # of torch and the rest up front is most of an install's time on a slow disk)
+    # of torch and the rest up front doubles pip's CPU time, 46 s against 23 s)
     inst = run([venv / "bin" / "python", "-m", "pip", "install", "-q", "--no-compile", wheel, TORCH])
     assert inst.returncode == 0, inst.stderr
     print(f"pip install of the wheel and its dependencies: {time.perf_counter() - start:.0f} s")
