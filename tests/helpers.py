@@ -48,7 +48,7 @@ def default_station_dict():
 
 
 # drawn_0 of `dresspack eval --drawn-tasks 30 --seeds 0` on the default station: a weld on the body's panel that no
-# midpoint via leaves toward Home (docs/primitive_reach.json)
+# midpoint via leaves toward Home (docs/data/primitive_reach.json)
 STUCK_WELD = np.array([0.7407122213013433, 1.0980702748831073, -0.7737209529340379, 3.4157926055470913,
                        -1.0514117569148649, 2.196833986149849])
 

@@ -209,6 +209,10 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
     from tqdm.auto import tqdm
 
     check_choice("backend", backend, BACKENDS)
+    if backend == "ray":
+        from dresspack_gym.ray_pool import require_ray
+
+        require_ray()
 
     out = Path(out)
     spec = {k: getattr(cfg, k) for k in SPEC_FIELDS}
@@ -282,9 +286,8 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
 def _cost_to_go_file(ref: str, policy_file: Path) -> Path:
     """The ranked rollout's model file, checked (a cost-to-go model for this policy's actions), or a ConfigError
     naming the field."""
+    from dresspack.agents.learned.policy import policy_actions
     from dresspack.agents.learned.search import load_cost_to_go, resolve_cost_to_go
-
-    from .train_cost_model import policy_actions
 
     try:
         path = resolve_cost_to_go(ref, policy_file)

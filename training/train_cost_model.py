@@ -39,6 +39,7 @@ def train_cost_model(cfg: CostStudyConfig, data_dir, out: str | Path, *, episode
         rank_metrics,
         state_ids,
     )
+    from dresspack.agents.learned.policy import policy_actions
 
     from .counterfactuals import load_label_folders
 
@@ -130,16 +131,6 @@ def _ranges(ids) -> str:
         parts.append(str(ids[k]) if j == k else f"{ids[k]}-{ids[j]}")
         k = j + 1
     return ",".join(parts)
-
-
-def policy_actions(policy_file: str | Path) -> int:
-    """How many actions the policy in ``policy_file`` (a MaskablePPO .zip) chooses among."""
-    from sb3_contrib import MaskablePPO
-
-    from dresspack_gym.io.artefacts import reading
-
-    with reading(policy_file, "policy", "MaskablePPO model (.zip)", "the labels' spec.json names it as policy_file"):
-        return int(MaskablePPO.load(policy_file, device="cpu").action_space.n)
 
 
 def add_train_cost_model_command(sub) -> None:

@@ -59,6 +59,16 @@ def resolve_policy(ref: str | Path | None) -> tuple[Path, dict]:
     return model, config
 
 
+def policy_actions(policy_file: str | Path) -> int:
+    """How many actions the policy in ``policy_file`` (a MaskablePPO .zip) chooses among."""
+    from sb3_contrib import MaskablePPO
+
+    from dresspack_gym.io.artefacts import reading
+
+    with reading(policy_file, "policy", "MaskablePPO model (.zip)", "the labels' spec.json names it as policy_file"):
+        return int(MaskablePPO.load(policy_file, device="cpu").action_space.n)
+
+
 def moving_masks(env: DresspackEnv, masks: np.ndarray) -> np.ndarray:
     """``masks`` less the moves to where the robot already stands (a via to the travel posture it is at), unless
     nothing else is allowed. The env offers them (its observation shows them, as the policy saw them in training),

@@ -26,7 +26,7 @@ from .map_roadmap import simplify_route
 from .ompl_connect import _ompl, _vector, joint_space, seed_ompl
 
 # Samples per FMT* search (its work unit) and the time/wear weights searched per leg (one search each). Measured on
-# thesis_tension and its variants (scripts/tension_route_study.py --planner ompl-wear-fmt): see the README's
+# thesis_tension and its variants (scripts/studies/tension_route_study.py --planner ompl-wear-fmt): see the README's
 # "OMPL's FMT* over the map".
 FMT_SAMPLES = 1000
 FMT_WEIGHTS = (1.0, 10.0)

@@ -133,8 +133,8 @@ class LegBook:
     def plan_every_move(self, task: StationTask, options: list[WeldOption], cache: Path | None = None,
                         workers: int = 2, bar=no_bar) -> None:
         """Every robot's moves between its Home and its options planned now, in ``workers`` processes, and known
-        to the solver, which then times every move exactly (``scripts/station_leg_bound.py`` bounds the plans over
-        these legs). One direction is planned; the other is the same path backwards (the time law is
+        to the solver, which then times every move exactly (``scripts/studies/station_leg_bound.py`` bounds the plans
+        over these legs). One direction is planned; the other is the same path backwards (the time law is
         symmetric in time, so it takes as long). ``cache``: a file the legs are appended to as they finish and
         read back by a later call with the same settings."""
         R = task.n_robots

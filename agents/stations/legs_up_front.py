@@ -3,8 +3,8 @@
 The station planner plans legs lazily: the solver times unplanned moves by an estimate and only the moves its
 answers choose are planned. Planning every robot's moves between its Home and its options instead gives the real
 time of every move (``LegBook.plan_every_move``), and so a bound of the plans over the planner's own legs
-(``scripts/station_leg_bound.py``). A leg depends only on its ends, the station, the leg planner and its seed (the
-planners re-seed per plan), so which worker plans it, and in which order, changes nothing."""
+(``scripts/studies/station_leg_bound.py``). A leg depends only on its ends, the station, the leg planner and its seed
+(the planners re-seed per plan), so which worker plans it, and in which order, changes nothing."""
 
 from __future__ import annotations
 

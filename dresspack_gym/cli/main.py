@@ -17,6 +17,7 @@ from .inspection import add_inspect
 from .machine import add_bench, add_robots
 from .maps import add_robustness_map, add_robustness_paths, add_wear_map
 from .plans import add_animate, add_export
+from .view import add_view_command
 
 
 def registered_commands() -> list:
@@ -50,7 +51,7 @@ class UsageError(DresspackError):
 
 # the core subcommands, in the order --help lists them (after those the packages built on the core register)
 CORE_COMMANDS = (add_inspect, add_render, add_restrictions, add_robustness_map, add_robustness_paths,
-                 add_twist_sweep, add_wear_map, add_robots, add_export, add_animate, add_bench)
+                 add_twist_sweep, add_wear_map, add_robots, add_export, add_animate, add_view_command, add_bench)
 
 
 def build_parser(extensions=None) -> argparse.ArgumentParser:

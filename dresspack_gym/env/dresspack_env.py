@@ -9,7 +9,8 @@ The env composes one owner per concern, as dm_control splits physics, task and e
 - actions: an :class:`~dresspack_gym.env.action_sets.ActionSet` (``action_set``: joint steps, or planner-like
   primitives), masked by :class:`~dresspack_gym.env.masks.ActionMasks`;
 - observation: :class:`~dresspack_gym.env.observation.Observation` (its layout is ``observation_structure``);
-- wear bookkeeping: :class:`~dresspack_gym.env.episode_wear.EpisodeWear` (wear integral, damage, fatigue life).
+- wear bookkeeping: :class:`~dresspack_gym.env.episode_wear.EpisodeWear` (wear integral, damage, fatigue life);
+- input checks: :mod:`~dresspack_gym.env.inputs` (actions, reset options, configurations, before anything changes).
 
 Episode: starting at Home, visit the task's weld configurations in order, then return Home. Each weld configuration
 is the restriction-passing, collision-free IK branch closest to Home (max joint change). A step moves straight to
@@ -50,7 +51,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from ..errors import ConfigError, DresspackError, EnvUsageError
+from ..errors import ConfigError, EnvUsageError
 from ..fields import check_choice
 from ..io.loading import load_station
 from ..physics.profiles import with_profile
@@ -66,20 +67,16 @@ from .action_sets.joint_steps import STAY, TOWARD_GOAL
 from .action_sets.primitives import TO_GOAL
 from .config import EnvConfig
 from .episode_wear import COST_TERMS, EpisodeWear, cost_row
+from .inputs import InvalidActionError, checked_action, checked_reset_options
 from .masks import ActionMasks
 from .observation import Observation
 from .weld_cycle import REWARD_TERMS, WeldCycleTask
 
 __all__ = ["STAY", "TOWARD_GOAL", "TO_GOAL", "DresspackEnv", "EnvSnapshot", "InvalidActionError"]
 
-RESET_OPTIONS = ("welds", "goals", "start")
 # [s] with wear_integral the cost is sampled this often along a motion and integrated (trapezoid): a primitive
 # segment lasts seconds, its end state alone would miss what the cable went through on the way
 WEAR_SAMPLE_TIME = 0.05
-
-
-class InvalidActionError(DresspackError, ValueError):
-    """A masked or malformed action was taken with ``invalid_action="raise"``."""
 
 
 @dataclass(frozen=True)
@@ -206,7 +203,7 @@ class DresspackEnv(gym.Env):
 
     # ----------------------------------------------------------------------------- gym API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        options = self._check_options(options)
+        options = checked_reset_options(options, self.validity)
         super().reset(seed=seed)
         order = self.task.sample_welds(self.np_random, options)
         if "start" in options:
@@ -230,7 +227,7 @@ class DresspackEnv(gym.Env):
 
     def step(self, action):
         self._check_in_episode("step()")
-        a = self._check_action(action)
+        a = checked_action(action, self.n_actions)
         q_before = self.q
         invalid = not self.action_masks()[a]
         if invalid and self.invalid_action == "raise":
@@ -409,59 +406,6 @@ class DresspackEnv(gym.Env):
         if self._needs_reset:
             raise EnvUsageError(f"{call} before reset(): call reset() first" if self.steps == 0 else
                                 f"{call} after the episode ended (terminated or truncated): call reset() first")
-
-    def _check_action(self, action) -> int:
-        """An action of the action space: an integer (Python, numpy, or a one-element integer array) in range;
-        bools and floats are refused, as ``Discrete.contains`` does."""
-        value = action
-        if isinstance(action, np.ndarray) and action.size == 1 and action.ndim <= 1:
-            value = action.reshape(()).item() if np.issubdtype(action.dtype, np.integer) else action
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
-                or not 0 <= value < self.n_actions:
-            raise InvalidActionError(f"action must be an integer in [0, {self.n_actions - 1}], got {action!r}")
-        return int(value)
-
-    def _check_options(self, options: dict | None) -> dict:
-        """reset()'s options, each checked before anything changes (``start`` as a configuration array)."""
-        if options is not None and not isinstance(options, dict):
-            raise ConfigError("options", f"expected a dict with keys from {list(RESET_OPTIONS)} or None, "
-                                         f"got {options!r}")
-        options = dict(options or {})
-        unknown = sorted(set(options) - set(RESET_OPTIONS))
-        if unknown:
-            raise ConfigError(f"options.{unknown[0]}", f"unknown reset option; allowed: {list(RESET_OPTIONS)}")
-        if "welds" in options:
-            welds = options["welds"]
-            if isinstance(welds, (str, bytes)) or not isinstance(welds, (list, tuple)) \
-                    or not all(isinstance(w, str) for w in welds):
-                raise ConfigError("options.welds", f"expected a list of weld-point names, got {welds!r}")
-        if "goals" in options:
-            self._check_goals(options)
-        if "start" in options:
-            options["start"] = self._configuration(options["start"], "options.start")
-        return options
-
-    def _check_goals(self, options: dict) -> None:
-        goals = options["goals"]
-        if "welds" in options:
-            raise ConfigError("options.goals", "give either welds (names) or goals (configurations), not both")
-        if not isinstance(goals, dict) or not goals:
-            raise ConfigError("options.goals", f"expected a non-empty mapping of weld name -> 6 joint angles [rad], "
-                                               f"got {goals!r}")
-        for name, q in goals.items():
-            self._configuration(q, f"options.goals.{name}")
-
-    def _configuration(self, value, field: str) -> np.ndarray:
-        """``value`` as a valid configuration of the robot (6 joint angles [rad]), or a ConfigError naming ``field``."""
-        try:
-            q = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            q = None
-        if q is None or q.shape != (6,) or not self.validity.valid(q):
-            why = self.validity.why_invalid(q) if q is not None and q.shape == (6,) else \
-                f"got {value!r}"
-            raise ConfigError(field, f"must be 6 joint angles [rad] of a valid configuration: {why}")
-        return q
 
     def _step_time(self) -> float:
         """Seconds of one joint step of the fastest joint under the simulator's time law."""

@@ -83,7 +83,8 @@ class SimulationConfig:
     """Physics and quasi-static motion settings.
 
     The discrete integrator is implicit in position for the rod's elasticity, so motions run at the relaxation
-    step: 8 ms ranks fixed weld cycles by wear exactly as 2 ms does, 3x faster (scripts/physics_speed_accuracy.py).
+    step: 8 ms ranks fixed weld cycles by wear exactly as 2 ms does, 3x faster
+    (scripts/studies/physics_speed_accuracy.py).
     """
 
     timestep: float = 0.008
@@ -94,14 +95,14 @@ class SimulationConfig:
     settle_timestep: float = 0.008  # relaxation step with the robots still [s]
     # Static equilibrium: the largest net force on a free vertex below this fraction of its weight (and the
     # net twist torque below this fraction of rho h g r) ... At 0.02 settled cables still relaxed by several mm
-    # and 70 % of their twist in the next 20 s (scripts/rest_table.py).
+    # and 70 % of their twist in the next 20 s (scripts/studies/rest_table.py).
     equilibrium_tolerance: float = 0.005
     equilibrium_speed: float = 0.002  # ... and the cable's kinetic energy below 1/2 M v^2 at this speed [m/s]
     gravity: float = 9.81
     # Contact friction (MuJoCo's option cone and impratio). Soft contacts let a cable resting under tangential load
     # creep (MuJoCo's "slow slippage"): on the default station's floor_pan_inner weld it slides along the roof rail
     # and the settle is flagged unconverged. Elliptic cones with impratio 100 hold it there (drift 136 -> 1.4 mm in
-    # 20 s) but make a cable resting on the robot's wrist creep instead (scripts/rest_table.py), so the default
+    # 20 s) but make a cable resting on the robot's wrist creep instead (scripts/studies/rest_table.py), so the default
     # stays pyramidal; MuJoCo's NoSlip pass is not available for elastic flexes under the discrete integrator.
     friction_cone: str = "pyramidal"
     impratio: float = 1.0

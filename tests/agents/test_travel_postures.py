@@ -1,4 +1,5 @@
-"""scripts/travel_postures.py: the postures a planner's plans share, greedily by how many plans pass near them."""
+"""scripts/studies/travel_postures.py: the postures a planner's plans share, greedily by how many plans pass near
+them."""
 
 import importlib.util
 import json
@@ -6,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "travel_postures.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "studies" / "travel_postures.py"
 spec = importlib.util.spec_from_file_location("travel_postures", SCRIPT)
 travel_postures = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(travel_postures)

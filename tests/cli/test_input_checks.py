@@ -174,8 +174,9 @@ def _numeric_flags():
 REQUIRED = {"render": ["--out", "x.png"], "robustness-map": ["--grid", "small", "--station", "default", "--out", "m"],
             "robustness-paths": ["--grid", "small", "--station", "default", "--out", "m"],
             "restrictions": [], "twist-sweep": [], "bench": ["physics"], "inspect": [],
-            "export": ["p.npz", "--format", "csv"], "animate": ["p.npz", "--out", "x.mp4"], "wear-map": [],
-            "robots": [], "plan": [], "station-plan": [], "demo": [], "eval": [], "train": ["stud_welding"],
+            "export": ["p.npz", "--format", "csv"], "animate": ["p.npz", "--out", "x.mp4"], "view": ["p.npz"],
+            "wear-map": [], "robots": [], "plan": [], "station-plan": [], "demo": [], "eval": [],
+            "train": ["stud_welding"],
             "select-model": ["run"], "self-imitate": ["policy", "--out", "o"], "counterfactuals": ["--out", "o"],
             "train-cost-model": ["--data", "d", "--out", "o"]}
 

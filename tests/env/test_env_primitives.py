@@ -59,7 +59,7 @@ def test_here_anchored_vias_offset_the_current_configuration():
                 expected[j] += sign * math.radians(off)
                 np.testing.assert_allclose(e.target(q, here), expected, atol=1e-12)
                 assert e.describe_action(here) == f"via here with j{j + 1} {sign * off:+g} deg"
-    other = goal + 0.3  # any leg's end: what the reachability study (scripts/primitive_reach.py) asks
+    other = goal + 0.3  # any leg's end: what the reachability study (scripts/studies/primitive_reach.py) asks
     for a in (TO_GOAL, 1, 30):
         expected = e.target(q, a)
         np.testing.assert_allclose(e.target(q, a, other), expected + (other - goal) * (0.0 if a == 30 else

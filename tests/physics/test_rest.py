@@ -1,5 +1,5 @@
 """Rest is rest: a settle that reports convergence leaves a cable that stays put when simulated on, and a settle
-that cannot reach rest says so (issue: cable physics v3; the full table is scripts/rest_table.py)."""
+that cannot reach rest says so (issue: cable physics v3; the full table is scripts/studies/rest_table.py)."""
 
 import numpy as np
 import pytest

@@ -32,7 +32,7 @@ class Primitives(ActionSet):
       from the panel just welded, before heading anywhere). An anchor in ``fallback_anchors`` offers its vias only
       where no other move is free;
     - then one action per travel posture: go to that configuration (a cell's travel positions, where the cable
-      hangs easy; a wear-aware planner's routes pass through such postures, see ``scripts/travel_postures.py``);
+      hangs easy; a wear-aware planner's routes pass through such postures, see ``scripts/studies/travel_postures.py``);
     - then ``approach_vias`` actions: via approach configuration k of the current goal (:mod:`approach`: free
       configurations within ``approach_reach`` of the goal from which the straight segment into it is free, drawn
       from the goal itself, so they are the same in any run); a weld in a pocket of the body admits only a narrow

@@ -55,7 +55,7 @@ class RobustnessSettings:
     excursion: tuple[float, float, float, float] = tuple(THESIS_EXCURSION)  # radians
     n_samples: int = 20  # N_s shape samples along the cable
     threshold: float = 0.1  # d_thresh [m]
-    # Quasi-static defaults from scripts/robustness_settings_study.py (100 random configurations of the
+    # Quasi-static defaults from scripts/studies/robustness_settings_study.py (100 random configurations of the
     # 67,500 grid against 1/8 speed with 2/8 ms steps): rated speed agrees on 92 % of flags, half speed 94 %,
     # these 98 % (quarter speed first, halved while any vertex accelerates above 0.5 g).
     speed_fraction: float = 0.25  # the full-speed excursion slowed to this fraction in time (first try)

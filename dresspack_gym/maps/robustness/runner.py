@@ -14,7 +14,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...fields import check_choice
-from ...ray_pool import ray_imap_unordered
+from ...ray_pool import ray_imap_unordered, require_ray
 from ...robots.time_law import TIME_LAW
 from ...stations.config import StationConfig
 from .algorithm import RobustnessEvaluator, RobustnessSettings
@@ -142,6 +142,8 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
     flight. ``limit`` stops after that many new configurations (for trying a grid or benchmarking).
     """
     check_choice("backend", backend, BACKENDS)
+    if backend == "ray":
+        require_ray()
     if workers < 1:
         raise ConfigError("workers", f"must be at least 1, got {workers}")
     wanted = range(len(grid)) if indices is None else sorted({int(i) for i in indices})

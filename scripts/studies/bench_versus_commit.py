@@ -6,7 +6,7 @@ process on the same paths, alternating which goes first: machine load shifts bot
 the ratio then/now for replays of fixed weld cycles, env steps (accurate joint steps and the goal-conditioned
 training setup) and, with --plan, one ompl-wear plan, and checks that both versions give the same results.
 
-Usage, from the repository root: .venv/bin/python scripts/bench_versus_commit.py 039d8f7 [--plan] [--paths 12]
+Usage, from the repository root: .venv/bin/python scripts/studies/bench_versus_commit.py 039d8f7 [--plan] [--paths 12]
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 NOW, THEN = "dresspack_gym", "dresspack_gym_then"
 
 

@@ -1,6 +1,6 @@
 """Per-method fatigue life and damage of an evaluation's trajectories, and the figures of damage along the cable.
 
-    python scripts/damage_study.py out/demo [--axial-stiffness 1.8e6] [--figures docs/]
+    python scripts/studies/damage_study.py out/demo [--axial-stiffness 1.8e6] [--figures docs/]
 
 Replays every successful trajectory of an evaluation folder (``dresspack demo`` / ``dresspack eval``) with the
 station's dresspack (optionally with the conductors' own axial stiffness), prints per method the shortest life,

@@ -3,7 +3,8 @@ thesis_distance, seeds 0 and 1, default work budgets (what
 `dresspack plan --station SCENARIO --planner P --seed S --json` gives, with those budgets passed explicitly), one plan
 after another.
 
-    .venv/bin/python scripts/scenario_table.py [--out docs/scenario_table.json] [--seeds 0 1] [--scenarios curvature]
+    .venv/bin/python scripts/studies/scenario_table.py [--out docs/data/scenario_table.json] [--seeds 0 1] \
+        [--scenarios curvature]
 
 Writes one JSON row per plan (appended as it goes, so an interrupted run resumes) and prints the README's
 markdown rows."""
@@ -35,7 +36,7 @@ def plan(dresspack: list[str], scenario: str, planner: str, seed: int) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=Path("docs/scenario_table.json"))
+    ap.add_argument("--out", type=Path, default=Path("docs/data/scenario_table.json"))
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
     ap.add_argument("--scenarios", nargs="+", choices=SCENARIOS, default=list(SCENARIOS))
     ap.add_argument("--dresspack", nargs="+", default=[str(Path(sys.executable).with_name("dresspack"))],

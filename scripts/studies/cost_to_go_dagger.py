@@ -2,8 +2,8 @@
 labels): the shipped model, never fit on them, against models fit on the first labels plus the other folds of the
 DAgger episodes (a cross-validation by episode over the DAgger labels).
 
-    PYTHONPATH=. .venv/bin/python scripts/cost_to_go_dagger.py --first runs/ctg/data --dagger runs/ctg/dagger \
-        --out docs/cost_to_go_dagger.json
+    PYTHONPATH=. .venv/bin/python scripts/studies/cost_to_go_dagger.py --first runs/ctg/data --dagger runs/ctg/dagger \
+        --out docs/data/cost_to_go_dagger.json
 
 ``--first``: labels of the policy's own rollouts (``dresspack counterfactuals --config cost_to_go``); ``--dagger``:
 labels of the ranked rule's (``--config cost_to_go_ranked``). Both are read as ``train-cost-model`` reads several
@@ -28,10 +28,10 @@ from dresspack.agents.learned.cost_model import (
     rank_metrics,
     state_ids,
 )
-from dresspack.agents.learned.policy import resolve_policy
+from dresspack.agents.learned.policy import policy_actions, resolve_policy
 from dresspack.training.cost_config import MAX_EPISODES, load_cost_config
 from dresspack.training.counterfactuals import load_label_folders
-from dresspack.training.train_cost_model import out_of_fold_predictions, policy_actions
+from dresspack.training.train_cost_model import out_of_fold_predictions
 
 
 def main() -> None:

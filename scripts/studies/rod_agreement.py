@@ -1,7 +1,7 @@
 """The rod engine against MuJoCo on fixed weld cycles: integral of C, peak curvature and tension, and wall time.
 
-    .venv/bin/python scripts/rod_agreement.py --station default --paths 20 --segments 48 --mujoco-timestep 0.016 \
-        --out docs/data/rod_agreement_default_48.json
+    .venv/bin/python scripts/studies/rod_agreement.py --station default --paths 20 --segments 48 \
+        --mujoco-timestep 0.016 --out docs/data/rod_agreement_default_48.json
 
 ``--mujoco-segments`` runs MuJoCo at another resolution than the rod engine (its 96-segment reference, or the 24
 segments at 8 ms that MuJoCo's replays use today, for the speed ratio).

@@ -6,8 +6,8 @@ simulation per motion second.
 
     .venv/bin/dresspack wear-map --station default --samples 2000 --out runs/maps/default_2k.npz     # 3 min
     .venv/bin/dresspack wear-map --station default --samples 16000 --out runs/maps/default_16k.npz   # ~30 min
-    PYTHONPATH=. .venv/bin/python scripts/map_travel_wear.py --map runs/maps/default_2k.npz \
-        --map runs/maps/default_16k.npz --episodes 40 --out docs/map_travel_wear.json
+    PYTHONPATH=. .venv/bin/python scripts/studies/map_travel_wear.py --map runs/maps/default_2k.npz \
+        --map runs/maps/default_16k.npz --episodes 40 --out docs/data/map_travel_wear.json
 
 Each map is reported under its file's stem. The weld cycles are the shipped
 goal-conditioned policy's on episodes of its own task distribution (seeds 31000 + k, apart from the training,

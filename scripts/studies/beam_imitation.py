@@ -4,9 +4,11 @@ in its own training env), run on episodes of the policy's own task distribution;
 to the teacher's actions (``dresspack self-imitate``'s masked cross-entropy) and both policies are rolled out, most
 probable actions first, on held-out episodes of the same distribution.
 
-    PYTHONPATH=. .venv/bin/python scripts/beam_imitation.py collect --episodes 40 --jobs 2 --out runs/beam_teacher
-    PYTHONPATH=. .venv/bin/python scripts/beam_imitation.py fit --teacher runs/beam_teacher --learning-rate 1e-4 \
-        --epochs 20 --out runs/beam_fit/1e-4_20 --json docs/beam_imitation.json    # and 1e-3 20, 3e-4 10, 3e-5 20
+    PYTHONPATH=. .venv/bin/python scripts/studies/beam_imitation.py collect --episodes 40 --jobs 2 \
+        --out runs/beam_teacher
+    PYTHONPATH=. .venv/bin/python scripts/studies/beam_imitation.py fit --teacher runs/beam_teacher \
+        --learning-rate 1e-4 --epochs 20 --out runs/beam_fit/1e-4_20 \
+        --json docs/data/beam_imitation.json    # and 1e-3 20, 3e-4 10, 3e-5 20
 
 Seeds: the teacher's episodes are 40000 + k (apart from the training, callback, select-model, self-imitate,
 map-study and evaluation seeds). Both policies are judged as ``dresspack select-model`` judges a run's models, on
@@ -207,7 +209,8 @@ def main() -> None:
     f.add_argument("--batch-size", type=int, default=32)
     f.add_argument("--eval-episodes", type=int, default=90)
     f.add_argument("--out", required=True)
-    f.add_argument("--json", help="also add the fit to this record of the teacher's fits (docs/beam_imitation.json)")
+    f.add_argument("--json",
+                   help="also add the fit to this record of the teacher's fits (docs/data/beam_imitation.json)")
     args = ap.parse_args()
     (collect if args.command == "collect" else fit_and_compare)(args)
 

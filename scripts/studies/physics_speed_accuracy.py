@@ -5,8 +5,8 @@ and compares them with a fine reference (by default 96 segments at 2 ms): Spearm
 integrated wear cost (all cycles, and the cycles whose every settle reached the equilibrium residual in both),
 mean ratio of integrated cost and of peak curvature to the reference, and wall time (all settings timed in this
 one run, so the ratios between them hold on any machine). Usage:
-  PYTHONPATH=. .venv/bin/python scripts/physics_speed_accuracy.py --settings 24:0.002 24:0.008 48:0.008 \
-      --reference 96:0.002 --paths 12 --json docs/physics_speed_accuracy.json
+  PYTHONPATH=. .venv/bin/python scripts/studies/physics_speed_accuracy.py --settings 24:0.002 24:0.008 48:0.008 \
+      --reference 96:0.002 --paths 12 --json docs/data/physics_speed_accuracy.json
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Record seeded env rollouts (joint steps and planner-like primitives) to compare two versions bit for bit.
 
-    PYTHONPATH=. .venv/bin/python scripts/env_rollout_record.py before.npz      # on one commit
-    PYTHONPATH=. .venv/bin/python scripts/env_rollout_record.py after.npz --compare before.npz   # on another
+    PYTHONPATH=. .venv/bin/python scripts/studies/env_rollout_record.py before.npz      # on one commit
+    PYTHONPATH=. .venv/bin/python scripts/studies/env_rollout_record.py after.npz --compare before.npz   # on another
 
 A refactor that must not change behaviour keeps every array equal (NaN equal to NaN); the env ids stay v0 only then.
 """

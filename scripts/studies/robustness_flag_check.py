@@ -5,7 +5,7 @@ Every listed configuration is re-mapped from its own Ry's settled state (start "
 the grid row it sat in; the full map continues along rows), once with the map's settings ("rerun") and once with
 the changed one, so the comparison isolates the change. Resumable (each run is a robustness-map folder).
 
-    .venv/bin/python scripts/robustness_flag_check.py --map maps/default_thesis_24336 --grid thesis_24336 \
+    .venv/bin/python scripts/studies/robustness_flag_check.py --map maps/default_thesis_24336 --grid thesis_24336 \
         --out out/flag_check [--workers 2] [--sample N]
 
 Writes OUT/flag_check.json (also printed)."""

@@ -3,7 +3,7 @@
 Checks out the last v0 commit into a temporary git worktree and times both models on the default
 station, interleaved (best of 3 rounds x 5 repeats): raw mj_step with the cable at rest, and steps/s of
 a quasi-static move (j1 + 90 deg, j4 + 57 deg) through CableSimulator.move_to. Usage, from the repository
-root: .venv/bin/python scripts/bench_physics_v0_vs_v2.py
+root: .venv/bin/python scripts/studies/bench_physics_v0_vs_v2.py
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ print(json.dumps(best))
 
 
 def main() -> None:
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     with tempfile.TemporaryDirectory() as tmp:
         v0 = Path(tmp) / "v0"
         subprocess.run(["git", "worktree", "add", "--detach", str(v0), V0_COMMIT], cwd=root, check=True,

@@ -2,10 +2,10 @@
 planner twice in a row (bounded first, then every query simulated to its leg's end), so machine load falls on both
 alike; the two plans must be the same route.
 
-    PYTHONPATH=. .venv/bin/python scripts/leg_cost_bound.py --planner ompl-wear --welds 0-9 \
-        --out docs/leg_cost_bound_ompl_wear.json
-    PYTHONPATH=. .venv/bin/python scripts/leg_cost_bound.py --planner ppo-search --welds 0-9 \
-        --out docs/leg_cost_bound_ppo_search.json
+    PYTHONPATH=. .venv/bin/python scripts/studies/leg_cost_bound.py --planner ompl-wear --welds 0-9 \
+        --out docs/data/leg_cost_bound_ompl_wear.json
+    PYTHONPATH=. .venv/bin/python scripts/studies/leg_cost_bound.py --planner ppo-search --welds 0-9 \
+        --out docs/data/leg_cost_bound_ppo_search.json
 
 The welds are the evaluation's drawn welds (``dresspack eval --drawn-tasks 30 --seeds 0 --start-noise-deg 10``:
 the same tasks and start). A query is unbounded here by giving it no ``give_up`` (what ``LegCost`` did before

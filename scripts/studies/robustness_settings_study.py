@@ -5,7 +5,7 @@ state, so configurations are independent) with each setting, and reports per set
 fraction, the agreement of the robust flags with the reference, the unconverged count and the wall time
 per configuration. Usage (from the repository root):
 
-    .venv/bin/python scripts/robustness_settings_study.py --grid thesis_67500 --sample 100 --out out/study
+    .venv/bin/python scripts/studies/robustness_settings_study.py --grid thesis_67500 --sample 100 --out out/study
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """How far a station plan is from what its legs allow: every robot's moves planned up front, and the makespan bound
 of the routes over those legs beside the bound of any plan (straight moves).
 
-    .venv/bin/python scripts/station_leg_bound.py side_framing_4r --out station_leg_bound --plan station_plans/time
+    .venv/bin/python scripts/studies/station_leg_bound.py side_framing_4r --out station_leg_bound \
+        --plan station_plans/time
 
 The station planner plans only the legs its answers choose, so its bound (``lower_bounds`` in ``plan.json``) rests
 on straight-move times, which no motion beats but most moves on a car-body station cannot take. This plans every

@@ -11,7 +11,7 @@ the condition). For every node this runs
 - on the shipped node and three around it, also `thesis-local` and `ompl-wear`: their peak curvature against the
   direct one.
 
-    .venv/bin/python scripts/curvature_node_family.py [--seeds 0] [--out docs/curvature_node_family.json]
+    .venv/bin/python scripts/studies/curvature_node_family.py [--seeds 0] [--out docs/data/curvature_node_family.json]
 
 Every plan goes through `dresspack plan --station VARIANT.yaml --planner P --seed S --json --out TRAJ.npz` (the default
 work budgets, given explicitly) and is replayed from its saved trajectory for the curves over time, which must
@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 STATION = ROOT / "configs" / "stations" / "thesis_curvature.yaml"
 PLANNERS = ("ompl", "thesis-local", "ompl-wear")
 BUDGET = {"iterations": 3000, "routes": 12, "evaluations": 40}  # the CLI's defaults, passed explicitly
@@ -128,7 +128,7 @@ def plot_curvature(ax, curves: dict[str, dict], title: str) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=ROOT / "docs" / "curvature_node_family.json")
+    ap.add_argument("--out", type=Path, default=ROOT / "docs" / "data" / "curvature_node_family.json")
     ap.add_argument("--seeds", type=int, nargs="+", default=[0])
     ap.add_argument("--replot", action="store_true", help="only redraw the plots from the JSON's curves")
     ap.add_argument("--dresspack", nargs="+", default=[str(Path(sys.executable).with_name("dresspack"))],

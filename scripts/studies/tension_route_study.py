@@ -1,8 +1,8 @@
 """Issue 17's measurement: does the global wear-aware planner find the route under the cuboid on thesis_tension
 and on three variants (cuboid moved -10 / +10 cm along x, cuboid enlarged 20 %), for every seed?
 
-    .venv/bin/python scripts/tension_route_study.py --seeds 20 --out out/tension_study [--workers 2]
-    .venv/bin/python scripts/tension_route_study.py --planner ompl-wear-fmt --seeds 5 --baseline-seeds 0 \
+    .venv/bin/python scripts/studies/tension_route_study.py --seeds 20 --out out/tension_study [--workers 2]
+    .venv/bin/python scripts/studies/tension_route_study.py --planner ompl-wear-fmt --seeds 5 --baseline-seeds 0 \
         --out out/tension_study_fmt
 
 Appends one JSON line per plan to OUT/plans.jsonl (resumable: finished plans are skipped) and writes

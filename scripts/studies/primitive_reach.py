@@ -1,8 +1,8 @@
 """Which held-out welds the env's planner-like actions can finish at all: a search over the action set alone
 (geometry and masks, no policy), per leg the fewest via actions after which "straight to the goal" is free.
 
-    PYTHONPATH=. .venv/bin/python scripts/primitive_reach.py --station default --drawn-tasks 30 \
-        --anchors midpoint --anchors midpoint,here --anchors midpoint,here/here --out docs/primitive_reach.json
+    PYTHONPATH=. .venv/bin/python scripts/studies/primitive_reach.py --station default --drawn-tasks 30 \
+        --anchors midpoint --anchors midpoint,here --anchors midpoint,here/here --out docs/data/primitive_reach.json
 
 The tasks are `dresspack eval --drawn-tasks N --seeds 0`'s (Home to one weld drawn on the parts, back Home). Each
 leg is searched breadth first: at most ``--vias`` actions (every unmasked via of the env: its own targets, masks and

@@ -5,7 +5,8 @@ alone, no simulation needed: a cycle's time is its motions' time), and the earli
 demo run with the new law (the plans themselves may change, since planners weigh time). Usage, from the
 repository root:
 
-    .venv/bin/python scripts/time_law_cycle_times.py --before OLD_DEMO_DIR [--after NEW_DEMO_DIR] [--out FILE.md]
+    .venv/bin/python scripts/studies/time_law_cycle_times.py --before OLD_DEMO_DIR [--after NEW_DEMO_DIR] \
+        [--out FILE.md]
 """
 
 from __future__ import annotations

@@ -1,9 +1,10 @@
 """Does the time law change the robustness map? Re-map configurations that an earlier run mapped under version 0's
-cubic law (a robustness-map folder with start "ry", e.g. the "flagged_rerun" of scripts/robustness_flag_check.py)
-with the current law and the same settings, and compare flags and deviations configuration by configuration.
+cubic law (a robustness-map folder with start "ry", e.g. the "flagged_rerun" of
+scripts/studies/robustness_flag_check.py) with the current law and the same settings, and compare flags and deviations
+configuration by configuration.
 
-    .venv/bin/python scripts/robustness_time_law_check.py --old out/flag_check/flagged_rerun --grid thesis_24336 \
-        --out out/law_check [--workers 2]
+    .venv/bin/python scripts/studies/robustness_time_law_check.py --old out/flag_check/flagged_rerun \
+        --grid thesis_24336 --out out/law_check [--workers 2]
 
 Writes OUT/time_law_check.json (also printed). Resumable (the new run is a robustness-map folder)."""
 

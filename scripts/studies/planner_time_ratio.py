@@ -1,10 +1,10 @@
 """Planning time of two planners on the same tasks, measured in one run (alternating plan by plan, so machine load
 falls on both alike): the ratio issue 17 asks for between ompl-wear-fmt and ompl-wear.
 
-    .venv/bin/python scripts/planner_time_ratio.py --station thesis_tension --seeds 0 1 2 \
-        --planners ompl-wear ompl-wear-fmt --out docs/planner_time_ratio.json
-    .venv/bin/python scripts/planner_time_ratio.py --planners ompl-wear:no-map ompl-wear \
-        --out docs/planner_time_ratio_map.json   # with the wear map against the via routes alone
+    .venv/bin/python scripts/studies/planner_time_ratio.py --station thesis_tension --seeds 0 1 2 \
+        --planners ompl-wear ompl-wear-fmt --out docs/data/planner_time_ratio.json
+    .venv/bin/python scripts/studies/planner_time_ratio.py --planners ompl-wear:no-map ompl-wear \
+        --out docs/data/planner_time_ratio_map.json   # with the wear map against the via routes alone
 
 A planner name ending in ``:no-map`` plans without the wear map (``wear_map=False``: direct and via routes only,
 the global planner as it was before the map).

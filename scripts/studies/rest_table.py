@@ -4,8 +4,8 @@ A settled cable is at rest when more simulation leaves it where it is. For every
 segment counts this moves the robot Home -> weld (settling there), then simulates ``--more`` seconds at the motion
 timestep and reports the largest vertex displacement [mm] and the changes of max tension, max twist rate and the
 largest clamp force/torque [%]. Usage:
-  PYTHONPATH=. .venv/bin/python scripts/rest_table.py --stations default default_variant --segments 24 48 \
-      --json docs/rest_table.json
+  PYTHONPATH=. .venv/bin/python scripts/studies/rest_table.py --stations default default_variant --segments 24 48 \
+      --json docs/data/rest_table.json
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Each leg's simulated wear (its robot's cable alone, as the station planner runs it) against that leg's part of
 the station replay (every robot and cable on one clock): how far the solver's per-leg figures are from the cycle.
 
-    .venv/bin/python scripts/station_leg_wear_check.py station_plans/time --station side_framing_4r
+    .venv/bin/python scripts/studies/station_leg_wear_check.py station_plans/time --station side_framing_4r
 
 Reads a plan folder written by ``dresspack station-plan`` (plan.json and one trajectory per robot), replays it, runs
 every leg alone and prints per leg both integrals and their difference; ``--out`` writes them as JSON. It first

@@ -1,8 +1,8 @@
 """How low the wear of a policy's action set goes: a beam search over the masked actions of the exact env a policy
 acts in, for the planners' objective (motion time + ∫C dt), its best sequence replayed as the evaluation replays.
 
-    PYTHONPATH=. .venv/bin/python scripts/action_set_bound.py --policy goal_conditioned --drawn-tasks 30 \
-        --tasks 0 1 2 3 --compare ppo=runs/eval/drawn30/results.json --out docs/action_set_bound.json
+    PYTHONPATH=. .venv/bin/python scripts/studies/action_set_bound.py --policy goal_conditioned --drawn-tasks 30 \
+        --tasks 0 1 2 3 --compare ppo=runs/eval/drawn30/results.json --out docs/data/action_set_bound.json
 
 The tasks are `dresspack eval --drawn-tasks N --seeds S --start-noise-deg D`'s (Home-ish start, one weld drawn on
 the parts, back Home). The env is the one the `ppo` method rolls out (the policy's training config, the task's own
@@ -146,7 +146,7 @@ def main() -> None:
     ap.add_argument("--env-kwargs", type=json.loads, default={}, metavar="JSON",
                     help='changes to the policy\'s env, e.g. \'{"via_postures_deg": [[-93, -46, -108, 52, 14, 223]]}\' '
                          "(what a changed action set could do)")
-    ap.add_argument("--out", default="docs/action_set_bound.json")
+    ap.add_argument("--out", default="docs/data/action_set_bound.json")
     args = ap.parse_args()
 
     spec = EvalSpec(methods=("ppo",), station=args.station, drawn_tasks=args.drawn_tasks, seeds=(args.seed,),

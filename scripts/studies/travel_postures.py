@@ -3,7 +3,7 @@ for a policy's ``via_postures_deg`` (the env's "via travel posture k" actions).
 
     .venv/bin/dresspack eval --planners ompl-wear --drawn-tasks 16 --drawn-seed 4242 --seeds 0 \
         --start-noise-deg 10 --no-render --out runs/eval/postures_4242
-    PYTHONPATH=. .venv/bin/python scripts/travel_postures.py runs/eval/postures_4242 [more folders] --count 4
+    PYTHONPATH=. .venv/bin/python scripts/studies/travel_postures.py runs/eval/postures_4242 [more folders] --count 4
 
 Use welds of a drawn seed of their own (the evaluation's is 1,000,000), so a policy given these postures has seen
 nothing of the welds it is judged on. Every interior waypoint of every successful plan (not its start, stops or

@@ -1,6 +1,7 @@
 """The rod engine on cosseratbench's experiments beside the benchmark's built-in solvers; a JSON summary of the figures.
 
-    .venv/bin/python scripts/rod_cosseratbench.py --out out/cosseratbench --summary docs/data/rod_cosseratbench.json
+    .venv/bin/python scripts/studies/rod_cosseratbench.py --out out/cosseratbench \
+        --summary docs/data/rod_cosseratbench.json
 
 Each experiment runs at its own default parameters and resolution (capstan also at each overhang it sweeps, as one
 overhang says little about friction); trajectories and result.json files go under --out in cosseratbench's layout
@@ -77,7 +78,7 @@ def main() -> None:
                       f"{' ' + why if why else ''}", flush=True)
     args.summary.parent.mkdir(parents=True, exist_ok=True)
     args.summary.write_text(json.dumps({
-        "command": "scripts/rod_cosseratbench.py " + " ".join(
+        "command": "scripts/studies/rod_cosseratbench.py " + " ".join(
             ["--experiments", *args.experiments, "--solvers", *args.solvers]),
         "cosseratbench": version("cosseratbench"),
         "machine": platform.processor() or platform.machine(),
