@@ -1,7 +1,7 @@
 """The fatigue calibration table: each published rated test (physics/ratings.py RATED_TESTS) simulated on a dresspack's
 cable with its fatigue model, rated life against simulated life; ``--fit`` also prints the strain and torsion radii
 that make the simulated lives the rated ones (what configs/dresspacks/stud_welding_rated.yaml ships). Usage:
-  PYTHONPATH=. .venv/bin/python scripts/fatigue_calibration.py --dresspack stud_welding_rated [--fit]
+  PYTHONPATH=. .venv/bin/python scripts/studies/fatigue_calibration.py --dresspack stud_welding_rated [--fit]
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from dresspack_gym.physics.ratings import calibrate, calibration_table
 from dresspack_gym.shipped import find_shipped
 
 # this checkout's dresspacks first, then the installed package's
-REPO_DRESSPACKS = Path(__file__).resolve().parents[1] / "configs" / "dresspacks"
+REPO_DRESSPACKS = Path(__file__).resolve().parents[2] / "configs" / "dresspacks"
 
 
 def load_dresspack(ref: str) -> DresspackConfig:

@@ -6,7 +6,7 @@ calibrated dresspack; a station file naming ``dresspack: stud_welding_rated``):
   dresspack eval --station STATION --planners ompl ompl-wear --welds sill_rear,roof_rail_top \\
       b_pillar_outer,sill_front floor_pan_inner --seeds 0 1 --out out/life_thesis
   dresspack eval ... --planners ompl-wear --cost-variant life --out out/life_life
-  PYTHONPATH=. .venv/bin/python scripts/life_objective_study.py out/life_thesis out/life_life
+  PYTHONPATH=. .venv/bin/python scripts/studies/life_objective_study.py out/life_thesis out/life_life
 """
 
 from __future__ import annotations
