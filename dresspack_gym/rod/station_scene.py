@@ -129,6 +129,9 @@ def carried_along(x, r, kind, pos, rot, size, pos_end, rot_end, moved, reach):
             ball = math.sqrt((x[v, 0] - pos[j, 0]) ** 2 + (x[v, 1] - pos[j, 1]) ** 2 + (x[v, 2] - pos[j, 2]) ** 2)
             if ball - bound[j] - r >= moved[j] + reach:  # beyond its bounding ball's reach: cannot be met
                 continue
+            # nor beyond the cheap bound of its own shape (a box's or capsule's distance, with no Hessian)
+            if lower_bound(x[v], x[v], r, kind[j], pos[j], rot[j], size[j], bound[j]) >= moved[j] + reach:
+                continue
             d = point_distance(kind[j], pos[j], rot[j], size[j], x[v], n, h) - r
             if d >= moved[j] + reach or d >= best:
                 continue
@@ -155,8 +158,9 @@ def carried_along(x, r, kind, pos, rot, size, pos_end, rot_end, moved, reach):
                     continue
                 ball = math.sqrt((out[v, 0] - pos_end[j, 0]) ** 2 + (out[v, 1] - pos_end[j, 1]) ** 2
                                  + (out[v, 2] - pos_end[j, 2]) ** 2)
-                if ball - bound[j] - r >= reach:  # beyond its bounding ball: not within reach of it
-                    continue
+                if ball - bound[j] - r >= reach or lower_bound(out[v], out[v], r, kind[j], pos_end[j], rot_end[j],
+                                                               size[j], bound[j]) >= reach:
+                    continue  # not within reach of it
                 d = point_distance(kind[j], pos_end[j], rot_end[j], size[j], out[v], n, h) - r
                 if d < reach:
                     for a in range(3):
