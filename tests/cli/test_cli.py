@@ -63,6 +63,7 @@ def test_bench_physics_on_the_rod_engine_json(capsys):
         out["dynamic_replay_wall_per_motion_s"] / out["replay_wall_per_motion_s"], rel=0.02)
 
 
+@pytest.mark.slow
 def test_bench_physics_at_other_segments(capsys):
     """--segments sets the measured engine's resolution; MuJoCo's comparison replay keeps the station's own."""
     assert main(["bench", "physics", "--physics", "fast", "--segments", "12", "--json", "--repeats", "1"]) == 0
