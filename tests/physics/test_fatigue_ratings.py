@@ -76,6 +76,7 @@ def test_the_thesis_dresspack_keeps_its_fatigue_model_which_misses_the_ratings()
     assert all(r["ratio"] > 1.5 for r in calibration_table(thesis))  # the uncalibrated strand radius: too long
 
 
+@pytest.mark.slow  # a fit: simulated rated tests repeated for each radius tried; the shipped fit is checked above
 def test_calibration_fits_each_radius_to_its_own_rating():
     thesis = dresspack("thesis_stud_welding")
     fitted = calibrate(thesis)
