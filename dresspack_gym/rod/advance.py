@@ -12,52 +12,7 @@ from .contact.friction import friction_lag
 from .contact.motion import surface_displacements
 from .contact.primitives import bounding_radii
 from .newton import BROAD_MARGIN, broad_phase, contact_energy, newton_step
-from .station_scene import carried_along
-
-
-@njit(cache=True)
-def pose_primitives(geom_xpos, geom_xmat, geoms):
-    """The primitives' world positions (k, 3) and rotations (k, 3, 3) from MuJoCo's geom poses (xmat rows of 9)."""
-    k = geoms.shape[0]
-    pos = np.empty((k, 3))
-    rot = np.empty((k, 3, 3))
-    for j in range(k):
-        g = geoms[j]
-        for a in range(3):
-            pos[j, a] = geom_xpos[g, a]
-            for b in range(3):
-                rot[j, a, b] = geom_xmat[g, 3 * a + b]
-    return pos, rot
-
-
-@njit(cache=True)
-def held_targets(xpos, xmat, held_body, held_local, clamp_body, clamp_local):
-    """The held vertices' world positions (h, 3) and the clamps' directors per span (c - 1, 2, 3) from MuJoCo's body
-    poses; a body index below 0 is the world (the local values are world values)."""
-    pos = np.empty((held_body.shape[0], 3))
-    for j in range(held_body.shape[0]):
-        b = held_body[j]
-        for a in range(3):
-            if b < 0:
-                pos[j, a] = held_local[j, a]
-            else:
-                pos[j, a] = xpos[b, a] + xmat[b, 3 * a] * held_local[j, 0] + xmat[b, 3 * a + 1] * held_local[j, 1] \
-                    + xmat[b, 3 * a + 2] * held_local[j, 2]
-    c = clamp_body.shape[0]
-    dirs = np.empty((c, 3))
-    for j in range(c):
-        b = clamp_body[j]
-        for a in range(3):
-            if b < 0:
-                dirs[j, a] = clamp_local[j, a]
-            else:
-                dirs[j, a] = xmat[b, 3 * a] * clamp_local[j, 0] + xmat[b, 3 * a + 1] * clamp_local[j, 1] \
-                    + xmat[b, 3 * a + 2] * clamp_local[j, 2]
-    spans = np.empty((max(c - 1, 0), 2, 3))
-    for s in range(c - 1):
-        spans[s, 0] = dirs[s]
-        spans[s, 1] = dirs[s + 1]
-    return pos, spans
+from .station_scene import carried_along, held_targets, pose_primitives
 
 
 @njit(cache=True)

@@ -12,7 +12,7 @@ from ..physics.measures import MAX_CLEARANCE, WearMeasures
 from ..physics.simulation import Equilibrium, MotionTrace, SettleResult, station_joints, station_motion_limits
 from ..robots.time_law import JointLimits, SegmentMotion
 from ..stations.station import Station
-from .advance import carried_step
+from .advance import carried_step, following
 from .measuring import measure
 from .rod import MAX_ITERATIONS, Rod, initial_frames
 from .scene import Primitives
@@ -214,8 +214,8 @@ class RodSimulator:
         end = scene.at(q1)
         if len(end):
             pos, dirs = scene.targets()
-            start = scene.carried_start(_following(rod, pos, h), rod.radius, rod.primitives, end,
-                                        CARRY_REACH * rod.contact.activation)
+            start = scene.carried_start(following(rod.x, rod.v, h, rod.model.held_array, pos), rod.radius,
+                                        rod.primitives, end, CARRY_REACH * rod.contact.activation)
             if rod.outside(start, pos, end):
                 result = rod.step(pos, h, clamp_directors=dirs, tolerance=STEP_TOLERANCE, primitives=end,
                                   start=start, start_outside=True)
@@ -349,23 +349,6 @@ class RodSimulator:
         self.q = target.copy()
         self.motion_time += len(fractions) * DEFAULT_SAMPLE
         return trace
-
-
-def _following(rod: Rod, held_pos: np.ndarray, h: float) -> np.ndarray:
-    """The inertial prediction x + h v, corrected by how far each held vertex's new place is from its prediction,
-    interpolated along the cable between the held vertices (constant beyond the outer ones): the cable follows
-    its holders into the solve's start, which otherwise begins with the edges next to a clamp stretched by the
-    clamp's whole step. (Carrying the cable rigidly with its holders' motions is worse: a turning clamp swings the
-    far middle of the cable by centimetres that the solve then takes back.)"""
-    start = rod.x + h * rod.v
-    held = rod.model.held_array
-    if not len(held):
-        return start
-    miss = held_pos - start[held]
-    index = np.arange(len(start))
-    for a in range(3):
-        start[:, a] += np.interp(index, held, miss[:, a])
-    return start
 
 
 def _tension_taps(cable: StationCable) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -72,23 +72,15 @@ class StationScene:
 
     def at(self, q: np.ndarray) -> Primitives:
         """The primitives with the robots at ``q`` (n_robots, 6)."""
-        d = self.data
         self.pose(q)
-        return Primitives(self.kind, d.geom_xpos[self.geoms].copy(), d.geom_xmat[self.geoms].reshape(-1, 3, 3).copy(),
-                          self.size, self.mask)
+        pos, rot = pose_primitives(self.data.geom_xpos, self.data.geom_xmat, self.geoms)
+        return Primitives(self.kind, pos, rot, self.size, self.mask)
 
     def targets(self) -> tuple[np.ndarray, np.ndarray]:
         """The held vertices' world positions and the clamps' directors per span (n_spans, 2, 3) at the robots' pose
         of the last :meth:`at` (MuJoCo's kinematics: the same link frames the primitives were posed with)."""
         d = self.data
-        rot = d.xmat.reshape(-1, 3, 3)
-        world = self.held_body < 0
-        pos = np.einsum("hij,hj->hi", rot[self.held_body], self.held_local) + d.xpos[self.held_body]
-        pos[world] = self.held_local[world]
-        dirs = np.einsum("cij,cj->ci", rot[self.clamp_body], self.clamp_local)
-        dirs[self.clamp_body < 0] = self.clamp_local[self.clamp_body < 0]
-        spans = np.stack([dirs[:-1], dirs[1:]], axis=1) if len(dirs) > 1 else np.zeros((0, 2, 3))
-        return pos, spans
+        return held_targets(d.xpos, d.xmat, self.held_body, self.held_local, self.clamp_body, self.clamp_local)
 
     def carried_start(self, x: np.ndarray, radius: float, now: Primitives, end: Primitives, reach: float
                       ) -> np.ndarray:
@@ -100,6 +92,51 @@ class StationScene:
         """The fraction (0, 1] of the way from ``now`` to ``end`` the primitives may move in one sub-step: no
         moving primitive closes more than CLOSING_FRACTION of its gap to the cable ``x``."""
         return closing_fraction(x, radius, now, end, self.bound)
+
+
+@njit(cache=True)
+def pose_primitives(geom_xpos, geom_xmat, geoms):
+    """The primitives' world positions (k, 3) and rotations (k, 3, 3) from MuJoCo's geom poses (xmat rows of 9)."""
+    k = geoms.shape[0]
+    pos = np.empty((k, 3))
+    rot = np.empty((k, 3, 3))
+    for j in range(k):
+        g = geoms[j]
+        for a in range(3):
+            pos[j, a] = geom_xpos[g, a]
+            for b in range(3):
+                rot[j, a, b] = geom_xmat[g, 3 * a + b]
+    return pos, rot
+
+
+@njit(cache=True)
+def held_targets(xpos, xmat, held_body, held_local, clamp_body, clamp_local):
+    """The held vertices' world positions (h, 3) and the clamps' directors per span (c - 1, 2, 3) from MuJoCo's body
+    poses; a body index below 0 is the world (the local values are world values)."""
+    pos = np.empty((held_body.shape[0], 3))
+    for j in range(held_body.shape[0]):
+        b = held_body[j]
+        for a in range(3):
+            if b < 0:
+                pos[j, a] = held_local[j, a]
+            else:
+                pos[j, a] = xpos[b, a] + xmat[b, 3 * a] * held_local[j, 0] + xmat[b, 3 * a + 1] * held_local[j, 1] \
+                    + xmat[b, 3 * a + 2] * held_local[j, 2]
+    c = clamp_body.shape[0]
+    dirs = np.empty((c, 3))
+    for j in range(c):
+        b = clamp_body[j]
+        for a in range(3):
+            if b < 0:
+                dirs[j, a] = clamp_local[j, a]
+            else:
+                dirs[j, a] = xmat[b, 3 * a] * clamp_local[j, 0] + xmat[b, 3 * a + 1] * clamp_local[j, 1] \
+                    + xmat[b, 3 * a + 2] * clamp_local[j, 2]
+    spans = np.empty((max(c - 1, 0), 2, 3))
+    for s in range(c - 1):
+        spans[s, 0] = dirs[s]
+        spans[s, 1] = dirs[s + 1]
+    return pos, spans
 
 
 def closing_fraction(x: np.ndarray, radius: float, now: Primitives, end: Primitives, bound: np.ndarray) -> float:
