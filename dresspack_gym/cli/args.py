@@ -18,6 +18,16 @@ MAX_JOBS = 64
 ALL_CORES = min(os.cpu_count() or 1, MAX_JOBS)  # every --jobs flag's default: one process per core
 
 
+def add_physics_argument(parser, what: str, default: str | None = None) -> None:
+    """``--physics {dynamic,fast}``: the cable engine ``what`` runs on (default: profiles.DEFAULT_ENGINE)."""
+    from ..physics.profiles import DEFAULT_ENGINE, ENGINE_TITLES, ENGINES
+
+    default = DEFAULT_ENGINE if default is None else default
+    parser.add_argument("--physics", choices=list(ENGINES), default=default,
+                        help=f"the cable engine {what}: " + ", ".join(f"{k} = {v}" for k, v in ENGINE_TITLES.items())
+                             + " (default: %(default)s)")
+
+
 def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, integer: bool = False,
            unit: str = ""):
     """An argparse ``type``: a finite float (or an int) in [lo, hi] (``lo_open``: (lo, hi])."""

@@ -32,6 +32,7 @@ class StationReplay:
     jam_tension: np.ndarray | None = None  # (n_robots,) [N] tension above which a cable is flagged jammed
     start: Equilibrium | None = None  # the settle at Home the cycle starts from (its residual)
     terms: dict[str, np.ndarray] | None = None  # the cost's terms (WearCost.terms) -> (N, n_robots); sum = cost
+    engine: str = "dynamic"  # the cable engine that produced the measures (physics.profiles.ENGINES)
 
     def jammed(self) -> list[int]:
         """Robots whose cable was ever pulled beyond JAM_STRAIN (pinned by a robot)."""
@@ -72,6 +73,7 @@ class StationReplay:
     def summary(self, names: list[str]) -> dict:
         per = self.integrated_cost()
         return {
+            "engine": self.engine,
             "makespan": round(self.makespan, 3),
             "cost": float(per.sum()),
             "jammed": [names[i] for i in self.jammed()],
@@ -104,4 +106,4 @@ def replay_station(sim: CableSimulator, schedule: StationSchedule, *, record_eve
     by_term = [[c.terms() for c in per] for per in costs]
     terms = {k: np.array([[t[k] for t in per] for per in by_term]) for k in by_term[0][0]}
     jam = np.array([JAM_STRAIN * r.dresspack.tensile_stiffness for r in sim.station.config.robots])
-    return StationReplay(np.array(times), measures, cost, schedule.makespan, jam, start, terms)
+    return StationReplay(np.array(times), measures, cost, schedule.makespan, jam, start, terms, sim.engine)

@@ -115,6 +115,8 @@ def station_motion_limits(station: Station, speed_fraction: float | None = None,
 class CableSimulator:
     """One station's physics: move robots, let cables settle, measure wear, save/restore state."""
 
+    engine = "dynamic"  # its name among physics.profiles.ENGINES
+
     def __init__(self, station: Station):
         self.station = station
         self.model = station.model

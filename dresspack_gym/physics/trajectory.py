@@ -149,6 +149,7 @@ class Replay:
     fatigue: FatigueLife | None = None  # per-segment fatigue life, the cycle repeated
     qpos: np.ndarray | None = None  # (N, nq) the simulator's positions at each sample: renders without re-simulating
     given_up: bool = False  # ended by replay's ``give_up`` before the trajectory's end
+    engine: str = "dynamic"  # the cable engine that produced the measures (physics.profiles.ENGINES)
 
     def integrated_cost(self) -> float:
         """Integral of C over the cycle [cost x s] (trapezoid over the samples)."""
@@ -157,6 +158,7 @@ class Replay:
     def summary(self) -> dict:
         m = self.measures
         return {
+            "engine": self.engine,
             "cycle_time": round(self.cycle_time, 4),
             "max_curvature": float(m["curvature"].max()),
             "max_tension": float(m["tension"].max()),
@@ -269,7 +271,7 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     return Replay(np.array(samples_t), np.array(samples_q), measures, np.array([c.total for c in costs]), terms,
                   stop_times, sim.motion_time,
                   {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance}, unconverged, damage, life,
-                  np.array(samples_x) if record_qpos else None, given_up)
+                  np.array(samples_x) if record_qpos else None, given_up, sim.engine)
 
 
 # [rad] joint changes below this do not count as a direction (numerical noise of a planner's waypoints)

@@ -42,6 +42,8 @@ class RodSimulator:
     """The fast engine's counterpart of :class:`~dresspack_gym.physics.simulation.CableSimulator`: the same
     station, Home, time law and measures, each cable a :class:`Rod` stepped once per sample."""
 
+    engine = "fast"  # its name among physics.profiles.ENGINES
+
     def __init__(self, station: Station):
         self.station = station
         self.config = station.config.simulation
