@@ -5,10 +5,11 @@ from __future__ import annotations
 import json
 import sys
 
-from dresspack_gym.cli.args import add_station_argument, file_to_write, number, seed
+from dresspack_gym.cli.args import add_physics_argument, add_station_argument, file_to_write, number, seed
 from dresspack_gym.cli.common import ctrl_c_remembered
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.io.outputs import FIGURE_SUFFIXES, replacing
+from dresspack_gym.physics.profiles import ENGINE_TITLES
 from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
 from .planners.budget import DEFAULT_EVALUATIONS, DEFAULT_ITERATIONS, DEFAULT_ROUTES, MAX_WALL_TIME, MAX_WORK
@@ -80,6 +81,7 @@ def add_plan_command(sub) -> None:
                    help="PNG of κ, F, d, twist rate over time (thesis Figures A.1-A.3; missing folders are made)")
     p.add_argument("--out", type=file_to_write(".npz"), default=None,
                    help="save the planned trajectory (.npz) for `dresspack export` (missing folders are made)")
+    add_physics_argument(p, "the wear-aware planners simulate legs on and the plan is replayed in")
     p.add_argument("--json", action="store_true", help="print the plan's summary (or its failure) as one JSON object")
     p.set_defaults(func=cmd_plan)
 
@@ -119,7 +121,8 @@ def cmd_plan(args) -> int:
             run, failure = plan_station(args.station, args.planner, seed=args.seed, iterations=args.iterations,
                                         evaluations=args.evaluations, routes=args.routes,
                                         time_budget=args.time_budget, welds=args.welds,
-                                        cost_variant=args.cost_variant, robot=args.robot, **extra), None
+                                        cost_variant=args.cost_variant, robot=args.robot, physics=args.physics,
+                                        **extra), None
         except PlanningError as exc:  # a failed plan is a result, not a crash
             run, failure = None, exc
     if pressed():  # a Ctrl-C that OMPL swallowed as a failed check: the command still ends as interrupted
@@ -150,7 +153,8 @@ def cmd_plan(args) -> int:
         print(json.dumps(s, indent=2, default=float))
         return 0
     print(f"{args.planner}: success, {s['waypoints']} waypoints, planned in {s['planning_time']:.2f} s")
-    print(f"  cycle time {s['cycle_time']:.2f} s   integrated wear cost {s['cost']:.4g}")
+    print(f"  cycle time {s['cycle_time']:.2f} s   integrated wear cost {s['cost']:.4g}   "
+          f"(cable on the {ENGINE_TITLES[s['engine']]})")
     print(f"  max curvature {s['max_curvature']:.2f} 1/m   max tension {s['max_tension']:.1f} N   "
           f"min clearance {1000 * s['min_clearance']:.0f} mm   max twist rate {s['max_twist_rate']:.3g} rad/m")
     if s["planner_info"].get("wall_cap_reached"):

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from dresspack_gym.physics.profiles import DEFAULT_ENGINE
 from dresspack_gym.physics.trajectory import Trajectory
 from dresspack_gym.stations.tasks import Task
 
@@ -71,7 +72,8 @@ class ComposedPlanner(Planner):
                 # at worst the first candidate (the wear-unaware route), never nothing
                 "wall_cap_reached": self.allowance.out_of_time()}
         if cost is not None:
-            info.update(objective_nominal=before, objective=after, cable_evaluations=cost.evaluations,
+            info.update(engine=cost.sim.engine, objective_nominal=before, objective=after,
+                        cable_evaluations=cost.evaluations,
                         # per leg, each candidate route's leg cost before refinement (None: dearer than one before it)
                         route_scores=route_scores, cable_simulations_given_up=cost.given_up)
         return traj, info
@@ -98,9 +100,9 @@ class ThesisLocalPlanner(ComposedPlanner):
     color = "#7570b3"
 
     def __init__(self, *args, n_interior: int = 3, step_deg: float = 15.0, time_weight: float = 1.0,
-                 wear_weight: float = 1.0, cost_variant: str = "thesis", **kwargs):
+                 wear_weight: float = 1.0, cost_variant: str = "thesis", engine: str = DEFAULT_ENGINE, **kwargs):
         super().__init__(*args, **kwargs)
         self.routes = DirectRoute(self.connector, self.budget.iterations)
         self.leg_cost = LegCost(self.station, self.robot, time_weight=time_weight, wear_weight=wear_weight,
-                                cost_variant=cost_variant)
+                                cost_variant=cost_variant, engine=engine)
         self.refiner = LocalRefiner(self.validity, self.leg_cost, n_interior, step_deg)

@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from dresspack_gym.errors import ConfigError
-from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.profiles import DEFAULT_ENGINE, make_simulator
 from dresspack_gym.physics.trajectory import Trajectory, replay
 from dresspack_gym.physics.wear_cost import WearCost, cost_function
 from dresspack_gym.stations.station import Station
@@ -56,11 +56,14 @@ class LegCost:
 
     With ``cost_variant="life"`` the leg's wear is its own fatigue damage: w_life x the Miner damage of the worst
     segment over the leg's strain history (rainflow-counted, the leg taken as one period), the damage per cycle the
-    leg adds, in place of the states' excursion integral (which stands in for it where only states are known)."""
+    leg adds, in place of the states' excursion integral (which stands in for it where only states are known).
+
+    ``engine`` (physics.profiles.ENGINES) simulates the legs: the rod engine by default."""
 
     def __init__(self, station: Station, robot: int = 0, *, time_weight: float = 1.0, wear_weight: float = 1.0,
-                 tension_peak_time: float = 0.0, cost_variant: str = "thesis", record_every: float = 0.05):
-        self.sim = CableSimulator(station)
+                 tension_peak_time: float = 0.0, cost_variant: str = "thesis", record_every: float = 0.05,
+                 engine: str = DEFAULT_ENGINE):
+        self.sim = make_simulator(station, engine)
         self.robot = robot
         self.time_weight, self.wear_weight = check_time_weight(time_weight), float(wear_weight)
         self.tension_peak_time = check_tension_peak_time(tension_peak_time)

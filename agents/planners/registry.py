@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 from dresspack_gym.fields import check_choice
 from dresspack_gym.io.loading import load_station
-from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.profiles import DEFAULT_ENGINE, ENGINES, make_simulator
 from dresspack_gym.physics.trajectory import Replay, replay
 from dresspack_gym.physics.wear_cost import cost_function
 from dresspack_gym.stations.station import Station
@@ -60,20 +60,23 @@ class PlannedRun:
 def plan_station(station_ref: str | Station, planner: str = "ompl", *, robot: int = 0, seed: int = 0,
                  iterations: int = DEFAULT_ITERATIONS, evaluations: int = DEFAULT_EVALUATIONS,
                  routes: int = DEFAULT_ROUTES, time_budget: float | None = None, welds: list[str] | None = None,
-                 task: Task | None = None, cost_variant: str = "thesis", **planner_kwargs) -> PlannedRun:
+                 task: Task | None = None, cost_variant: str = "thesis", physics: str = DEFAULT_ENGINE,
+                 **planner_kwargs) -> PlannedRun:
     """Plan ``task`` (default: Home -> ``welds`` -> Home) and replay it; ``planner_kwargs`` go to the planner
     (e.g. ``policy=`` for ``ppo``). The budget is ``iterations`` / ``evaluations`` / ``routes`` (work units, see
     :class:`~dresspack.agents.planners.budget.Budget`), with ``time_budget`` [s] as an optional wall-time cap.
     ``cost_variant`` is the wear cost the wear-aware planners minimise and the replay reports (thesis, normalized,
-    damage, life)."""
+    damage, life). ``physics`` (physics.profiles.ENGINES) is the cable engine the wear-aware planners simulate
+    legs on and the plan is replayed in."""
     cost_function(cost_variant)  # a bad name fails before planning, naming the field
+    check_choice("physics", physics, list(ENGINES))
     station = station_ref if isinstance(station_ref, Station) else Station(load_station(station_ref))
     if planner in WEAR_AWARE:
-        planner_kwargs = {"cost_variant": cost_variant, **planner_kwargs}
+        planner_kwargs = {"cost_variant": cost_variant, "engine": physics, **planner_kwargs}
     p = make_planner(planner, station, robot, seed=seed, iterations=iterations, evaluations=evaluations,
                      routes=routes, time_budget=time_budget, **planner_kwargs)
     if task is None:
         task = make_task(station, robot, p.validity.checker.collides, welds)
     result = p.plan(task)
-    rep = replay(CableSimulator(station), result.trajectory, robot=robot, cost_variant=cost_variant)
+    rep = replay(make_simulator(station, physics), result.trajectory, robot=robot, cost_variant=cost_variant)
     return PlannedRun(task, result, rep, station)

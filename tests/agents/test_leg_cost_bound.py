@@ -12,7 +12,7 @@ from dresspack.agents.planners.leg_cost import LegCost, _LowerBound  # noqa: E40
 from dresspack.agents.planners.registry import make_planner  # noqa: E402
 
 from dresspack_gym.io.loading import load_station  # noqa: E402
-from dresspack_gym.physics.simulation import CableSimulator  # noqa: E402
+from dresspack_gym.physics.profiles import DEFAULT_ENGINE, make_simulator  # noqa: E402
 from dresspack_gym.physics.trajectory import Trajectory, replay  # noqa: E402
 from dresspack_gym.stations.collision import RobotCollisionChecker  # noqa: E402
 from dresspack_gym.stations.station import Station  # noqa: E402
@@ -74,18 +74,19 @@ def test_the_lower_bound_never_exceeds_the_legs_cost_and_ends_at_it(tension_leg,
         lower.append(bound.lower)
         return out
 
-    rep = replay(CableSimulator(station), Trajectory(leg, (2,)), start_state=state, record_states=False,
-                 give_up=watch)
+    rep = replay(make_simulator(station, DEFAULT_ENGINE), Trajectory(leg, (2,)), start_state=state,
+                 record_states=False, give_up=watch)
     assert not rep.given_up and len(lower) == len(rep.time)
     assert max(lower) <= j * (1 + 1e-12)
-    dt = station.config.simulation.timestep
+    # a segment runs whole motion steps: MuJoCo's timestep, or the rod engine's samples
+    dt = cost.record_every if cost.sim.engine == "fast" else station.config.simulation.timestep
     assert 0.0 <= j - lower[-1] <= time_weight * 2 * dt + 1e-9
     assert np.all(np.diff(lower) >= -1e-12)  # it only grows
 
 
 def test_replay_gives_up_at_the_first_sample_asked_and_is_unchanged_otherwise(tension_leg):
     station, leg = tension_leg
-    sim = CableSimulator(station)
+    sim = make_simulator(station, DEFAULT_ENGINE)
     traj = Trajectory(leg, (2,))
     plain = replay(sim, traj, record_states=False)
     never = replay(sim, traj, record_states=False, give_up=lambda t, c: False)

@@ -17,7 +17,7 @@ from dresspack.agents.planners.registry import plan_station  # noqa: E402
 
 from dresspack_gym.cli.main import main as cli_main  # noqa: E402
 from dresspack_gym.io.loading import load_station  # noqa: E402
-from dresspack_gym.physics.simulation import CableSimulator  # noqa: E402
+from dresspack_gym.physics.profiles import DEFAULT_ENGINE, make_simulator  # noqa: E402
 from dresspack_gym.physics.trajectory import replay  # noqa: E402
 from dresspack_gym.robots.time_law import SegmentMotion  # noqa: E402
 from dresspack_gym.stations.collision import RobotCollisionChecker  # noqa: E402
@@ -74,7 +74,7 @@ def test_replay_reproduces_the_wear_aware_planners_objective(curvature_station):
     planner = ThesisLocalPlanner(curvature_station, evaluations=24, seed=1)
     task = make_task(curvature_station, 0, planner.validity.checker.collides)
     res = planner.plan(task)
-    rep = replay(CableSimulator(curvature_station), res.trajectory)
+    rep = replay(make_simulator(curvature_station, DEFAULT_ENGINE), res.trajectory)
     assert rep.cycle_time + rep.integrated_cost() == pytest.approx(res.info["objective"], rel=1e-6)
     assert brute_force_valid(curvature_station, res.trajectory.waypoints)
 
@@ -197,7 +197,8 @@ def test_leg_cost_charges_the_peak_tension_term_as_if_it_lasted_tension_peak_tim
     state = plain.start_state(leg[0])
     j0, _, _ = plain.cost(state, leg)
     j1, _, _ = charged.cost(state, leg)
-    rep = replay(CableSimulator(station), Trajectory(leg, (1,)), start_state=state, record_states=False)
+    rep = replay(make_simulator(station, DEFAULT_ENGINE), Trajectory(leg, (1,)), start_state=state,
+                 record_states=False)
     peak_f = float(rep.measures["tension"].max())
     assert peak_f > 100.0
     assert j0 == pytest.approx(rep.cycle_time + rep.integrated_cost(), rel=1e-9)
