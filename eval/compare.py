@@ -22,6 +22,7 @@ from dresspack_gym.cli.args import (
     ALL_CORES,
     MAX_JOBS,
     Renamed,
+    add_physics_argument,
     add_station_argument,
     number,
     output_dir,
@@ -87,6 +88,8 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
                         "if it ships one), none (simulate each one's continuation by the policy), a model.pt of "
                         "dresspack train-cost-model --config cost_to_go, or the name of a model shipped with the "
                         f"policy (default: {defaults.cost_to_go or 'none'})")
+    add_physics_argument(p, "every method's final trajectory is replayed and measured in (the wear-aware planners "
+                            "simulate their legs on the rod engine either way)", defaults.physics)
     p.add_argument("--robustness-map", default=None,
                    help="robustness map folder to include in the report (default: none)")
     p.add_argument("--jobs", type=number(1, MAX_JOBS, integer=True), default=ALL_CORES,
@@ -115,7 +118,7 @@ def spec_from_args(args) -> EvalSpec:
                     start_noise_deg=args.start_noise_deg, policy=args.policy, cost_variant=args.cost_variant,
                     time_weight=args.time_weight, proposals=args.proposals, refine=args.refine,
                     alternatives=args.alternatives, cost_to_go=args.cost_to_go,
-                    drawn_tasks=args.drawn_tasks, drawn_seed=args.drawn_seed)
+                    drawn_tasks=args.drawn_tasks, drawn_seed=args.drawn_seed, physics=args.physics)
 
 
 def evaluate_and_report(args) -> int:

@@ -15,6 +15,7 @@ from dresspack.agents.learned.search import AUTO, resolve_cost_to_go
 from dresspack.agents.planners.registry import COLORS
 
 from dresspack_gym.io.loading import load_station
+from dresspack_gym.physics.profiles import DEFAULT_ENGINE, ENGINE_TITLES, make_simulator
 from dresspack_gym.physics.simulation import CableSimulator
 from dresspack_gym.physics.trajectory import Replay, replay
 from dresspack_gym.plots.damage import plot_damage_along_cable, plot_damage_strip
@@ -83,7 +84,7 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
     else:
         blocks.append(("p", "One method on one task: the table above is the whole overview."))
     blocks.append(("p", _settle_note(rows)))
-    sim = CableSimulator(station)
+    sim = make_simulator(station, spec.physics)
     if render:
         for anim in fig_dir.glob("anim_*.mp4"):  # a resumed report must not show the videos of an earlier run
             anim.unlink()
@@ -158,8 +159,10 @@ def _intro(spec: EvalSpec, station: Station, written: dict) -> str:
     provenance = (f" Rows computed by code {written['code']}" + (f" with {libraries}" if libraries else "") + "."
                   if written.get("code") else "")
     return (f"Methods {', '.join(spec.methods)} on {len(spec.tasks)} task(s) × seeds {list(spec.seeds)} "
-            f"({starts}; every task ends at Home). Every trajectory is replayed in the same cable simulator "
-            f"(timestep {station.config.simulation.timestep * 1000:g} ms); wear cost C is "
+            f"({starts}; every task ends at Home). Every trajectory is replayed in one cable engine, "
+            + _engine_words(spec.physics, station)
+            + "; the wear-aware planners simulate their legs on the " + ENGINE_TITLES[DEFAULT_ENGINE]
+            + "; wear cost C is "
             + {"thesis": "eq. (4.10) with the station's weights", "normalized": "the normalized eq. (4.10)",
                "damage": "the worst segment's damage rate (dresspack damage weights)",
                "life": "w_life × the worst segment's fatigue damage of one excursion to each state (the dresspack's "
@@ -170,6 +173,15 @@ def _intro(spec: EvalSpec, station: Station, written: dict) -> str:
             + (f", capped at {spec.time_budget:g} s. " if spec.time_budget is not None else ". ")
             + "Metrics are mean ± std over the successful runs (the mean alone where one run succeeded); a method "
               "that failed every run shows 'failed'." + provenance)
+
+
+def _engine_words(engine: str, station: Station) -> str:
+    """The judging engine and its resolution, as the report's setup paragraph names it."""
+    segments = sorted({r.dresspack.segments for r in station.config.robots})
+    cable = f"{'/'.join(map(str, segments))} cable segments"
+    if engine == "dynamic":
+        return f"the {ENGINE_TITLES[engine]} ({cable}, timestep {station.config.simulation.timestep * 1000:g} ms)"
+    return f"the {ENGINE_TITLES[engine]} ({cable}, implicit steps of the rod's energy sample by sample)"
 
 
 def _settle_note(rows: list[dict]) -> str:

@@ -34,10 +34,11 @@ from tqdm.auto import tqdm
 
 from dresspack_gym.cli.common import ctrl_c_remembered as _ctrl_c_remembered
 from dresspack_gym.errors import ConfigError, DresspackError
+from dresspack_gym.fields import check_choice
 from dresspack_gym.io.artefacts import read_json
 from dresspack_gym.io.loading import load_station
 from dresspack_gym.io.provenance import code_fingerprint, library_versions
-from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.profiles import DEFAULT_ENGINE, ENGINES, make_simulator
 from dresspack_gym.physics.trajectory import Replay, Trajectory, replay, smoothness
 from dresspack_gym.physics.wear_cost import cost_function
 from dresspack_gym.stations.station import Station
@@ -87,6 +88,9 @@ class EvalSpec:
     # (drawn_seed, k): seeds of their own, apart from any training's, so every method meets welds no one trained on
     drawn_tasks: int = 0
     drawn_seed: int = DRAWN_SEED
+    # the cable engine every method's final trajectory is replayed and measured in (physics.profiles.ENGINES); the
+    # wear-aware planners simulate their legs on the default engine whichever judges them
+    physics: str = DEFAULT_ENGINE
 
     def __post_init__(self):
         if self.drawn_tasks:
@@ -113,6 +117,7 @@ class EvalSpec:
             object.__setattr__(self, "cost_to_go", None)
         if self.cost_to_go not in (None, AUTO):  # named now, not after the other methods' runs
             resolve_cost_to_go(self.cost_to_go, resolve_policy(self.policy)[0])
+        check_choice("physics", self.physics, list(ENGINES))
         if not 0 <= self.start_noise_deg <= 90:
             raise ConfigError("start_noise_deg", f"must be in [0, 90] deg, got {self.start_noise_deg}")
 
@@ -172,7 +177,8 @@ def load_trajectory(out: Path, row: dict) -> Trajectory | None:
 
 
 # settings added after evaluations were already stored, with the value those evaluations used
-_ADDED_SETTINGS = {"time_weight": 1.0, "proposals": PROPOSALS, "refine": 0, "alternatives": 0, "cost_to_go": None}
+_ADDED_SETTINGS = {"time_weight": 1.0, "proposals": PROPOSALS, "refine": 0, "alternatives": 0, "cost_to_go": None,
+                   "physics": "dynamic"}
 
 
 def _extends(stored: dict, new: dict) -> bool:
@@ -301,7 +307,7 @@ class RunEvaluator:
     def __init__(self, spec: EvalSpec, out: Path, tasks: dict):
         self.spec, self.out, self.tasks = spec, out, tasks
         self.station = Station(load_station(spec.station))
-        self.sim = CableSimulator(self.station)
+        self.sim = make_simulator(self.station, spec.physics)
         self.limits = self.station.config.robots[spec.robot].robot.joint_motion_limits.at_speed(
             self.station.config.simulation.speed_fraction)  # every method's motions timed by the one law
         self.planners: dict[tuple[str, int], object] = {}
