@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..physics.simulation import CableSimulator
 from ..physics.trajectory import Replay, Trajectory, replay
-from ..stations.rendering import StationRenderer, default_camera
+from ..stations.rendering import CablePoints, StationRenderer, default_camera, live_frame, replay_frame
 
 VIDEO_FORMATS = (".mp4", ".gif")
 
@@ -51,7 +51,8 @@ def _strip(rep: Replay, width: int, height: int) -> tuple[np.ndarray, callable]:
 def animate(sim: CableSimulator, traj: Trajectory, out: str | Path, *, robot: int = 0, fps: float = 20.0,
             width: int = 640, height: int = 360, strip_height: int = 120, camera=None,
             measured: Replay | None = None, progress=None, shadows: bool = False) -> dict:
-    """Write the video of ``traj`` replayed from its start; returns {"path", "frames", "duration_s"}.
+    """Write the video of ``traj`` replayed from its start on ``sim`` (either engine: a rod-engine simulator's
+    cables are drawn from their points); returns {"path", "frames", "duration_s"}.
 
     Frames are the replay's samples every 1/fps s of motion time (the settles at the welds take no motion time,
     so they show as one frame), rendered during a second, identical replay (the simulation is deterministic);
@@ -66,6 +67,9 @@ def animate(sim: CableSimulator, traj: Trajectory, out: str | Path, *, robot: in
         raise ConfigError("fps", f"must be in [1, 60], got {fps}")
     import imageio.v2 as imageio
 
+    if measured is not None and measured.engine != sim.engine:
+        raise ConfigError("measured", f"a replay on the {measured.engine!r} engine cannot stand for a video on the "
+                                      f"{sim.engine!r} engine: measure it with the simulator that draws it")
     bar = progress or _NoBar
     samples = 0  # the frames the rendering replay will write (it samples as this one does)
     rep = measured
@@ -87,24 +91,22 @@ def animate(sim: CableSimulator, traj: Trajectory, out: str | Path, *, robot: in
         {"duration": 1.0 / fps, "loop": 0}
     frames = 0
     with imageio.get_writer(out, **kwargs) as writer, bar("rendering", samples or None) as written:
-        def frame(t: float, data: mujoco.MjData) -> None:
+        def frame(t: float, data: mujoco.MjData, cables: CablePoints | None) -> None:
             nonlocal frames
             below = strip.copy()
             x = min(max(column(t), 0), width - 1)
             below[:, max(0, x - 1):x + 1] = (230, 60, 60)  # the time cursor
-            writer.append_data(np.vstack([renderer.render(data, cam), below]))
+            writer.append_data(np.vstack([renderer.render(data, cam, cables=cables), below]))
             frames += 1
             written.update(1)
 
+        data = mujoco.MjData(sim.station.model)
         if drawn is not None:  # the replay kept its positions: draw them, no second simulation
-            data = mujoco.MjData(sim.model)
             for i in drawn:
-                data.qpos[:] = rep.qpos[i]
-                mujoco.mj_forward(sim.model, data)
-                frame(float(rep.time[i]), data)
+                frame(float(rep.time[i]), data, replay_frame(sim.station, rep, i, data))
         else:
             replay(sim, traj, robot=robot, record_every=1.0 / fps, record_states=False,
-                   on_sample=lambda t: frame(t, sim.data))
+                   on_sample=lambda t: frame(t, *live_frame(sim, data)))
     renderer.close()
     return {"path": str(out), "frames": frames, "duration_s": frames / fps}
 

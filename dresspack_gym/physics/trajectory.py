@@ -153,6 +153,9 @@ class Replay:
     # per robot (N, vertices, 3): each cable's centreline at each sample, kept with ``qpos`` when the cables are
     # not MuJoCo's (the rod engine): the renderer draws them from these points
     cables: tuple[np.ndarray, ...] | None = None
+    # the robot's segment states at each sample, kept with ``qpos`` when states are recorded: what colours a
+    # drawing of the cable by each segment's wear cost (physics.segment_cost)
+    states: list | None = None
 
     def integrated_cost(self) -> float:
         """Integral of C over the cycle [cost x s] (trapezoid over the samples)."""
@@ -289,7 +292,8 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
                   stop_times, sim.motion_time,
                   {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance}, unconverged, damage, life,
                   np.array(samples_x) if record_qpos else None, given_up, sim.engine,
-                  tuple(np.array(c) for c in zip(*samples_c)) if record_qpos and rod_cables else None)
+                  tuple(np.array(c) for c in zip(*samples_c)) if record_qpos and rod_cables else None,
+                  samples_s if record_qpos and record_states else None)
 
 
 # [rad] joint changes below this do not count as a direction (numerical noise of a planner's waypoints)
