@@ -7,6 +7,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from dresspack_gym.cable.model import CABLE_RGBA
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.io.loading import load_station
 from dresspack_gym.physics.profiles import make_simulator
@@ -158,3 +159,46 @@ def _renderer_of_size(station, shape):
     from dresspack_gym.stations.rendering import StationRenderer
 
     return StationRenderer(station.model, width=shape[1], height=shape[0])
+
+
+def test_the_viewers_frames_on_the_rod_engine_are_the_replays_points_coloured_by_their_segments_costs(station, fast):
+    from dresspack_gym.io import viewer
+    from dresspack_gym.physics.wear_cost import wear_cost
+
+    home = viewer.record_frames(fast, None)
+    cost = wear_cost(fast.measures(), station.config.wear_cost)
+    assert home.engine == "fast" and home.cost.shape == (1, station.cables[0].n_vertices)
+    assert home.cost.max() <= cost.total + 1e-9  # no segment costs more than C (each term at its worst segment)
+    np.testing.assert_array_equal(home.points[0], fast.cable_points(0))
+    traj = _trajectory(station)
+    frames = viewer.record_frames(fast, traj, fps=10.0)
+    rep = replay(fast, traj, record_every=0.1, record_qpos=True)
+    n = len(rep.time)
+    assert frames.cost.shape == (n, station.cables[0].n_vertices) and np.ptp(frames.cost.max(axis=1)) > 0
+    np.testing.assert_array_equal(frames.points, rep.cables[0])
+    np.testing.assert_array_equal(frames.qpos, rep.qpos)
+    assert len(frames.cables) == station.n_robots and frames.radii == (station.cables[0].radius,)
+    # the scene: this cable's capsules in its costs' colours, another's in the cable's colour after them
+    scene = mujoco.MjvScene(station.model, maxgeom=200)
+    other = CablePoints((frames.points[0],), (0.01,))
+    viewer.draw_cable(scene, frames.points[-1], frames.cost[-1], frames.scale, frames.radius, other)
+    edges = len(frames.points[-1]) - 1
+    assert scene.ngeom == 2 * edges
+    assert scene.geoms[edges].size[0] == pytest.approx(0.01)
+    np.testing.assert_allclose(scene.geoms[edges].rgba, CABLE_RGBA, atol=1e-6)
+
+
+def test_dresspack_animate_replays_on_the_engine_asked(station, tmp_path, capsys):
+    pytest.importorskip("imageio.v2")
+    from dresspack_gym.cli.main import main
+    from dresspack_gym.physics.trajectory import save_trajectory
+
+    plan = tmp_path / "plan.npz"
+    save_trajectory(plan, _trajectory(station), station="default", robot="r1", speed_fraction=0.5)
+    args = ["animate", str(plan), "--fps", "4", "--width", "64", "--height", "48"]
+    assert main(args + ["--out", str(tmp_path / "a.gif"), "--physics", "fast"]) == 0
+    assert (tmp_path / "a.gif").stat().st_size > 1000 and "wrote" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as refused:
+        main(args + ["--out", str(tmp_path / "b.gif"), "--physics", "quick"])
+    assert refused.value.code == 2
+    assert "--physics" in capsys.readouterr().err and not (tmp_path / "b.gif").exists()
