@@ -99,7 +99,7 @@ def _rod_frames(sim, traj: Trajectory | None, *, robot: int, fps: float, speed_f
         states = [sim.segment_states()[robot]]
     else:
         rep = replay(sim, traj, robot=robot, record_every=1.0 / fps, speed_fraction=speed_fraction,
-                     record_states=True, record_qpos=True)
+                     record_qpos=True, keep_states=True)
         times, positions, cables, states = rep.time, rep.qpos, rep.cables, rep.states
     cable = station.cables[robot]
     cfg, ea = station.config.wear_cost, station.config.robots[robot].dresspack.tensile_stiffness

@@ -153,8 +153,8 @@ class Replay:
     # per robot (N, vertices, 3): each cable's centreline at each sample, kept with ``qpos`` when the cables are
     # not MuJoCo's (the rod engine): the renderer draws them from these points
     cables: tuple[np.ndarray, ...] | None = None
-    # the robot's segment states at each sample, kept with ``qpos`` when states are recorded: what colours a
-    # drawing of the cable by each segment's wear cost (physics.segment_cost)
+    # the robot's segment states at each sample (replay's ``keep_states``): what colours a drawing of the cable by
+    # each segment's wear cost (physics.segment_cost) where the simulator's state cannot be posed again
     states: list | None = None
 
     def integrated_cost(self) -> float:
@@ -186,18 +186,21 @@ class Replay:
 def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_every: float = 0.05,
            speed_fraction: float | None = None, cost_variant: str = "thesis", start_state=None,
            until: float | None = None, record_states: bool = True, record_qpos: bool = False,
-           on_sample=None, give_up=None) -> Replay:
+           on_sample=None, give_up=None, keep_states: bool = False) -> Replay:
     """Run ``traj`` in the simulator from a settled start (``start_state`` or a fresh reset at its first
     waypoint) and record the measures every ``record_every`` s and after settling at every stop.
     With ``until`` the replay stops at that motion time and leaves ``sim`` in that state (to render it).
     With ``record_states`` every sample also records each segment's state, from which the replay's per-segment
     damage and fatigue life are computed (the trajectory taken as one period of a repeated station cycle).
     With ``record_qpos`` every sample also keeps the simulator's positions (``Replay.qpos``), enough to draw it
-    (on the rod engine the robots' and, in ``Replay.cables``, every cable's points).
+    (on the rod engine the robots' and, in ``Replay.cables``, every cable's points). With ``keep_states`` (which
+    needs ``record_states``) the Replay keeps the robot's segment states at every sample (``Replay.states``).
     With ``give_up`` (``give_up(time, wear_cost) -> bool``, called with every sample in order: the start's, each
     motion sample's and each stop's after its settle) the replay ends at the first sample it answers true: the
     Replay then holds the samples up to that one, ``given_up`` set (a caller that only needs to know whether the
     cycle costs more than some bound stops simulating once that is certain)."""
+    if keep_states and not record_states:
+        raise ConfigError("keep_states", "keeps the states recorded: it needs record_states=True")
     cost_fn = cost_function(cost_variant)
     station = sim.station
     cfg = station.config.wear_cost
@@ -293,7 +296,7 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
                   {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance}, unconverged, damage, life,
                   np.array(samples_x) if record_qpos else None, given_up, sim.engine,
                   tuple(np.array(c) for c in zip(*samples_c)) if record_qpos and rod_cables else None,
-                  samples_s if record_qpos and record_states else None)
+                  samples_s if keep_states else None)
 
 
 # [rad] joint changes below this do not count as a direction (numerical noise of a planner's waypoints)
