@@ -86,7 +86,7 @@ def cmd_animate(args) -> int:
                   f" of robot {placement.name!r} ({placement.robot.name})", identity)
     with replacing(args.out) as tmp:
         result = animate(make_simulator(Station(cfg), args.physics), traj, tmp, robot=robot, fps=args.fps,
-                         width=args.width, height=args.height, shadows=args.shadows,
+                         width=args.width, height=args.height, shadows=args.shadows, wear_colours=args.wear_colours,
                          progress=lambda label, total: tqdm(total=total, desc=label, unit="frame", dynamic_ncols=True))
     print(f"wrote {args.out} ({result['frames']} frames, {result['duration_s']:.1f} s)")
     return 0
@@ -129,5 +129,8 @@ def add_animate(sub) -> None:
                     help="height of the station's picture [px], the measures' strip below it (default %(default)s)")
     an.add_argument("--shadows", action="store_true",
                     help="draw shadows (about 10x slower per frame without a GPU; default: off)")
+    an.add_argument("--wear-colours", action="store_true",
+                    help="draw the robot's cable segment by segment in the colour of its wear cost, as `dresspack "
+                         "view` does (blue none, red the plan's largest C; default: the cable's own colour)")
     add_physics_argument(an, "that replays the plan for the video")
     an.set_defaults(func=cmd_animate)

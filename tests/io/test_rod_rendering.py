@@ -202,3 +202,43 @@ def test_dresspack_animate_replays_on_the_engine_asked(station, tmp_path, capsys
         main(args + ["--out", str(tmp_path / "b.gif"), "--physics", "quick"])
     assert refused.value.code == 2
     assert "--physics" in capsys.readouterr().err and not (tmp_path / "b.gif").exists()
+
+
+def test_wear_coloured_videos_draw_the_same_frames_live_or_kept_on_either_engine(station, fast, tmp_path, monkeypatch):
+    imageio = pytest.importorskip("imageio.v2")
+    import dresspack_gym.io.animation as animation
+
+    traj = _trajectory(station)
+    close = default_camera(station.model, distance=1.6, lookat=fast.cable_points(0).mean(axis=0))
+    kwargs = {"fps": 5.0, "width": 96, "height": 64, "strip_height": 32, "camera": close}
+
+    def frames(name):
+        return np.stack([f[..., :3] for f in imageio.mimread(tmp_path / name)]).astype(int)
+
+    animation.animate(fast, traj, tmp_path / "plain.gif", **kwargs)
+    animation.animate(fast, traj, tmp_path / "live.gif", wear_colours=True, **kwargs)
+    kept = replay(fast, traj, record_every=0.2, record_qpos=True, keep_states=True)
+    unkept = replay(fast, traj, record_every=0.2, record_qpos=True)
+    simulated = []
+    with monkeypatch.context() as patch:
+        patch.setattr(animation, "replay", lambda *a, **k: pytest.fail("the video simulated again"))
+        animation.animate(fast, traj, tmp_path / "kept.gif", measured=kept, wear_colours=True, **kwargs)
+        # the rod's points without its segment states cannot be coloured: simulated again
+        patch.setattr(animation, "replay", lambda *a, **k: simulated.append(1) or replay(*a, **k))
+        animation.animate(fast, traj, tmp_path / "again.gif", measured=unkept, wear_colours=True, **kwargs)
+    plain, live = frames("plain.gif"), frames("live.gif")
+    assert np.abs(live - frames("kept.gif")).max() <= 8 and np.abs(live - frames("again.gif")).max() <= 8
+    assert simulated == [1]
+    # the cable changes colour and nothing else: blue where a segment costs little
+    changed = np.abs(live - plain).sum(axis=-1) > 30
+    assert changed.sum() > 100
+    assert np.median(live[changed][:, 2] - live[changed][:, 0]) > 40
+    # MuJoCo's kept positions are posed in its simulator to read its segment states, which are put back after
+    dynamic = make_simulator(station, "dynamic")
+    mujoco_kept = replay(dynamic, traj, record_every=0.2, record_qpos=True)
+    before = dynamic.get_state()
+    animation.animate(dynamic, traj, tmp_path / "mujoco.gif", measured=mujoco_kept, wear_colours=True, **kwargs)
+    np.testing.assert_array_equal(dynamic.get_state(), before)
+    mujoco_frames = frames("mujoco.gif")
+    assert len(mujoco_frames) == len(live)
+    assert (np.abs(mujoco_frames - plain).sum(axis=-1) > 30).sum() > 100
