@@ -360,11 +360,13 @@ def _animations(task: str, rows, methods, fig_dir: Path, figures: dict, explaine
 
 def _worst_frames(rows, methods, replays, station, sim, out, fig_dir, figures, robot,
                   cost_variant: str = "thesis") -> list[tuple]:
-    """Per method: its successful run with the highest instantaneous cost, rendered at that moment."""
-    from dresspack_gym.stations.rendering import StationRenderer, save_png
+    """Per method: its successful run with the highest instantaneous cost, rendered at that moment (on either
+    engine: ``sim``'s; a rod-engine replay's cables are drawn from their points)."""
+    from dresspack_gym.stations.rendering import StationRenderer, live_frame, replay_frame, save_png
 
     blocks = []
     renderer = None
+    data = mujoco.MjData(station.model)
     try:
         for m in methods:
             ok = [r for r in rows if r["method"] == m and r["success"]]
@@ -378,14 +380,14 @@ def _worst_frames(rows, methods, replays, station, sim, out, fig_dir, figures, r
                 continue
             t = float(rep.time[int(np.argmax(rep.cost))])
             if rep.qpos is not None:  # the replay kept its positions: that moment without simulating again
-                sim.data.qpos[:] = rep.qpos[int(np.argmax(rep.cost))]
-                mujoco.mj_forward(sim.model, sim.data)
+                shown, cables = data, replay_frame(station, rep, int(np.argmax(rep.cost)), data)
             else:
                 replay(sim, traj, robot=robot, until=t)
+                shown, cables = live_frame(sim, data)
             if renderer is None:
                 renderer = StationRenderer(station.model, width=640, height=480)
             path = fig_dir / f"worst_{_slug(m)}.png"
-            save_png(renderer.render(sim.data), str(path))
+            save_png(renderer.render(shown, cables=cables), str(path))
             figures[f"worst {m}"] = str(path)
             i = int(np.argmax(rep.cost))
             blocks.append(("img", str(path), f"{m}: {worst['task']} (seed {worst['seed']}) at t = {t:.2f} s, "

@@ -6,7 +6,7 @@ import json
 
 from ..errors import ConfigError
 from ..io.outputs import replacing, write_text
-from .args import add_station_argument, file_to_write, number, output_file
+from .args import add_physics_argument, add_station_argument, file_to_write, number, output_file
 
 
 def _checked_plan(args):
@@ -77,7 +77,7 @@ def cmd_animate(args) -> int:
 
     from ..io.animation import animate
     from ..io.program_checks import check_program
-    from ..physics.simulation import CableSimulator
+    from ..physics.profiles import make_simulator
     from ..stations.station import Station
 
     traj, meta, cfg, robot, identity = _checked_plan(args)
@@ -85,8 +85,8 @@ def cmd_animate(args) -> int:
     check_program(traj, placement.robot, _speed_fraction(None, meta, cfg),
                   f" of robot {placement.name!r} ({placement.robot.name})", identity)
     with replacing(args.out) as tmp:
-        result = animate(CableSimulator(Station(cfg)), traj, tmp, robot=robot, fps=args.fps, width=args.width,
-                         height=args.height, shadows=args.shadows,
+        result = animate(make_simulator(Station(cfg), args.physics), traj, tmp, robot=robot, fps=args.fps,
+                         width=args.width, height=args.height, shadows=args.shadows, wear_colours=args.wear_colours,
                          progress=lambda label, total: tqdm(total=total, desc=label, unit="frame", dynamic_ncols=True))
     print(f"wrote {args.out} ({result['frames']} frames, {result['duration_s']:.1f} s)")
     return 0
@@ -129,4 +129,8 @@ def add_animate(sub) -> None:
                     help="height of the station's picture [px], the measures' strip below it (default %(default)s)")
     an.add_argument("--shadows", action="store_true",
                     help="draw shadows (about 10x slower per frame without a GPU; default: off)")
+    an.add_argument("--wear-colours", action="store_true",
+                    help="draw the robot's cable segment by segment in the colour of its wear cost, as `dresspack "
+                         "view` does (blue none, red the plan's largest C; default: the cable's own colour)")
+    add_physics_argument(an, "that replays the plan for the video")
     an.set_defaults(func=cmd_animate)

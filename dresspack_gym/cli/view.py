@@ -6,7 +6,7 @@ import shlex
 import sys
 
 from ..errors import ConfigError
-from .args import add_station_argument, number
+from .args import add_physics_argument, add_station_argument, number
 
 
 def add_view_command(sub) -> None:
@@ -29,13 +29,14 @@ def add_view_command(sub) -> None:
                    help="frames per second of motion time (default 20)")
     v.add_argument("--at", type=number(0, None, unit="s"), default=None,
                    help="open paused at this motion time [s] (default: play from the start)")
+    add_physics_argument(v, "that replays the plan (or settles the station)")
     v.set_defaults(func=cmd_view)
 
 
 def cmd_view(args) -> int:
     from ..io.loading import load_station
     from ..io.viewer import record_frames, require_display, view
-    from ..physics.simulation import CableSimulator
+    from ..physics.profiles import ENGINE_TITLES, make_simulator
     from ..stations.station import Station
 
     if args.plan is None:
@@ -53,9 +54,10 @@ def cmd_view(args) -> int:
         instead = f"`dresspack animate {shlex.quote(args.plan)} --out plan.mp4` writes it as a video"
         title = f"{args.plan} on {cfg.name}"
     require_display(instead)  # before the replay: no minute of simulating for a window that cannot open
-    sim = CableSimulator(Station(cfg))
+    sim = make_simulator(Station(cfg), args.physics)
     if traj is not None:
-        print("replaying the plan in the cable simulator, then opening MuJoCo's viewer", file=sys.stderr)
+        print(f"replaying the plan on the {ENGINE_TITLES[args.physics]}, then opening MuJoCo's viewer",
+              file=sys.stderr)
     frames = record_frames(sim, traj, robot=robot, fps=args.fps, speed_fraction=fraction)
     view(sim, frames, robot=robot, instead=instead, title=title, at=args.at)
     return 0

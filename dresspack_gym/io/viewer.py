@@ -12,9 +12,11 @@ import mujoco
 import numpy as np
 
 from ..errors import DresspackError
+from ..physics.measures import ClearanceProbe
 from ..physics.segment_cost import segment_clearances, segment_wear_cost
 from ..physics.simulation import CableSimulator
 from ..physics.trajectory import Trajectory, replay
+from ..stations.rendering import CablePoints
 
 # GLFW key codes (the viewer's key callback receives them; keys it does not use itself)
 KEY_SPACE, KEY_RIGHT, KEY_LEFT, KEY_DOWN, KEY_UP = 32, 262, 263, 264, 265
@@ -38,6 +40,11 @@ class CableFrames:
     points: np.ndarray  # (N, n + 1, 3) the cable's vertices
     cost: np.ndarray  # (N, n + 1) eq. (4.10) per segment (physics.segment_cost)
     radius: float  # the cable's radius [m]
+    engine: str = "dynamic"  # the cable engine replayed (physics.profiles.ENGINES)
+    # on the rod engine, whose cables MuJoCo's positions do not hold: every robot's cable, (N, vertices, 3) each,
+    # and its radius, to draw the other robots' cables from their points too
+    cables: tuple[np.ndarray, ...] = ()
+    radii: tuple[float, ...] = ()
 
     @property
     def scale(self) -> float:
@@ -49,8 +56,11 @@ class CableFrames:
 def record_frames(sim: CableSimulator, traj: Trajectory | None, *, robot: int = 0, fps: float = 20.0,
                   speed_fraction: float | None = None, progress=None) -> CableFrames:
     """The frames of ``traj`` replayed at ``fps`` samples per second of motion time (with the settled shape at
-    each stop), or with no trajectory the station settled at Home, one frame. Each frame's segment costs are read
-    from the static forces of its shape, as the replay's measures are; ``progress(done, total)`` after each."""
+    each stop), or with no trajectory the station settled at Home, one frame; on either engine (``sim``'s).
+    On MuJoCo each frame's segment costs are read from the static forces of its shape, as the replay's measures
+    are; on the rod engine from the segment states the replay measured. ``progress(done, total)`` after each."""
+    if sim.engine != "dynamic":
+        return _rod_frames(sim, traj, robot=robot, fps=fps, speed_fraction=speed_fraction, progress=progress)
     if traj is None:
         sim.reset()
         positions = [sim.data.qpos.copy()]
@@ -77,6 +87,36 @@ def record_frames(sim: CableSimulator, traj: Trajectory | None, *, robot: int = 
                        float(cable.radius))
 
 
+def _rod_frames(sim, traj: Trajectory | None, *, robot: int, fps: float, speed_fraction: float | None,
+                progress) -> CableFrames:
+    """:func:`record_frames` on the rod engine: the robots in MuJoCo's positions, every cable's points, and the
+    segment costs of the states the replay measured (the rod's state is not MuJoCo's to re-pose)."""
+    station = sim.station
+    if traj is None:
+        sim.reset()
+        times, positions = np.zeros(1), np.array([sim.mujoco_qpos()])
+        cables = tuple(sim.cable_points(r)[None] for r in range(station.n_robots))
+        states = [sim.segment_states()[robot]]
+    else:
+        rep = replay(sim, traj, robot=robot, record_every=1.0 / fps, speed_fraction=speed_fraction,
+                     record_qpos=True, keep_states=True)
+        times, positions, cables, states = rep.time, rep.qpos, rep.cables, rep.states
+    cable = station.cables[robot]
+    cfg, ea = station.config.wear_cost, station.config.robots[robot].dresspack.tensile_stiffness
+    probe, data = ClearanceProbe(station), mujoco.MjData(station.model)
+    costs = []
+    for i, (qpos, state) in enumerate(zip(positions, states)):
+        data.qpos[:] = qpos
+        mujoco.mj_kinematics(station.model, data)
+        shape = cables[robot][i]
+        costs.append(segment_wear_cost(state, segment_clearances(probe, data, cable, shape), cfg, ea))
+        if progress is not None:
+            progress(i + 1, len(positions))
+    return CableFrames(np.asarray(times, dtype=float), np.asarray(positions), np.asarray(cables[robot]),
+                       np.array(costs), float(cable.radius), sim.engine, tuple(np.asarray(c) for c in cables),
+                       tuple(float(c.radius) for c in station.cables))
+
+
 def colours(cost: np.ndarray, scale: float) -> np.ndarray:
     """RGBA of each cost on the ramp from 0 (blue) through scale / 2 (yellow) to ``scale`` and above (red)."""
     u = np.clip(np.asarray(cost, dtype=float) / scale, 0.0, 1.0) * (len(RAMP) - 1)
@@ -85,16 +125,15 @@ def colours(cost: np.ndarray, scale: float) -> np.ndarray:
     return np.concatenate([rgb, np.ones(rgb.shape[:-1] + (1,))], axis=-1)
 
 
-def draw_cable(scene: mujoco.MjvScene, points: np.ndarray, cost: np.ndarray, scale: float, radius: float) -> None:
-    """Replace ``scene``'s geoms by one capsule per cable edge, coloured by the costlier of its two segments."""
+def draw_cable(scene: mujoco.MjvScene, points: np.ndarray, cost: np.ndarray, scale: float, radius: float,
+               others: CablePoints | None = None) -> None:
+    """Replace ``scene``'s geoms by one capsule per cable edge, coloured by the costlier of its two segments (and
+    ``others``, the other robots' cables, in the cable's colour)."""
     rgba = colours(np.maximum(cost[:-1], cost[1:]), scale).astype(np.float32)
     scene.ngeom = 0
-    for e in range(min(len(points) - 1, scene.maxgeom)):
-        geom = scene.geoms[e]
-        mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_CAPSULE, np.zeros(3), np.zeros(3), np.eye(3).ravel(),
-                            rgba[e])
-        mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_CAPSULE, radius, points[e], points[e + 1])
-        scene.ngeom = e + 1
+    CablePoints((points,), (radius,), (rgba,)).draw(scene)
+    if others is not None:
+        others.draw(scene)
 
 
 class Playback:
@@ -175,9 +214,13 @@ def view(sim: CableSimulator, frames: CableFrames, *, robot: int = 0, instead: s
     require_display(instead)
     import mujoco.viewer
 
-    model, data = sim.model, mujoco.MjData(sim.model)
-    for piece in sim.station.cables[robot].pieces:  # the coloured capsules draw this cable
+    model = sim.station.model
+    data = mujoco.MjData(model)
+    # the coloured capsules draw this cable; on the rod engine capsules draw the other robots' cables too
+    drawn = [robot] if not frames.cables else range(sim.station.n_robots)
+    for piece in (p for r in drawn for p in sim.station.cables[r].pieces):
         model.flex_rgba[piece.flex_id, 3] = 0.0
+    others = [r for r in range(len(frames.cables)) if r != robot]
     playback = Playback(frames.time, at=at)
     scale = frames.scale
     # no side panels (Tab and Shift+Tab show them): the window is the station
@@ -191,7 +234,8 @@ def view(sim: CableSimulator, frames: CableFrames, *, robot: int = 0, instead: s
             with handle.lock():
                 data.qpos[:] = frames.qpos[i]
                 mujoco.mj_forward(model, data)
-                draw_cable(handle.user_scn, frames.points[i], frames.cost[i], scale, frames.radius)
+                draw_cable(handle.user_scn, frames.points[i], frames.cost[i], scale, frames.radius,
+                           CablePoints([frames.cables[r][i] for r in others], [frames.radii[r] for r in others]))
             state = "playing" if playback.playing else "paused"
             handle.set_texts([  # takes the viewer's lock itself
                 (None, mujoco.mjtGridPos.mjGRID_TOPLEFT, f"{title}\n{KEYS_HELP}", ""),

@@ -150,6 +150,12 @@ class Replay:
     qpos: np.ndarray | None = None  # (N, nq) the simulator's positions at each sample: renders without re-simulating
     given_up: bool = False  # ended by replay's ``give_up`` before the trajectory's end
     engine: str = "dynamic"  # the cable engine that produced the measures (physics.profiles.ENGINES)
+    # per robot (N, vertices, 3): each cable's centreline at each sample, kept with ``qpos`` when the cables are
+    # not MuJoCo's (the rod engine): the renderer draws them from these points
+    cables: tuple[np.ndarray, ...] | None = None
+    # the robot's segment states at each sample (replay's ``keep_states``): what colours a drawing of the cable by
+    # each segment's wear cost (physics.segment_cost) where the simulator's state cannot be posed again
+    states: list | None = None
 
     def integrated_cost(self) -> float:
         """Integral of C over the cycle [cost x s] (trapezoid over the samples)."""
@@ -180,17 +186,21 @@ class Replay:
 def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_every: float = 0.05,
            speed_fraction: float | None = None, cost_variant: str = "thesis", start_state=None,
            until: float | None = None, record_states: bool = True, record_qpos: bool = False,
-           on_sample=None, give_up=None) -> Replay:
+           on_sample=None, give_up=None, keep_states: bool = False) -> Replay:
     """Run ``traj`` in the simulator from a settled start (``start_state`` or a fresh reset at its first
     waypoint) and record the measures every ``record_every`` s and after settling at every stop.
     With ``until`` the replay stops at that motion time and leaves ``sim`` in that state (to render it).
     With ``record_states`` every sample also records each segment's state, from which the replay's per-segment
     damage and fatigue life are computed (the trajectory taken as one period of a repeated station cycle).
-    With ``record_qpos`` every sample also keeps the simulator's positions (``Replay.qpos``), enough to draw it.
+    With ``record_qpos`` every sample also keeps the simulator's positions (``Replay.qpos``), enough to draw it
+    (on the rod engine the robots' and, in ``Replay.cables``, every cable's points). With ``keep_states`` (which
+    needs ``record_states``) the Replay keeps the robot's segment states at every sample (``Replay.states``).
     With ``give_up`` (``give_up(time, wear_cost) -> bool``, called with every sample in order: the start's, each
     motion sample's and each stop's after its settle) the replay ends at the first sample it answers true: the
     Replay then holds the samples up to that one, ``given_up`` set (a caller that only needs to know whether the
     cycle costs more than some bound stops simulating once that is certain)."""
+    if keep_states and not record_states:
+        raise ConfigError("keep_states", "keeps the states recorded: it needs record_states=True")
     cost_fn = cost_function(cost_variant)
     station = sim.station
     cfg = station.config.wear_cost
@@ -211,11 +221,23 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     measures0, states0 = sim.measures_and_states()
     samples_t, samples_q, samples_m = [0.0], [traj.waypoints[0].copy()], [measures0]
     samples_s = [states0[robot]] if record_states else []
-    samples_x = [sim.data.qpos.copy()] if record_qpos else []  # MuJoCo's positions, to draw it
+    # MuJoCo's positions, to draw it; on the rod engine the robots' (in MuJoCo's positions) and the cables' points
+    rod_cables = sim.engine != "dynamic"
+    samples_x, samples_c = [], []
+
+    def keep_positions() -> None:
+        if rod_cables:
+            samples_x.append(sim.mujoco_qpos())
+            samples_c.append([sim.cable_points(r) for r in range(station.n_robots)])
+        else:
+            samples_x.append(sim.data.qpos.copy())
+
+    if record_qpos:
+        keep_positions()
 
     def sampled(t: float) -> None:  # called right after each motion sample is recorded, in its state
         if record_qpos:
-            samples_x.append(sim.data.qpos.copy())
+            keep_positions()
         if on_sample is not None:
             on_sample(t)
 
@@ -233,7 +255,8 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
                             on_sample=sampled if record_qpos or on_sample is not None else None)
         samples_t += trace.time
         if record_qpos:  # a move of no length records one sample without calling back
-            samples_x += [sim.data.qpos.copy()] * (len(samples_t) - len(samples_x))
+            for _ in range(len(samples_t) - len(samples_x)):
+                keep_positions()
         samples_q += [x[robot] for x in trace.q]
         samples_m += trace.measures
         samples_s += [x[robot] for x in trace.states]
@@ -248,7 +271,7 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
             stop_measures, stop_states = sim.measures_and_states()
             samples_m.append(stop_measures)
             if record_qpos:
-                samples_x.append(sim.data.qpos.copy())
+                keep_positions()
             if record_states:
                 samples_s.append(stop_states[robot])
             given_up = stop_if is not None and stop_if(sim.motion_time, stop_measures)
@@ -271,7 +294,9 @@ def replay(sim: CableSimulator, traj: Trajectory, *, robot: int = 0, record_ever
     return Replay(np.array(samples_t), np.array(samples_q), measures, np.array([c.total for c in costs]), terms,
                   stop_times, sim.motion_time,
                   {"curvature": cfg.curvature_threshold, "clearance": cfg.clearance}, unconverged, damage, life,
-                  np.array(samples_x) if record_qpos else None, given_up, sim.engine)
+                  np.array(samples_x) if record_qpos else None, given_up, sim.engine,
+                  tuple(np.array(c) for c in zip(*samples_c)) if record_qpos and rod_cables else None,
+                  samples_s if keep_states else None)
 
 
 # [rad] joint changes below this do not count as a direction (numerical noise of a planner's waypoints)

@@ -262,6 +262,15 @@ class RodSimulator:
     def cable_points(self, robot: int = 0) -> np.ndarray:
         return self.rods[robot].x.copy()
 
+    def mujoco_qpos(self) -> np.ndarray:
+        """MuJoCo's positions of the station (``station.model``) with the robots where they stand and every
+        dresspack node on its link: what draws the robots. MuJoCo's cables stay on their straight rest line (this
+        engine's cables are :meth:`cable_points`, drawn from their points)."""
+        qpos = self.station.model.qpos0.copy()
+        qpos[self.station.robot_qpos] = self.q.ravel()
+        qpos[self.station.load_qpos] = self.station.load_values
+        return qpos
+
     def cable_measures(self, h: float | None = None) -> list[WearMeasures]:
         """Every cable's WearMeasures, the worst segment's damage rate included (as the MuJoCo simulator's)."""
         return self._cable_measures(self._states(h))

@@ -40,3 +40,30 @@ def test_videos_are_the_same_files_on_one_process_or_two(tmp_path):
     for i in range(len(trajs)):
         one, two = (tmp_path / "one" / f"{i}.mp4").read_bytes(), (tmp_path / "two" / f"{i}.mp4").read_bytes()
         assert len(one) > 1000 and one == two, f"video {i}"
+
+
+def test_the_rod_engines_videos_draw_its_kept_points_and_refuse_another_engines_replay(tmp_path):
+    pytest.importorskip("imageio.v2")
+    from dresspack.eval.animations import Clip, render_clips
+
+    from dresspack_gym.errors import ConfigError
+    from dresspack_gym.physics.profiles import make_simulator
+    from dresspack_gym.stations.rendering import StationRenderer
+
+    station = Station(load_station("default"))
+    try:
+        StationRenderer(station.model, width=16, height=16).close()
+    except Exception as exc:  # no offscreen GL on this machine
+        if "rendering is unavailable" in str(exc):
+            pytest.skip(str(exc))
+        raise
+    home = station.home[0]
+    traj = Trajectory(np.stack([home, home + np.radians([0, -10, 10, 0, 20, 0])]), (1,))
+    kept = replay(make_simulator(station, "fast"), traj, record_qpos=True)
+    clip = Clip(str(tmp_path / "rod.mp4"), traj.waypoints, traj.stops, kept)
+    render_clips("default", 0, [clip], engine="fast")
+    assert (tmp_path / "rod.mp4").stat().st_size > 1000
+    with pytest.raises(ConfigError, match="clips"):  # a rod replay stands for no MuJoCo video
+        render_clips("default", 0, [clip], engine="dynamic")
+    with pytest.raises(ConfigError, match="engine"):
+        render_clips("default", 0, [clip], engine="quick")
