@@ -89,7 +89,7 @@ def write_report(spec: EvalSpec, rows: list[dict], out: str | Path, replays: dic
         for anim in fig_dir.glob("anim_*.mp4"):  # a resumed report must not show the videos of an earlier run
             anim.unlink()
         render_clips(spec.station, spec.robot, _clips(rows, methods, out, fig_dir, replays), jobs=jobs,
-                     progress=progress)
+                     progress=progress, engine=spec.physics)
     explained: set[str] = set()  # figure kinds whose legend a caption has explained (each explanation once)
     for task, per_method in by_task(rows, methods).items():
         blocks += [("h2", f"Task: home → {task} → home"), ("table", _table(per_method))]

@@ -123,7 +123,7 @@ class RodSimulator:
         sample = DEFAULT_SAMPLE if record_every is None else float(record_every)
         start = self.q.copy()
         delta = target - start
-        fractions, _ = SegmentMotion(delta, self.motion_limits(frac)).on_steps(sample)
+        fractions, sample = whole_samples(SegmentMotion(delta, self.motion_limits(frac)), sample)
         trace = MotionTrace()
         for k, f in enumerate(fractions, start=1):
             q = start + f * delta
@@ -171,16 +171,16 @@ class RodSimulator:
 
         target = self._as_q(q_target, "q_target")
         start, delta = self.q.copy(), target - self.q
-        fractions, _ = SegmentMotion(delta, self.motion_limits()).on_steps(DEFAULT_SAMPLE)
+        fractions, sample = whole_samples(SegmentMotion(delta, self.motion_limits()), DEFAULT_SAMPLE)
         solve = measure = 0.0
         for f in fractions:
             q = start + f * delta
             t0 = time.perf_counter()
-            self._sample(q, DEFAULT_SAMPLE)
+            self._sample(q, sample)
             t1 = time.perf_counter()
-            self.measures_and_states(DEFAULT_SAMPLE)
+            self.measures_and_states(sample)
             solve, measure = solve + t1 - t0, measure + time.perf_counter() - t1
-        self.motion_time += len(fractions) * DEFAULT_SAMPLE
+        self.motion_time += len(fractions) * sample
         return solve, measure, len(fractions)
 
     def _sample(self, q: np.ndarray, sample: float) -> None:
@@ -360,6 +360,16 @@ class RodSimulator:
         self.q = target.copy()
         self.motion_time += len(fractions) * DEFAULT_SAMPLE
         return trace
+
+
+def whole_samples(motion: SegmentMotion, sample: float) -> tuple[np.ndarray, float]:
+    """The motion's fractions after each of its samples, and their length: at most ``sample``, a whole number of
+    them in the motion's duration, so the engine runs the time law's motion and times it exactly (MuJoCo, whose step
+    the model fixes, slows the motion by a hair to end on a step instead, SegmentMotion.on_steps)."""
+    if motion.duration <= 0:
+        return np.zeros(0), sample
+    h = motion.duration / int(np.ceil(motion.duration / sample - 1e-9))
+    return motion.on_steps(h)[0], h
 
 
 def _tension_taps(cable: StationCable) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
