@@ -16,7 +16,7 @@ ENGINES = ("dynamic", "fast")
 # cycles by wear as MuJoCo does (Spearman rho 0.99-1.00 on three stations) at 3.5x the speed of MuJoCo's replay with
 # twice the segments (docs/rod_engine.md). MuJoCo (dynamic) stays the environment's simulator and the reference.
 DEFAULT_ENGINE = "fast"
-ENGINE_TITLES = {"dynamic": "MuJoCo (dynamic)", "fast": "rod engine (quasi-static)"}
+ENGINE_TITLES = {"dynamic": "MuJoCo dynamic simulation", "fast": "quasi-static rod engine"}
 
 
 @dataclass(frozen=True)
