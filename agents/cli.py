@@ -5,7 +5,15 @@ from __future__ import annotations
 import json
 import sys
 
-from dresspack_gym.cli.args import add_physics_argument, add_station_argument, file_to_write, number, seed
+from dresspack_gym.cli.args import (
+    ALL_CORES,
+    MAX_JOBS,
+    add_physics_argument,
+    add_station_argument,
+    file_to_write,
+    number,
+    seed,
+)
 from dresspack_gym.cli.common import ctrl_c_remembered
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.io.outputs import FIGURE_SUFFIXES, replacing
@@ -82,6 +90,9 @@ def add_plan_command(sub) -> None:
     p.add_argument("--out", type=file_to_write(".npz"), default=None,
                    help="save the planned trajectory (.npz) for `dresspack export` (missing folders are made)")
     add_physics_argument(p, "the wear-aware planners simulate legs on and the plan is replayed in")
+    p.add_argument("--jobs", type=number(1, MAX_JOBS, integer=True), default=ALL_CORES,
+                   help="wear-aware planners: processes simulating candidate legs and refinement trials at once (the "
+                        f"plan does not depend on it) (default {ALL_CORES}: all cores)")
     p.add_argument("--json", action="store_true", help="print the plan's summary (or its failure) as one JSON object")
     p.set_defaults(func=cmd_plan)
 
@@ -122,7 +133,7 @@ def cmd_plan(args) -> int:
                                         evaluations=args.evaluations, routes=args.routes,
                                         time_budget=args.time_budget, welds=args.welds,
                                         cost_variant=args.cost_variant, robot=args.robot, physics=args.physics,
-                                        **extra), None
+                                        jobs=args.jobs, **extra), None
         except PlanningError as exc:  # a failed plan is a result, not a crash
             run, failure = None, exc
     if pressed():  # a Ctrl-C that OMPL swallowed as a failed check: the command still ends as interrupted

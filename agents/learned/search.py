@@ -232,7 +232,7 @@ class PolicySearchPlanner(PolicyPlanner):
 
     def __init__(self, station: Station, robot: int = 0, *, proposals: int = PROPOSALS, refine: int = REFINE,
                  alternatives: int = ALTERNATIVES, cost_to_go: str | Path | None = NONE, cost_variant: str = "thesis",
-                 time_weight: float = 1.0, engine: str = DEFAULT_ENGINE, **kwargs):
+                 time_weight: float = 1.0, engine: str = DEFAULT_ENGINE, jobs: int = 1, **kwargs):
         proposals, refine = check_proposals(proposals), check_refine(refine)
         alternatives = check_alternatives(alternatives)
         super().__init__(station, robot, **kwargs)
@@ -246,7 +246,7 @@ class PolicySearchPlanner(PolicyPlanner):
             # ompl-wear's leg cost, with the wear cost and time weight asked for (the search ranks by the env's
             # objective, the one the policy was trained on)
             leg_cost = LegCost(station, robot, tension_peak_time=TENSION_PEAK_TIME, cost_variant=cost_variant,
-                               time_weight=time_weight, engine=engine)
+                               time_weight=time_weight, engine=engine, jobs=jobs)
             # the refined vias keep the found route's joint turns (free moves of every joint leave small
             # back-and-forth turns that make the motion rougher than the planners'), and a joint's turns within a
             # leg are taken out where the leg then costs less: 2.00 -> 1.76 reversals/s on the drawn welds at the

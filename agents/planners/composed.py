@@ -53,7 +53,9 @@ class ComposedPlanner(Planner):
                 legs.append(cands[0])
                 continue
             scores = []  # a candidate dearer than the cheapest before it scores inf: its simulation stopped there
-            for c in cands:
+            for i, c in enumerate(cands):
+                if i % cost.jobs == 0:  # the next jobs candidates on the workers, bounded as the first of them is
+                    cost.prefetch(state, cands[i:i + cost.jobs], min(scores, default=math.inf))
                 scores.append(cost.cost(state, c, min(scores, default=math.inf))[0])
             route_scores.append([float(x) if math.isfinite(x) else None for x in scores])
             best = cands[int(np.argmin(scores))]
@@ -100,9 +102,10 @@ class ThesisLocalPlanner(ComposedPlanner):
     color = "#7570b3"
 
     def __init__(self, *args, n_interior: int = 3, step_deg: float = 15.0, time_weight: float = 1.0,
-                 wear_weight: float = 1.0, cost_variant: str = "thesis", engine: str = DEFAULT_ENGINE, **kwargs):
+                 wear_weight: float = 1.0, cost_variant: str = "thesis", engine: str = DEFAULT_ENGINE,
+                 jobs: int = 1, **kwargs):
         super().__init__(*args, **kwargs)
         self.routes = DirectRoute(self.connector, self.budget.iterations)
         self.leg_cost = LegCost(self.station, self.robot, time_weight=time_weight, wear_weight=wear_weight,
-                                cost_variant=cost_variant, engine=engine)
+                                cost_variant=cost_variant, engine=engine, jobs=jobs)
         self.refiner = LocalRefiner(self.validity, self.leg_cost, n_interior, step_deg)

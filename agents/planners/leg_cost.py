@@ -4,6 +4,7 @@ along the leg in path order from the cable state the previous legs left (thesis 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -12,6 +13,8 @@ from dresspack_gym.physics.profiles import DEFAULT_ENGINE, make_simulator
 from dresspack_gym.physics.trajectory import Trajectory, replay
 from dresspack_gym.physics.wear_cost import WearCost, cost_function
 from dresspack_gym.stations.station import Station
+
+from .leg_workers import LegWorkers, check_jobs
 
 # Largest cost of one second of cycle time against one unit of ∫C dt: a second then outweighs a leg's whole
 # wear integral (tens to hundreds), so the wear term no longer ranks routes (the README measures the trade-off).
@@ -25,6 +28,24 @@ MAX_TENSION_PEAK_TIME = 60.0  # [s] a peak charged as if it lasted a minute outw
 # A leg is given up only when its lower bound passes the bound by more than this (relative, and absolute near 0):
 # the bound is summed sample by sample, the leg's J by numpy's trapezoid, and the two roundings may differ.
 BOUND_SLACK = 1e-9
+# legs prefetched on the workers and not yet asked for (speculative refinement trials a change of route made moot)
+MAX_AHEAD = 64
+
+
+@dataclass(frozen=True)
+class SimulatedLeg:
+    """One leg's simulation: J (inf where given up), the cable's end state and the replay's summary (None where
+    given up), the highest lower bound of J it tracked, and whether it was given up at the bound it ran with."""
+
+    j: float
+    end_state: np.ndarray | None
+    summary: dict | None
+    highest: float
+    given_up: bool
+
+
+def _key(start_state: np.ndarray, waypoints) -> bytes:
+    return start_state.tobytes() + np.round(np.asarray(waypoints), 9).tobytes()
 
 
 def check_time_weight(value) -> float:
@@ -58,12 +79,17 @@ class LegCost:
     segment over the leg's strain history (rainflow-counted, the leg taken as one period), the damage per cycle the
     leg adds, in place of the states' excursion integral (which stands in for it where only states are known).
 
-    ``engine`` (physics.profiles.ENGINES) simulates the legs: the rod engine by default."""
+    ``engine`` (physics.profiles.ENGINES) simulates the legs: the rod engine by default. With ``jobs`` > 1, legs a
+    caller :meth:`prefetch`-es are simulated on that many worker processes; every answer, counter and cache entry
+    is the one simulating them one after another gives (tests/agents/test_leg_workers.py)."""
 
     def __init__(self, station: Station, robot: int = 0, *, time_weight: float = 1.0, wear_weight: float = 1.0,
                  tension_peak_time: float = 0.0, cost_variant: str = "thesis", record_every: float = 0.05,
-                 engine: str = DEFAULT_ENGINE):
+                 engine: str = DEFAULT_ENGINE, jobs: int = 1):
         self.sim = make_simulator(station, engine)
+        self.settings = dict(robot=robot, time_weight=time_weight, wear_weight=wear_weight,
+                             tension_peak_time=tension_peak_time, cost_variant=cost_variant,
+                             record_every=record_every, engine=engine)
         self.robot = robot
         self.time_weight, self.wear_weight = check_time_weight(time_weight), float(wear_weight)
         self.tension_peak_time = check_tension_peak_time(tension_peak_time)
@@ -78,11 +104,15 @@ class LegCost:
         self.given_up = 0  # of them, simulations ended once the leg certainly cost more than its query's bound
         self.queries = 0  # cost() calls, cached or not: the refiners' work unit (independent of the cache)
         self._cache: dict[bytes, tuple[float, np.ndarray, dict]] = {}
+        self.jobs = check_jobs(jobs)
+        self._ahead: dict = {}  # key -> a worker's simulation of that leg, started by prefetch
+        self._workers = LegWorkers(station.config, self.settings, self.jobs) if self.jobs > 1 else None
 
     def reset(self) -> None:
         """Forget the cache and the counters (once per plan, so a plan never depends on an earlier one)."""
         self.evaluations = self.queries = self.given_up = 0
         self._cache.clear()
+        self._ahead.clear()
 
     def start_state(self, q_start: np.ndarray) -> np.ndarray:
         q = self.sim.station.home.copy()
@@ -94,12 +124,42 @@ class LegCost:
              bound: float = math.inf) -> tuple[float, np.ndarray | None, dict | None]:
         """``(J, end_state, summary)`` of the leg from ``start_state``; with a ``bound``, ``(inf, None, None)``
         where J certainly exceeds it, the simulation ended as soon as that was certain (a caller that keeps a leg
-        only if it costs at most the bound learns the same, sooner). So J itself is returned where J <= bound."""
+        only if it costs at most the bound learns the same, sooner). So J itself is returned where J <= bound.
+
+        A leg :meth:`prefetch` simulated with this bound or a higher one gives the same answer from its result."""
         self.queries += 1
-        key = start_state.tobytes() + np.round(np.asarray(waypoints), 9).tobytes()
+        key = _key(start_state, waypoints)
         hit = self._cache.get(key)
         if hit is not None:
             return hit
+        ahead = self._ahead.pop(key, None)
+        raw = ahead.result() if ahead is not None else None
+        if raw is None or (raw.given_up and ahead.bound < bound):  # given up below this bound: not known here
+            raw = self.simulate(start_state, waypoints, bound)
+        self.evaluations += 1
+        if self._gives_up(raw, bound):
+            self.given_up += 1
+            return math.inf, None, None
+        out = (raw.j, raw.end_state, raw.summary)
+        self._cache[key] = out
+        return out
+
+    def prefetch(self, start_state: np.ndarray, legs, bound: float = math.inf) -> None:
+        """Start simulating ``legs`` from ``start_state`` with ``bound`` on the worker processes (``jobs`` > 1;
+        otherwise nothing): the :meth:`cost` queries of them that follow answer from those simulations, exactly as
+        they would have simulating one leg after another."""
+        if self._workers is None:
+            return
+        for leg in legs:
+            key = _key(start_state, leg)
+            if key not in self._cache and key not in self._ahead:
+                if len(self._ahead) >= MAX_AHEAD:  # speculations never asked for: the oldest go
+                    del self._ahead[next(iter(self._ahead))]
+                self._ahead[key] = self._workers.submit(start_state, np.asarray(leg, dtype=float), bound)
+
+    def simulate(self, start_state: np.ndarray, waypoints: np.ndarray, bound: float = math.inf) -> SimulatedLeg:
+        """The leg simulated from ``start_state``, ended where J certainly exceeds ``bound``; no cache, no counts
+        (what a worker process runs)."""
         traj = Trajectory(np.asarray(waypoints), (len(waypoints) - 1,))
         life = self.cost_variant == "life"
         # the life variant's J comes from the whole leg's strain history: no sample-by-sample lower bound of it
@@ -107,25 +167,30 @@ class LegCost:
         rep = replay(self.sim, traj, robot=self.robot, record_every=self.record_every,
                      cost_variant=self.cost_variant, start_state=start_state, give_up=above,
                      record_states=life)  # other variants: C carries the wear, no per-segment count needed
-        self.evaluations += 1
+        highest = above.highest if above is not None else -math.inf
         if rep.given_up:
-            self.given_up += 1
-            return math.inf, None, None
+            return SimulatedLeg(math.inf, None, None, highest, True)
         s = rep.summary()
         peak = float(np.max(rep.cost_terms["tension"])) if self.tension_peak_time else 0.0
         wear = self.w_life * float(rep.fatigue.damage_per_cycle.max()) if life else s["cost"]
         j = self.time_weight * rep.cycle_time + self.wear_weight * (wear + self.tension_peak_time * peak)
-        if life and j > bound + BOUND_SLACK * max(1.0, abs(bound)):
-            self.given_up += 1
-            return math.inf, None, None
-        out = (j, self.sim.get_state(), s)
-        self._cache[key] = out
-        return out
+        return SimulatedLeg(j, self.sim.get_state(), s, highest, False)
+
+    def _gives_up(self, raw: SimulatedLeg, bound: float) -> bool:
+        """Whether a query with ``bound`` ends with ``raw``'s leg given up: its simulation was (at this bound or a
+        lower one), or the lower bound it tracked passed this bound's limit (where the query's own simulation
+        would have stopped), or (life) its J passed it."""
+        if raw.given_up:
+            return True
+        if not math.isfinite(bound):
+            return False
+        limit = bound + BOUND_SLACK * max(1.0, abs(bound))
+        return raw.j > limit if self.cost_variant == "life" else raw.highest > limit
 
     def _above(self, traj: Trajectory, bound: float):
         """The replay's ``give_up`` for ``bound`` (None: no bound, or weights under which J's lower bound does not
         grow with the samples)."""
-        if not math.isfinite(bound) or self.wear_weight < 0:
+        if self.wear_weight < 0:
             return None
         # the replay's motion time: each segment's whole steps cover its duration (SegmentMotion.on_steps, which
         # may fall short of it by 1e-9 steps; the batched durations match it to 1e-12)
@@ -147,6 +212,7 @@ class _LowerBound:
         self.area = self.peak = 0.0
         self.lower = floor  # J's lower bound given the samples so far
         self.valid = True
+        self.highest = -math.inf  # the highest lower bound while every sample's C >= 0 (what give_up compares)
 
     def __call__(self, t: float, cost: WearCost) -> bool:
         c = cost.total
@@ -159,4 +225,5 @@ class _LowerBound:
         self.peak = max(self.peak, cost.tension)
         peak = self.peak_time * self.peak if self.peak_time else 0.0
         self.lower = self.floor + self.wear_weight * (self.area + peak)
+        self.highest = max(self.highest, self.lower)
         return self.lower > self.limit

@@ -104,21 +104,46 @@ class LocalRefiner:
                     best, j_best = trial, j
         while not spent() and step > np.radians(1.0):
             improved = False
-            for i in rng.permutation(np.arange(1, len(best) - 1)):
+            order = rng.permutation(np.arange(1, len(best) - 1))
+            for k, i in enumerate(order):
                 if spent():
                     break
-                trial = best.copy()
-                trial[i] = best[i] + rng.normal(0.0, step, 6)
-                if self.keep_turns:
-                    trial[i] = keep_turns(best[i - 1], best[i], best[i + 1], trial[i])
+                trial = self._moved(best, i, rng.normal(0.0, step, 6))
                 if not self.leg_valid(trial, around=i):
                     continue
+                self._speculate(state, best, j_best, trial, order[k + 1:], rng, step, limit - self.cost.queries - 1)
                 j = self.cost.cost(state, trial, j_best)[0]  # inf where it certainly costs more
                 if j < j_best:
                     best, j_best, improved = trial, j, True
             if not improved:
                 step *= 0.6
         return self._drop_useless(state, best, j_best)
+
+    def _moved(self, best: np.ndarray, i: int, move: np.ndarray) -> np.ndarray:
+        """``best`` with waypoint ``i`` moved by ``move`` (clipped to keep the joints' turns when asked)."""
+        trial = best.copy()
+        trial[i] = best[i] + move
+        if self.keep_turns:
+            trial[i] = keep_turns(best[i - 1], best[i], best[i + 1], trial[i])
+        return trial
+
+    def _speculate(self, state, best, j_best, trial, later, rng: np.random.Generator, step: float,
+                   queries_left: int) -> None:
+        """With leg workers: ``trial`` and the next valid trials of the sweep, moved from the same ``best``, start
+        simulating at once. The sweep then draws and checks them again itself: the random stream and the collision
+        check count are put back, so the plan is the one a single process makes; a trial drawn anew after an
+        improvement differs from the speculated one and is simulated on its own."""
+        if self.cost.jobs == 1:
+            return
+        legs, drawn, checks = [trial], rng.bit_generator.state, self.validity.n_checks
+        for i in later:
+            if len(legs) >= min(self.cost.jobs, 1 + queries_left):
+                break
+            ahead = self._moved(best, i, rng.normal(0.0, step, 6))
+            if self.leg_valid(ahead, around=i):
+                legs.append(ahead)
+        rng.bit_generator.state, self.validity.n_checks = drawn, checks
+        self.cost.prefetch(state, legs, j_best)
 
     def _drop_useless(self, state, leg, j_best):
         """Remove interior waypoints that do not pay for their stop (time) — keeps trajectories lean."""

@@ -61,18 +61,18 @@ def plan_station(station_ref: str | Station, planner: str = "ompl", *, robot: in
                  iterations: int = DEFAULT_ITERATIONS, evaluations: int = DEFAULT_EVALUATIONS,
                  routes: int = DEFAULT_ROUTES, time_budget: float | None = None, welds: list[str] | None = None,
                  task: Task | None = None, cost_variant: str = "thesis", physics: str = DEFAULT_ENGINE,
-                 **planner_kwargs) -> PlannedRun:
+                 jobs: int = 1, **planner_kwargs) -> PlannedRun:
     """Plan ``task`` (default: Home -> ``welds`` -> Home) and replay it; ``planner_kwargs`` go to the planner
     (e.g. ``policy=`` for ``ppo``). The budget is ``iterations`` / ``evaluations`` / ``routes`` (work units, see
     :class:`~dresspack.agents.planners.budget.Budget`), with ``time_budget`` [s] as an optional wall-time cap.
     ``cost_variant`` is the wear cost the wear-aware planners minimise and the replay reports (thesis, normalized,
     damage, life). ``physics`` (physics.profiles.ENGINES) is the cable engine the wear-aware planners simulate
-    legs on and the plan is replayed in."""
+    legs on and the plan is replayed in; they simulate legs on ``jobs`` processes (the plan does not depend on it)."""
     cost_function(cost_variant)  # a bad name fails before planning, naming the field
     check_choice("physics", physics, list(ENGINES))
     station = station_ref if isinstance(station_ref, Station) else Station(load_station(station_ref))
     if planner in WEAR_AWARE:
-        planner_kwargs = {"cost_variant": cost_variant, "engine": physics, **planner_kwargs}
+        planner_kwargs = {"cost_variant": cost_variant, "engine": physics, "jobs": jobs, **planner_kwargs}
     p = make_planner(planner, station, robot, seed=seed, iterations=iterations, evaluations=evaluations,
                      routes=routes, time_budget=time_budget, **planner_kwargs)
     if task is None:

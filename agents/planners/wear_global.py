@@ -34,7 +34,8 @@ class OmplWearPlanner(ComposedPlanner):
     def __init__(self, *args, via_spread_deg: float = 90.0, n_interior: int = 3,
                  step_deg: float = 15.0, time_weight: float = 1.0, wear_weight: float = 1.0,
                  tension_peak_time: float = TENSION_PEAK_TIME, cost_variant: str = "thesis",
-                 wear_map: str | WearMap | bool | None = None, engine: str = DEFAULT_ENGINE, **kwargs):
+                 wear_map: str | WearMap | bool | None = None, engine: str = DEFAULT_ENGINE, jobs: int = 1,
+                 **kwargs):
         tension_peak_time = check_tension_peak_time(tension_peak_time)  # before the roadmap is built
         super().__init__(*args, **kwargs)
         via = ViaRoutes(self.connector, self.validity, self.budget.iterations, self.budget.routes, via_spread_deg)
@@ -49,7 +50,8 @@ class OmplWearPlanner(ComposedPlanner):
             search = self._global_search(MapStateCost(self.station, self.wear_map, self.robot, cost_variant))
         self.routes = MapRoutes(via, search, self.budget.routes, self.weights)
         self.leg_cost = LegCost(self.station, self.robot, time_weight=time_weight, wear_weight=wear_weight,
-                                tension_peak_time=tension_peak_time, cost_variant=cost_variant, engine=engine)
+                                tension_peak_time=tension_peak_time, cost_variant=cost_variant, engine=engine,
+                                jobs=jobs)
         self.refiner = LocalRefiner(self.validity, self.leg_cost, n_interior, step_deg)
 
     def _global_search(self, cost: MapStateCost):

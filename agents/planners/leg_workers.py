@@ -1,0 +1,83 @@
+"""Leg costs simulated on worker processes: a planner's candidate legs and refinement trials, several at a time."""
+
+from __future__ import annotations
+
+import multiprocessing
+import signal
+import threading
+import weakref
+
+from dresspack_gym.cli.args import MAX_JOBS
+from dresspack_gym.errors import ConfigError
+
+
+def check_jobs(jobs) -> int:
+    """``jobs`` as an int, or a ConfigError naming the field and the allowed range."""
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or not 1 <= jobs <= MAX_JOBS:
+        raise ConfigError("jobs", f"must be an integer in [1, {MAX_JOBS}] (processes simulating legs), got {jobs!r}")
+    return jobs
+
+
+class Pending:
+    """A leg being simulated on a worker, with the bound it runs with."""
+
+    def __init__(self, result: multiprocessing.pool.AsyncResult, bound: float):
+        self._result, self.bound = result, bound
+
+    def result(self):
+        return self._result.get()
+
+
+class LegWorkers:
+    """``jobs`` processes, each with its own station and leg cost (``settings``: LegCost's keyword arguments), that
+    simulate legs from given cable states. A leg's simulation is a function of its start state alone (the
+    simulators' whole state is in it), so a worker's answer is the one the planner's own simulator would give."""
+
+    def __init__(self, config, settings: dict, jobs: int):
+        context = multiprocessing.get_context("spawn")  # no inherited MuJoCo or OMPL state in the workers
+        # the workers start with Ctrl-C ignored, as the evaluation's: the planner's process handles it
+        main = threading.current_thread() is threading.main_thread()
+        ctrl_c = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            self._pool = context.Pool(jobs, initializer=_init, initargs=(config, settings))
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, ctrl_c)
+        self._closed = weakref.finalize(self, self._pool.terminate)
+        for _ in range(jobs):  # each worker builds its station while the planner searches its first routes
+            self._pool.apply_async(_warm)
+
+    def submit(self, start_state, waypoints, bound: float) -> Pending:
+        return Pending(self._pool.apply_async(_simulate, (start_state, waypoints, bound)), bound)
+
+    def close(self) -> None:
+        self._closed()
+
+
+_WORKER: dict = {}  # a worker's arguments, then its LegCost (built by its first task)
+
+
+def _init(config, settings: dict) -> None:
+    """Ctrl-C is the parent's. Nothing that can fail runs here: a failing initializer makes the pool start workers
+    forever."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _WORKER["args"] = (config, settings)
+
+
+def _leg_cost():
+    if "cost" not in _WORKER:
+        from dresspack_gym.stations.station import Station
+
+        from .leg_cost import LegCost
+
+        config, settings = _WORKER["args"]
+        _WORKER["cost"] = LegCost(Station(config), **settings)
+    return _WORKER["cost"]
+
+
+def _warm() -> None:
+    _leg_cost()
+
+
+def _simulate(start_state, waypoints, bound: float):
+    return _leg_cost().simulate(start_state, waypoints, bound)
