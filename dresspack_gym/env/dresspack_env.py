@@ -4,7 +4,9 @@ The env composes one owner per concern, as dm_control splits physics, task and e
 
 - settings: :class:`~dresspack_gym.env.config.EnvConfig` (frozen, validated in one place; the env's keyword
   arguments are its fields);
-- physics: a :class:`~dresspack_gym.physics.simulation.CableSimulator` of the station;
+- physics: the station's cable simulator on the physics profile's engine (``physics.profiles.make_simulator``:
+  MuJoCo's :class:`~dresspack_gym.physics.simulation.CableSimulator` for the accurate profile, the rod engine's
+  :class:`~dresspack_gym.rod.simulator.RodSimulator` for the training profile);
 - task: :class:`~dresspack_gym.env.weld_cycle.WeldCycleTask` (goals, reward terms, termination);
 - actions: an :class:`~dresspack_gym.env.action_sets.ActionSet` (``action_set``: joint steps, or planner-like
   primitives), masked by :class:`~dresspack_gym.env.masks.ActionMasks`;
@@ -54,8 +56,7 @@ import numpy as np
 from ..errors import ConfigError, EnvUsageError
 from ..fields import check_choice
 from ..io.loading import load_station
-from ..physics.profiles import with_profile
-from ..physics.simulation import CableSimulator
+from ..physics.profiles import PROFILES, make_simulator, with_profile
 from ..physics.trajectory import Trajectory, smoothness
 from ..robots.time_law import segment_durations
 from ..stations.collision import RobotCollisionChecker
@@ -84,7 +85,7 @@ class EnvSnapshot:
     """Everything an episode's continuation depends on, from :meth:`DresspackEnv.snapshot`: restored into the same
     env (or a pickled copy), the next steps give the same observations, rewards and infos as without the detour."""
 
-    sim: np.ndarray  # CableSimulator.get_state(): MuJoCo state with the DER frames, commanded q, motion time
+    sim: np.ndarray  # the simulator's get_state(): the cables' state (MuJoCo's or the rod's), joints, motion time
     last_settle: Any  # the simulator's last settle, so a restored step reports only a settle it made itself
     goal_names: tuple[str, ...]  # the episode's welds in order (Home follows)
     episode_goals: dict  # drawn or given weld configurations of this episode
@@ -103,10 +104,12 @@ def _build_station(station: str | Station, config: EnvConfig) -> tuple[Station, 
     A changed timestep or physics profile compiles a station from the changed config: everything derived from the
     timestep (the cable's constraint impedances) follows it, and a caller's Station keeps its own."""
     geometry = station if isinstance(station, Station) else None
-    if config.sim_timestep is None and config.physics_profile == "accurate":
+    profile = PROFILES[config.physics_profile]
+    changes_station = profile.segments is not None or profile.timestep is not None
+    if config.sim_timestep is None and not changes_station:
         return (station if isinstance(station, Station) else Station(load_station(station))), geometry
     base = station.config if isinstance(station, Station) else load_station(station)
-    if config.physics_profile != "accurate" and geometry is None:
+    if changes_station and geometry is None:
         geometry = Station(base)
     changed = with_profile(base, config.physics_profile)
     if config.sim_timestep is not None:
@@ -139,7 +142,12 @@ class DresspackEnv(gym.Env):
         self.robot_index = robot
         self.robot = self.station.robots[robot]
         self.placement = self.station.config.robots[robot]
-        self.sim = CableSimulator(self.station)
+        self.sim = make_simulator(self.station, PROFILES[config.physics_profile].engine)
+        if render_mode is not None and self.sim.engine != "dynamic":
+            drawn = [name for name, p in PROFILES.items() if p.engine == "dynamic"]
+            raise ConfigError("render_mode", f"frames are drawn from MuJoCo's cable: render_mode {render_mode!r} "
+                                             f"needs a physics_profile in {drawn}, not {config.physics_profile!r} "
+                                             f"(the {self.sim.engine} engine)")
         self.home_state = self.sim.get_state()
         # Collision geometry is the given station's whatever the physics profile: what a motion may do must not
         # depend on how finely its cable is simulated (a coarser profile's longer rigid clamp edges, robot hardware
@@ -274,7 +282,7 @@ class DresspackEnv(gym.Env):
         if invalid:
             return moved_through, reached
         if a == self.stay_action:
-            self.sim.settle(self._stay_time)
+            self._settle(self._stay_time)
             self.sim.motion_time += self._stay_time
             return moved_through, reached
         target = self.target(q, a)
@@ -287,8 +295,16 @@ class DresspackEnv(gym.Env):
         if reached:
             self.sim.settle()
         elif self.settle_time > 0:
-            self.sim.settle(self.settle_time)
+            self._settle(self.settle_time)
         return moved_through, reached
+
+    def _settle(self, max_time: float) -> None:
+        """Let the cable come to rest with the robot still: MuJoCo relaxes for at most ``max_time``; the rod engine,
+        quasi-static, solves for its rest (as the robustness maps settle it)."""
+        if self.sim.engine == "fast":
+            self.sim.settle()
+        else:
+            self.sim.settle(max_time)
 
     def _move(self, target: np.ndarray, times: list[float], rows: list[np.ndarray]) -> None:
         """Move there (not settling); with wear_integral the cost terms sampled on the way join times/rows."""

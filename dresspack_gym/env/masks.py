@@ -63,7 +63,7 @@ class ActionMasks:
         if not len(moves):
             return np.zeros(0, dtype=bool)
         targets = np.array([self.actions.target(q, a, goal) for a in moves])
-        free = np.array([self.segment_valid(q, target, check_collision=False) for target in targets])
+        free = self._segments_allowed(q, targets)
         free &= self.actions.offered(moves, goal)
         # Moves whose largest possible robot displacement stays below the clearance beyond the margin cannot
         # come closer than the margin anywhere: they skip the collision queries (a continuous guarantee that
@@ -72,16 +72,29 @@ class ActionMasks:
         reach = self.checker.chain_reach()
         # the moves that pass limits and restrictions and could come near an obstacle: their collision checks
         # advance together, each round's distance queries in one batch
-        near = np.flatnonzero(free & np.array([reach @ np.abs(t - q) >= clearance for t in targets]))
+        near = np.flatnonzero(free & (np.abs(targets - q) @ reach >= clearance))
         if len(near):
             free[near] = self.validity.segments_clear(q, targets[near])
         return free
 
     def segment_configs(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
         """The configurations a straight segment is checked at (at least ``substeps``, one per resolution)."""
-        n = max(self.substeps, int(math.ceil(np.max(np.abs(q1 - q0)) / (self.step / self.substeps))))
-        s = np.linspace(0.0, 1.0, n + 1)[1:, None]
+        s = np.linspace(0.0, 1.0, self._checks(q1 - q0) + 1)[1:, None]
         return q0[None, :] + s * (q1 - q0)[None, :]
+
+    def _checks(self, dq: np.ndarray) -> int:
+        return max(self.substeps, int(math.ceil(np.max(np.abs(dq)) / (self.step / self.substeps))))
+
+    def _segments_allowed(self, q0: np.ndarray, q1s: np.ndarray) -> np.ndarray:
+        """``segment_valid(q0, q1, check_collision=False)`` of every row of ``q1s``: the segments' configurations
+        checked in one batch (the per-segment calls cost more than the checks themselves)."""
+        if not len(q1s):
+            return np.zeros(0, dtype=bool)
+        qs = [self.segment_configs(q0, q1) for q1 in q1s]
+        starts = np.cumsum([0] + [len(c) for c in qs[:-1]])
+        qs = np.concatenate(qs)
+        ok = self.validity.within_limits(qs) & self.restrictions.allowed(qs)
+        return np.logical_and.reduceat(ok, starts)
 
     def segment_valid(self, q0: np.ndarray, q1: np.ndarray, check_collision: bool = True) -> bool:
         """The straight segment q0 -> q1 stays within the limits and restrictions (and clear of obstacles)."""
