@@ -234,6 +234,17 @@ class DresspackEnv(gym.Env):
         return self._get_obs(measures), info
 
     def step(self, action):
+        measures, reward, terminated, truncated, info = self._step(action, summary=True)
+        return self._get_obs(measures), reward, terminated, truncated, info
+
+    def step_outcome(self, action) -> tuple[float, bool, bool, dict[str, Any]]:
+        """``step(action)`` without the observation where it lands and the episode's summary (smoothness, fatigue
+        life): (reward, terminated, truncated, info). For a search that tries actions from a :meth:`snapshot` and
+        restores it: the observation's action masks there (primitives) cost collision checks that nothing reads.
+        The env continues as after ``step``."""
+        return self._step(action, summary=False)[1:]
+
+    def _step(self, action, summary: bool):
         self._check_in_episode("step()")
         a = checked_action(action, self.n_actions)
         q_before = self.q
@@ -263,7 +274,7 @@ class DresspackEnv(gym.Env):
         info = self._info(measures, cost, terms, step_time, invalid)
         for k, v in zip(COST_TERMS, integral):  # sampled along the motion with wear_integral, else end points only
             info["integral_cost" if k == "total" else f"integral_cost_{k}"] = float(v)
-        if terminated or truncated:
+        if summary and (terminated or truncated):
             info.update(self._episode_summary())
         info["moved_through"] = np.array(moved_through).reshape(-1, 6)  # the straight segments' end points
         # The step's settle (at a weld: to equilibrium; after an ordinary step: bounded by settle_time) and the
@@ -271,7 +282,7 @@ class DresspackEnv(gym.Env):
         settle = self.sim.last_settle if self.sim.last_settle is not settle_before else None
         info["settle_converged"] = bool(settle is not None and settle.converged)
         info["equilibrium_residual"] = settle.equilibrium.force_residual if settle is not None else float("nan")
-        return self._get_obs(measures), reward, terminated, truncated, info
+        return measures, reward, terminated, truncated, info
 
     def _act(self, a: int, invalid: bool, q: np.ndarray, times: list[float], rows: list[np.ndarray]):
         """Carry out action ``a`` from ``q`` in the simulation: the configurations moved through, and whether the

@@ -79,22 +79,24 @@ class ActionMasks:
 
     def segment_configs(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
         """The configurations a straight segment is checked at (at least ``substeps``, one per resolution)."""
-        s = np.linspace(0.0, 1.0, self._checks(q1 - q0) + 1)[1:, None]
+        n = max(self.substeps, int(math.ceil(np.max(np.abs(q1 - q0)) / (self.step / self.substeps))))
+        s = np.linspace(0.0, 1.0, n + 1)[1:, None]
         return q0[None, :] + s * (q1 - q0)[None, :]
-
-    def _checks(self, dq: np.ndarray) -> int:
-        return max(self.substeps, int(math.ceil(np.max(np.abs(dq)) / (self.step / self.substeps))))
 
     def _segments_allowed(self, q0: np.ndarray, q1s: np.ndarray) -> np.ndarray:
         """``segment_valid(q0, q1, check_collision=False)`` of every row of ``q1s``: the segments' configurations
         checked in one batch (the per-segment calls cost more than the checks themselves)."""
-        if not len(q1s):
-            return np.zeros(0, dtype=bool)
-        qs = [self.segment_configs(q0, q1) for q1 in q1s]
-        starts = np.cumsum([0] + [len(c) for c in qs[:-1]])
-        qs = np.concatenate(qs)
-        ok = self.validity.within_limits(qs) & self.restrictions.allowed(qs)
-        return np.logical_and.reduceat(ok, starts)
+        dq = q1s - q0
+        checks = np.maximum(self.substeps, np.ceil(np.max(np.abs(dq), axis=1, initial=0.0)
+                                                   / (self.step / self.substeps)).astype(int))
+        allowed = np.zeros(len(q1s), dtype=bool)
+        for n in np.unique(checks):  # segments checked as often share their fractions (joint steps: all of them)
+            rows = np.flatnonzero(checks == n)
+            s = np.linspace(0.0, 1.0, n + 1)[1:, None, None]
+            qs = (q0[None, None, :] + s * dq[None, rows, :]).reshape(-1, q0.size)  # as segment_configs makes them
+            ok = (self.validity.within_limits(qs) & self.restrictions.allowed(qs)).reshape(n, len(rows))
+            allowed[rows] = ok.all(axis=0)
+        return allowed
 
     def segment_valid(self, q0: np.ndarray, q1: np.ndarray, check_collision: bool = True) -> bool:
         """The straight segment q0 -> q1 stays within the limits and restrictions (and clear of obstacles)."""

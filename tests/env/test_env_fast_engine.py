@@ -92,3 +92,21 @@ def test_shipped_policies_see_the_same_spaces_on_the_rod_engine(name):
     assert fast.action_space == shipped.action_space
     obs, _ = fast.reset(seed=0)
     assert fast.observation_space.contains(obs)
+
+
+def test_step_outcome_is_the_step_without_its_observation(env):
+    rollout(env, seed=6, n=1)
+    snap = env.snapshot()
+    for a in [int(a) for a in np.flatnonzero(env.action_masks())][:3]:
+        obs, reward, terminated, truncated, info = env.step(a)
+        state = env.sim.get_state()
+        env.restore(snap)
+        outcome = env.step_outcome(a)
+        assert outcome[:3] == (reward, terminated, truncated)
+        assert outcome[3].keys() == info.keys() and outcome[3]["integral_cost"] == info["integral_cost"]
+        np.testing.assert_array_equal(env.sim.get_state(), state)
+        after_outcome = env.step(STAY)[0]  # the env goes on as after step(a)
+        env.restore(snap)
+        env.step(a)
+        np.testing.assert_array_equal(env.step(STAY)[0], after_outcome)
+        env.restore(snap)
