@@ -143,11 +143,6 @@ class DresspackEnv(gym.Env):
         self.robot = self.station.robots[robot]
         self.placement = self.station.config.robots[robot]
         self.sim = make_simulator(self.station, PROFILES[config.physics_profile].engine)
-        if render_mode is not None and self.sim.engine != "dynamic":
-            drawn = [name for name, p in PROFILES.items() if p.engine == "dynamic"]
-            raise ConfigError("render_mode", f"frames are drawn from MuJoCo's cable: render_mode {render_mode!r} "
-                                             f"needs a physics_profile in {drawn}, not {config.physics_profile!r} "
-                                             f"(the {self.sim.engine} engine)")
         self.home_state = self.sim.get_state()
         # Collision geometry is the given station's whatever the physics profile: what a motion may do must not
         # depend on how finely its cable is simulated (a coarser profile's longer rigid clamp edges, robot hardware
@@ -169,6 +164,7 @@ class DresspackEnv(gym.Env):
         self.render_mode = render_mode
         self.render_size = config.render_size
         self._renderer = None
+        self._frame_data = None  # MuJoCo data the rod engine's frames are posed on (made at the first frame)
         self.task = WeldCycleTask.from_config(self.station, self.checker.collides, self.step_size, config)
         self.actions = ACTION_SET_CLASSES[config.action_set].from_config(config, self.validity, self.limits)
         self.n_actions, self.stay_action = self.actions.n_actions, self.actions.stay_action
@@ -356,11 +352,15 @@ class DresspackEnv(gym.Env):
     def render(self):
         if self.render_mode != "rgb_array":
             return None
-        if self._renderer is None:
-            from ..stations.rendering import StationRenderer
+        from ..stations.rendering import StationRenderer, live_frame
 
+        if self._renderer is None:
             self._renderer = StationRenderer(self.station.model, width=self.render_size[0], height=self.render_size[1])
-        return self._renderer.render(self.sim.data)
+        # the rod engine's robots are posed on a MuJoCo data of the env's own, its cables drawn from their points
+        data, cables = live_frame(self.sim, self._frame_data)
+        if cables is not None:
+            self._frame_data = data
+        return self._renderer.render(data, cables=cables)
 
     def close(self):
         """Release the renderer and end the episode: ``step()`` and ``action_masks()`` need a ``reset()`` again."""

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from dresspack_gym.env.dresspack_env import STAY, DresspackEnv
-from dresspack_gym.errors import ConfigError
 from dresspack_gym.physics.profiles import PROFILES
 
 
@@ -70,9 +69,12 @@ def test_a_wait_on_the_rod_engine_reports_the_rest_it_solved(env):
     assert info["equilibrium_residual"] == env.sim.last_settle.equilibrium.force_residual
 
 
-def test_frames_need_mujocos_cable():
-    with pytest.raises(ConfigError, match="render_mode.*'accurate', 'coarse_step'"):
-        DresspackEnv("default", physics_profile="training", render_mode="rgb_array")
+def test_a_frame_draws_the_rod_engines_cable():
+    e = DresspackEnv("default", physics_profile="training", render_mode="rgb_array", render_size=(160, 120))
+    e.reset(seed=0)
+    frame = e.render()
+    assert frame.shape == (120, 160, 3) and frame.dtype == np.uint8 and frame.std() > 0
+    e.close()
 
 
 @pytest.mark.parametrize("name", ["stud_welding", "goal_conditioned"])
