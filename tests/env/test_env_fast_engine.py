@@ -112,3 +112,18 @@ def test_step_outcome_is_the_step_without_its_observation(env):
         env.step(a)
         np.testing.assert_array_equal(env.step(STAY)[0], after_outcome)
         env.restore(snap)
+
+
+def test_gymnasium_checker_and_maskable_ppo_run_on_the_rod_engine():
+    contrib = pytest.importorskip("sb3_contrib")
+    from gymnasium.utils.env_checker import check_env
+    from stable_baselines3.common.logger import Logger
+
+    e = DresspackEnv(station="default", physics_profile="training", max_steps=16)
+    check_env(e, skip_render_check=True)  # among others: reset(seed) twice gives the same observation
+    model = contrib.MaskablePPO("MlpPolicy", e, n_steps=16, batch_size=16, n_epochs=1, seed=0, verbose=0)
+    model.set_logger(Logger(folder=None, output_formats=[]))
+    model.learn(total_timesteps=32)
+    obs, _ = e.reset(seed=0)
+    action, _ = model.predict(obs, action_masks=e.action_masks(), deterministic=True)
+    assert e.action_masks()[int(action)]
