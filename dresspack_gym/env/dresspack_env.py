@@ -101,8 +101,9 @@ class EnvSnapshot:
 
 def _build_station(station: str | Station, config: EnvConfig) -> tuple[Station, Station | None]:
     """The station the env simulates, and the one whose geometry its checks use when that differs (None: the same).
-    A changed timestep or physics profile compiles a station from the changed config: everything derived from the
-    timestep (the cable's constraint impedances) follows it, and a caller's Station keeps its own."""
+    A changed timestep, or a physics profile that changes the cable's segments or step, compiles a station from the
+    changed config: everything derived from the timestep (the cable's constraint impedances) follows it, and a
+    caller's Station keeps its own."""
     geometry = station if isinstance(station, Station) else None
     profile = PROFILES[config.physics_profile]
     changes_station = profile.segments is not None or profile.timestep is not None
