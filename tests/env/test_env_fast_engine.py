@@ -127,3 +127,15 @@ def test_gymnasium_checker_and_maskable_ppo_run_on_the_rod_engine():
     obs, _ = e.reset(seed=0)
     action, _ = model.predict(obs, action_masks=e.action_masks(), deterministic=True)
     assert e.action_masks()[int(action)]
+
+
+def test_an_episode_on_the_rod_engine_ends_with_its_wear_and_fatigue_life():
+    e = DresspackEnv(station="default", physics_profile="training", max_steps=4, wear_integral=True)
+    e.reset(seed=1)
+    rng = np.random.default_rng(1)
+    truncated = False
+    while not truncated:
+        moves = [a for a in np.flatnonzero(e.action_masks()) if a != STAY]
+        _, _, _, truncated, info = e.step(int(rng.choice(moves)))
+        assert info["integral_cost"] > 0.0 and np.isfinite(info["damage_rate"])
+    assert info["damage"] > 0.0 and 0.0 < info["life_cycles"] and "reversals_per_s" in info
