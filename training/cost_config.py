@@ -20,10 +20,9 @@ LOSSES = ("huber", "mse")
 LABELS = ("step", "to_go")  # the step's time + ∫C dt, or the cost to go of a continued proposal
 MAX_EPISODES = 100_000
 MAX_CONTINUED = 64  # ppo-search's most proposals a step
-# The policy's env may differ only in how episodes are drawn: the action set and the observation must stay the
-# policy's (and the cost model's inputs with them).
-# the policy's env settings the labels may override: how episodes are drawn, and the physics profile (the engine
-# the labels are simulated on; the observation's layout does not depend on it, tests/env/test_env_fast_engine.py)
+# The policy's env may differ only in how episodes are drawn and in the physics profile (the engine the labels are
+# simulated on: the observation's layout does not depend on it, tests/env/test_env_fast_engine.py); the action set
+# and the observation must stay the policy's (and the cost model's inputs with them).
 ENV_OVERRIDES = ("start_noise_deg", "part_welds", "weld_tilt_deg", "max_steps", "physics_profile")
 
 
