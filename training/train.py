@@ -2,7 +2,7 @@
 
     dresspack train stud_welding                        # or a YAML path: configs/training/stud_welding.yaml
     dresspack train --resume runs/train/stud_welding    # continue after Ctrl-C or a crash
-    dresspack train goal_conditioned --physics-profile training   # on the rod engine (1.5x coarse_step's steps/s)
+    dresspack train goal_conditioned --physics-profile training   # on the rod engine (1.5-1.8x the steps/s)
 
 Run folder: ``config.yaml`` (resolved), ``command.txt`` (every launch), ``versions.json``, ``tb/`` (TensorBoard),
 ``checkpoints/`` (periodic + on Ctrl-C), ``best/best_model.zip`` and ``best/best.json`` (evaluation callback, by
