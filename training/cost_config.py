@@ -20,9 +20,10 @@ LOSSES = ("huber", "mse")
 LABELS = ("step", "to_go")  # the step's time + ∫C dt, or the cost to go of a continued proposal
 MAX_EPISODES = 100_000
 MAX_CONTINUED = 64  # ppo-search's most proposals a step
-# The policy's env may differ only in how episodes are drawn: the action set and the observation must stay the
-# policy's (and the cost model's inputs with them).
-ENV_OVERRIDES = ("start_noise_deg", "part_welds", "weld_tilt_deg", "max_steps")
+# The policy's env may differ only in how episodes are drawn and in the physics profile (the engine the labels are
+# simulated on: the observation's layout does not depend on it, tests/env/test_env_fast_engine.py); the action set
+# and the observation must stay the policy's (and the cost model's inputs with them).
+ENV_OVERRIDES = ("start_noise_deg", "part_welds", "weld_tilt_deg", "max_steps", "physics_profile")
 
 
 @dataclass(frozen=True)
@@ -83,7 +84,7 @@ def cost_config_from_dict(data: dict, default_name: str = "cost_model") -> CostS
         raise ConfigError("counterfactuals.env_kwargs", f"expected a mapping, got {env_kwargs!r}")
     for key in env_kwargs:
         if key not in ENV_OVERRIDES:
-            raise ConfigError(f"counterfactuals.env_kwargs.{key}", f"not an episode-drawing setting; allowed: "
+            raise ConfigError(f"counterfactuals.env_kwargs.{key}", f"not a setting the labels may override; allowed: "
                                                                     f"{list(ENV_OVERRIDES)} (the action set and "
                                                                     "observation stay the policy's)")
     counterfactuals = CounterfactualConfig(

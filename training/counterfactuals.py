@@ -95,8 +95,11 @@ def counterfactual_rows(env, state_obs: np.ndarray, masks: np.ndarray, keep: int
     for a in actions:
         a = int(a)
         target = env.target(q, a)
-        result = env.step(a)
-        obs, reward, terminated, truncated, info = result
+        if a == keep or a in continued:  # the episode or a continuation goes on from here: it needs the observation
+            result = env.step(a)
+            terminated, info = result[2], result[4]
+        else:
+            _, terminated, _, info = env.step_outcome(a)
         cost = info["step_time"] + info["integral_cost"]
         row = {"obs": state_obs, "action": a, "target": target, "q": q, "time": info["step_time"],
                "wear": info["integral_cost"],

@@ -2,6 +2,7 @@
 
     dresspack train stud_welding                        # or a YAML path: configs/training/stud_welding.yaml
     dresspack train --resume runs/train/stud_welding    # continue after Ctrl-C or a crash
+    dresspack train goal_conditioned --physics-profile training   # on the rod engine (1.5-1.8x the steps/s)
 
 Run folder: ``config.yaml`` (resolved), ``command.txt`` (every launch), ``versions.json``, ``tb/`` (TensorBoard),
 ``checkpoints/`` (periodic + on Ctrl-C), ``best/best_model.zip`` and ``best/best.json`` (evaluation callback, by
@@ -30,6 +31,7 @@ from dresspack_gym import __version__
 from dresspack_gym.cli.args import number, seed, warn_deprecated
 from dresspack_gym.errors import ConfigError, DresspackError
 from dresspack_gym.io.loading import read_yaml
+from dresspack_gym.physics.profiles import PROFILES
 from dresspack_gym.shipped import find_shipped
 
 from .config import MAX_ENVS, MAX_TIMESTEPS, TrainConfig, apply_overrides, check_env_kwargs, train_config_from_dict
@@ -50,6 +52,10 @@ def add_train_command(sub) -> None:
     p.add_argument("--n-envs", type=number(1, MAX_ENVS, integer=True),
                    help="parallel environments (default: the config's n_envs)")
     p.add_argument("--seed", type=seed, help="seed of the model and the training envs (default: the config's seed)")
+    p.add_argument("--physics-profile", choices=list(PROFILES),
+                   help="the envs' physics profile, replacing the config's env_kwargs.physics_profile (training: "
+                        "the rod engine; the shipped configs keep the profiles their shipped policies were "
+                        "trained on)")
     p.add_argument("--force", action="store_true",
                    help="train into a run folder that holds a finished or begun run, deleting it first")
     p.add_argument("--no-progress", action="store_true", help="draw no progress bar (on stderr by default)")
@@ -288,6 +294,9 @@ def resolve_run(args) -> tuple[TrainConfig, Path, bool]:
     """(config, run folder, resume) from the command line, every input checked before anything is written."""
     overrides = {"total_timesteps": args.total_timesteps, "n_envs": args.n_envs, "seed": args.seed}
     if args.resume:
+        if getattr(args, "physics_profile", None) is not None:
+            raise ConfigError("--physics-profile", "a resumed run keeps the profile in its config.yaml; give it to a "
+                                                   "new run")
         run_dir = Path(args.resume)
         path = run_dir / "config.yaml"
         if not path.is_file():
@@ -305,6 +314,8 @@ def resolve_run(args) -> tuple[TrainConfig, Path, bool]:
     path = find_shipped(args.config, "training", "config")
     data = read_yaml(path, "config")
     data.setdefault("name", path.stem)
+    if getattr(args, "physics_profile", None) is not None:
+        data["env_kwargs"] = {**(data.get("env_kwargs") or {}), "physics_profile": args.physics_profile}
     cfg = train_config_from_dict(apply_overrides(data, **overrides), default_name=path.stem)
     run_dir = Path(args.run_dir) if args.run_dir else Path("runs") / "train" / cfg.name
     if run_dir.exists() and not run_dir.is_dir():

@@ -4,7 +4,9 @@ The env composes one owner per concern, as dm_control splits physics, task and e
 
 - settings: :class:`~dresspack_gym.env.config.EnvConfig` (frozen, validated in one place; the env's keyword
   arguments are its fields);
-- physics: a :class:`~dresspack_gym.physics.simulation.CableSimulator` of the station;
+- physics: the station's cable simulator on the physics profile's engine (``physics.profiles.make_simulator``:
+  MuJoCo's :class:`~dresspack_gym.physics.simulation.CableSimulator` for the accurate profile, the rod engine's
+  :class:`~dresspack_gym.rod.simulator.RodSimulator` for the training profile);
 - task: :class:`~dresspack_gym.env.weld_cycle.WeldCycleTask` (goals, reward terms, termination);
 - actions: an :class:`~dresspack_gym.env.action_sets.ActionSet` (``action_set``: joint steps, or planner-like
   primitives), masked by :class:`~dresspack_gym.env.masks.ActionMasks`;
@@ -54,8 +56,7 @@ import numpy as np
 from ..errors import ConfigError, EnvUsageError
 from ..fields import check_choice
 from ..io.loading import load_station
-from ..physics.profiles import with_profile
-from ..physics.simulation import CableSimulator
+from ..physics.profiles import PROFILES, make_simulator, with_profile
 from ..physics.trajectory import Trajectory, smoothness
 from ..robots.time_law import segment_durations
 from ..stations.collision import RobotCollisionChecker
@@ -84,7 +85,7 @@ class EnvSnapshot:
     """Everything an episode's continuation depends on, from :meth:`DresspackEnv.snapshot`: restored into the same
     env (or a pickled copy), the next steps give the same observations, rewards and infos as without the detour."""
 
-    sim: np.ndarray  # CableSimulator.get_state(): MuJoCo state with the DER frames, commanded q, motion time
+    sim: np.ndarray  # the simulator's get_state(): the cables' state (MuJoCo's or the rod's), joints, motion time
     last_settle: Any  # the simulator's last settle, so a restored step reports only a settle it made itself
     goal_names: tuple[str, ...]  # the episode's welds in order (Home follows)
     episode_goals: dict  # drawn or given weld configurations of this episode
@@ -100,13 +101,16 @@ class EnvSnapshot:
 
 def _build_station(station: str | Station, config: EnvConfig) -> tuple[Station, Station | None]:
     """The station the env simulates, and the one whose geometry its checks use when that differs (None: the same).
-    A changed timestep or physics profile compiles a station from the changed config: everything derived from the
-    timestep (the cable's constraint impedances) follows it, and a caller's Station keeps its own."""
+    A changed timestep, or a physics profile that changes the cable's segments or step, compiles a station from the
+    changed config: everything derived from the timestep (the cable's constraint impedances) follows it, and a
+    caller's Station keeps its own."""
     geometry = station if isinstance(station, Station) else None
-    if config.sim_timestep is None and config.physics_profile == "accurate":
+    profile = PROFILES[config.physics_profile]
+    changes_station = profile.segments is not None or profile.timestep is not None
+    if config.sim_timestep is None and not changes_station:
         return (station if isinstance(station, Station) else Station(load_station(station))), geometry
     base = station.config if isinstance(station, Station) else load_station(station)
-    if config.physics_profile != "accurate" and geometry is None:
+    if changes_station and geometry is None:
         geometry = Station(base)
     changed = with_profile(base, config.physics_profile)
     if config.sim_timestep is not None:
@@ -139,7 +143,7 @@ class DresspackEnv(gym.Env):
         self.robot_index = robot
         self.robot = self.station.robots[robot]
         self.placement = self.station.config.robots[robot]
-        self.sim = CableSimulator(self.station)
+        self.sim = make_simulator(self.station, PROFILES[config.physics_profile].engine)
         self.home_state = self.sim.get_state()
         # Collision geometry is the given station's whatever the physics profile: what a motion may do must not
         # depend on how finely its cable is simulated (a coarser profile's longer rigid clamp edges, robot hardware
@@ -161,6 +165,7 @@ class DresspackEnv(gym.Env):
         self.render_mode = render_mode
         self.render_size = config.render_size
         self._renderer = None
+        self._frame_data = None  # MuJoCo data the rod engine's frames are posed on (made at the first frame)
         self.task = WeldCycleTask.from_config(self.station, self.checker.collides, self.step_size, config)
         self.actions = ACTION_SET_CLASSES[config.action_set].from_config(config, self.validity, self.limits)
         self.n_actions, self.stay_action = self.actions.n_actions, self.actions.stay_action
@@ -226,6 +231,17 @@ class DresspackEnv(gym.Env):
         return self._get_obs(measures), info
 
     def step(self, action):
+        measures, reward, terminated, truncated, info = self._step(action, summary=True)
+        return self._get_obs(measures), reward, terminated, truncated, info
+
+    def step_outcome(self, action) -> tuple[float, bool, bool, dict[str, Any]]:
+        """``step(action)`` without the observation where it lands and the episode's summary (smoothness, fatigue
+        life): (reward, terminated, truncated, info). For a search that tries actions from a :meth:`snapshot` and
+        restores it: the observation's action masks there (primitives) cost collision checks that nothing reads.
+        The env continues as after ``step``."""
+        return self._step(action, summary=False)[1:]
+
+    def _step(self, action, summary: bool):
         self._check_in_episode("step()")
         a = checked_action(action, self.n_actions)
         q_before = self.q
@@ -255,7 +271,7 @@ class DresspackEnv(gym.Env):
         info = self._info(measures, cost, terms, step_time, invalid)
         for k, v in zip(COST_TERMS, integral):  # sampled along the motion with wear_integral, else end points only
             info["integral_cost" if k == "total" else f"integral_cost_{k}"] = float(v)
-        if terminated or truncated:
+        if summary and (terminated or truncated):
             info.update(self._episode_summary())
         info["moved_through"] = np.array(moved_through).reshape(-1, 6)  # the straight segments' end points
         # The step's settle (at a weld: to equilibrium; after an ordinary step: bounded by settle_time) and the
@@ -263,7 +279,7 @@ class DresspackEnv(gym.Env):
         settle = self.sim.last_settle if self.sim.last_settle is not settle_before else None
         info["settle_converged"] = bool(settle is not None and settle.converged)
         info["equilibrium_residual"] = settle.equilibrium.force_residual if settle is not None else float("nan")
-        return self._get_obs(measures), reward, terminated, truncated, info
+        return measures, reward, terminated, truncated, info
 
     def _act(self, a: int, invalid: bool, q: np.ndarray, times: list[float], rows: list[np.ndarray]):
         """Carry out action ``a`` from ``q`` in the simulation: the configurations moved through, and whether the
@@ -274,7 +290,7 @@ class DresspackEnv(gym.Env):
         if invalid:
             return moved_through, reached
         if a == self.stay_action:
-            self.sim.settle(self._stay_time)
+            self._settle(self._stay_time)
             self.sim.motion_time += self._stay_time
             return moved_through, reached
         target = self.target(q, a)
@@ -287,8 +303,16 @@ class DresspackEnv(gym.Env):
         if reached:
             self.sim.settle()
         elif self.settle_time > 0:
-            self.sim.settle(self.settle_time)
+            self._settle(self.settle_time)
         return moved_through, reached
+
+    def _settle(self, max_time: float) -> None:
+        """Let the cable come to rest with the robot still: MuJoCo relaxes for at most ``max_time``; the rod engine,
+        quasi-static, solves for its rest (as the robustness maps settle it)."""
+        if self.sim.engine == "fast":
+            self.sim.settle()
+        else:
+            self.sim.settle(max_time)
 
     def _move(self, target: np.ndarray, times: list[float], rows: list[np.ndarray]) -> None:
         """Move there (not settling); with wear_integral the cost terms sampled on the way join times/rows."""
@@ -329,11 +353,15 @@ class DresspackEnv(gym.Env):
     def render(self):
         if self.render_mode != "rgb_array":
             return None
-        if self._renderer is None:
-            from ..stations.rendering import StationRenderer
+        from ..stations.rendering import StationRenderer, live_frame
 
+        if self._renderer is None:
             self._renderer = StationRenderer(self.station.model, width=self.render_size[0], height=self.render_size[1])
-        return self._renderer.render(self.sim.data)
+        # the rod engine's robots are posed on a MuJoCo data of the env's own, its cables drawn from their points
+        data, cables = live_frame(self.sim, self._frame_data)
+        if cables is not None:
+            self._frame_data = data
+        return self._renderer.render(data, cables=cables)
 
     def close(self):
         """Release the renderer and end the episode: ``step()`` and ``action_masks()`` need a ``reset()`` again."""

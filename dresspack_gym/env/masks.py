@@ -63,7 +63,7 @@ class ActionMasks:
         if not len(moves):
             return np.zeros(0, dtype=bool)
         targets = np.array([self.actions.target(q, a, goal) for a in moves])
-        free = np.array([self.segment_valid(q, target, check_collision=False) for target in targets])
+        free = self._segments_allowed(q, targets)
         free &= self.actions.offered(moves, goal)
         # Moves whose largest possible robot displacement stays below the clearance beyond the margin cannot
         # come closer than the margin anywhere: they skip the collision queries (a continuous guarantee that
@@ -72,7 +72,7 @@ class ActionMasks:
         reach = self.checker.chain_reach()
         # the moves that pass limits and restrictions and could come near an obstacle: their collision checks
         # advance together, each round's distance queries in one batch
-        near = np.flatnonzero(free & np.array([reach @ np.abs(t - q) >= clearance for t in targets]))
+        near = np.flatnonzero(free & (np.abs(targets - q) @ reach >= clearance))
         if len(near):
             free[near] = self.validity.segments_clear(q, targets[near])
         return free
@@ -82,6 +82,21 @@ class ActionMasks:
         n = max(self.substeps, int(math.ceil(np.max(np.abs(q1 - q0)) / (self.step / self.substeps))))
         s = np.linspace(0.0, 1.0, n + 1)[1:, None]
         return q0[None, :] + s * (q1 - q0)[None, :]
+
+    def _segments_allowed(self, q0: np.ndarray, q1s: np.ndarray) -> np.ndarray:
+        """``segment_valid(q0, q1, check_collision=False)`` of every row of ``q1s``: the segments' configurations
+        checked in one batch (the per-segment calls cost more than the checks themselves)."""
+        dq = q1s - q0
+        checks = np.maximum(self.substeps, np.ceil(np.max(np.abs(dq), axis=1, initial=0.0)
+                                                   / (self.step / self.substeps)).astype(int))
+        allowed = np.zeros(len(q1s), dtype=bool)
+        for n in np.unique(checks):  # segments checked as often share their fractions (joint steps: all of them)
+            rows = np.flatnonzero(checks == n)
+            s = np.linspace(0.0, 1.0, n + 1)[1:, None, None]
+            qs = (q0[None, None, :] + s * dq[None, rows, :]).reshape(-1, q0.size)  # as segment_configs makes them
+            ok = (self.validity.within_limits(qs) & self.restrictions.allowed(qs)).reshape(n, len(rows))
+            allowed[rows] = ok.all(axis=0)
+        return allowed
 
     def segment_valid(self, q0: np.ndarray, q1: np.ndarray, check_collision: bool = True) -> bool:
         """The straight segment q0 -> q1 stays within the limits and restrictions (and clear of obstacles)."""

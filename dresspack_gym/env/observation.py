@@ -7,7 +7,6 @@ from collections.abc import Callable
 import gymnasium as gym
 import numpy as np
 
-from ..physics.simulation import CableSimulator
 from .action_sets import ActionSet
 
 # Observations are clipped to +-OBS_BOUND (all parts are scaled to about [-1, 1]); clearance is observed as d/c up
@@ -28,7 +27,7 @@ class Observation:
     primitives': each approach configuration's joint change from where the robot is / pi, 6 each, zeros for an
     approach the goal does not have; the action mask, +1 allowed, -1 masked, one per action)."""
 
-    def __init__(self, sim: CableSimulator, robot_index: int, actions: ActionSet, cable_samples: int,
+    def __init__(self, sim, robot_index: int, actions: ActionSet, cable_samples: int,
                  goal_pose: bool):
         self.sim, self.robot_index, self.actions = sim, robot_index, actions
         self.placement = sim.station.config.robots[robot_index]

@@ -1,6 +1,6 @@
 """The env's weld-cycle task: which welds an episode visits, its goals, reward terms and termination.
 
-The physics (a :class:`~dresspack_gym.physics.simulation.CableSimulator`) answers physical questions; this task turns
+The physics (the station's cable simulator, on either engine) answers physical questions; this task turns
 its answers into goals and rewards; :class:`~dresspack_gym.env.dresspack_env.DresspackEnv` adapts both to Gymnasium.
 """
 

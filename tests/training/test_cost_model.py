@@ -359,3 +359,22 @@ def test_labels_on_ray_are_the_ones_made_here(tiny_policy, tmp_path):
     assert on_ray["episodes"] == 2 and set(a) == set(b) and all(_same(a[k], b[k]) for k in a)
     with pytest.raises(ConfigError, match="backend"):
         generate(cfg, tmp_path / "bad", backend="cluster")
+
+
+def test_labels_on_the_rod_engine_are_the_steps_own_time_and_wear():
+    """A counterfactual label means what a step reports on the engine the labels are made on: its time and ∫C dt."""
+    import gymnasium as gym
+    from dresspack.training.counterfactuals import counterfactual_rows
+
+    env = gym.make("dresspack_gym/StudWelding-v0", **{**TINY_ENV, "physics_profile": "training"}).unwrapped
+    assert env.sim.engine == "fast"
+    obs, _ = env.reset(seed=3)
+    masks = env.action_masks()
+    snap = env.snapshot()
+    rows, _ = counterfactual_rows(env, obs, masks)
+    assert [r["action"] for r in rows] == np.flatnonzero(masks).tolist()
+    for r in rows[:4]:
+        env.restore(snap)
+        info = env.step(r["action"])[4]
+        assert (r["time"], r["wear"]) == (info["step_time"], info["integral_cost"])
+    assert len({round(r["time"] + r["wear"], 9) for r in rows}) > 1

@@ -326,3 +326,19 @@ def test_self_imitation_refuses_a_policy_whose_env_config_is_wrong_before_rollin
     with pytest.raises(ConfigError, match="^env_kwargs.physics_profile: 'fast' is not one of the allowed values"):
         self_imitate(bad, tmp_path / "si", episodes=1, samples=2)
     assert not (tmp_path / "si").exists()  # nothing was started
+
+
+def test_physics_profile_flag_sets_the_envs_profile_for_a_new_run_only(tmp_path):
+    import argparse
+
+    from dresspack.training.train import resolve_run
+
+    args = argparse.Namespace(config="goal_conditioned", run_dir=str(tmp_path / "r"), resume=None, force=False,
+                              total_timesteps=None, n_envs=None, seed=None, physics_profile="training")
+    cfg, _, resume = resolve_run(args)
+    assert cfg.env_kwargs["physics_profile"] == "training" and not resume
+    assert load_train_config("goal_conditioned").env_kwargs["physics_profile"] == "coarse_step"  # the shipped one
+    with pytest.raises(ConfigError, match="--physics-profile"):
+        resolve_run(argparse.Namespace(**{**vars(args), "resume": str(tmp_path / "r")}))
+    with pytest.raises(SystemExit):
+        main(["train", "goal_conditioned", "--physics-profile", "fast"])  # argparse names the allowed profiles
