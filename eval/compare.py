@@ -31,6 +31,7 @@ from dresspack_gym.cli.args import (
 )
 from dresspack_gym.errors import ConfigError, DresspackError
 from dresspack_gym.io.outputs import output_folder
+from dresspack_gym.physics.profiles import ENGINES
 from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
 from .report import write_report
@@ -88,8 +89,10 @@ def add_eval_arguments(p: argparse.ArgumentParser, defaults: EvalSpec = EvalSpec
                         "if it ships one), none (simulate each one's continuation by the policy), a model.pt of "
                         "dresspack train-cost-model --config cost_to_go, or the name of a model shipped with the "
                         f"policy (default: {defaults.cost_to_go or 'none'})")
-    add_physics_argument(p, "every method's final trajectory is replayed and measured in (the wear-aware planners "
-                            "simulate their legs on the rod engine either way)", defaults.physics)
+    add_physics_argument(p, "every method's final trajectory is replayed and measured in", defaults.physics)
+    p.add_argument("--planner-physics", choices=list(ENGINES), default=defaults.planner_physics,
+                   help="the cable engine the wear-aware planners simulate their legs on (default: %(default)s; "
+                        "plans made on one engine can be judged on the other)")
     p.add_argument("--robustness-map", default=None,
                    help="robustness map folder to include in the report (default: none)")
     p.add_argument("--jobs", type=number(1, MAX_JOBS, integer=True), default=ALL_CORES,
@@ -118,7 +121,8 @@ def spec_from_args(args) -> EvalSpec:
                     start_noise_deg=args.start_noise_deg, policy=args.policy, cost_variant=args.cost_variant,
                     time_weight=args.time_weight, proposals=args.proposals, refine=args.refine,
                     alternatives=args.alternatives, cost_to_go=args.cost_to_go,
-                    drawn_tasks=args.drawn_tasks, drawn_seed=args.drawn_seed, physics=args.physics)
+                    drawn_tasks=args.drawn_tasks, drawn_seed=args.drawn_seed, physics=args.physics,
+                    planner_physics=args.planner_physics)
 
 
 def evaluate_and_report(args) -> int:

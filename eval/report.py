@@ -15,7 +15,7 @@ from dresspack.agents.learned.search import AUTO, resolve_cost_to_go
 from dresspack.agents.planners.registry import COLORS
 
 from dresspack_gym.io.loading import load_station
-from dresspack_gym.physics.profiles import DEFAULT_ENGINE, ENGINE_TITLES, make_simulator
+from dresspack_gym.physics.profiles import ENGINE_TITLES, make_simulator
 from dresspack_gym.physics.simulation import CableSimulator
 from dresspack_gym.physics.trajectory import Replay, replay
 from dresspack_gym.plots.damage import plot_damage_along_cable, plot_damage_strip
@@ -161,7 +161,7 @@ def _intro(spec: EvalSpec, station: Station, written: dict) -> str:
     return (f"Methods {', '.join(spec.methods)} on {len(spec.tasks)} task(s) × seeds {list(spec.seeds)} "
             f"({starts}; every task ends at Home). Every trajectory is replayed in one cable engine, "
             + _engine_words(spec.physics, station)
-            + "; the wear-aware planners simulate their legs on the " + ENGINE_TITLES[DEFAULT_ENGINE]
+            + "; the wear-aware planners simulate their legs on the " + ENGINE_TITLES[spec.planner_physics]
             + "; wear cost C is "
             + {"thesis": "eq. (4.10) with the station's weights", "normalized": "the normalized eq. (4.10)",
                "damage": "the worst segment's damage rate (dresspack damage weights)",

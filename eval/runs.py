@@ -88,9 +88,10 @@ class EvalSpec:
     # (drawn_seed, k): seeds of their own, apart from any training's, so every method meets welds no one trained on
     drawn_tasks: int = 0
     drawn_seed: int = DRAWN_SEED
-    # the cable engine every method's final trajectory is replayed and measured in (physics.profiles.ENGINES); the
-    # wear-aware planners simulate their legs on the default engine whichever judges them
+    # the cable engine every method's final trajectory is replayed and measured in (physics.profiles.ENGINES), and
+    # the one the wear-aware planners simulate their legs on: plans made on one engine can be judged on the other
     physics: str = DEFAULT_ENGINE
+    planner_physics: str = DEFAULT_ENGINE
 
     def __post_init__(self):
         if self.drawn_tasks:
@@ -118,6 +119,7 @@ class EvalSpec:
         if self.cost_to_go not in (None, AUTO):  # named now, not after the other methods' runs
             resolve_cost_to_go(self.cost_to_go, resolve_policy(self.policy)[0])
         check_choice("physics", self.physics, list(ENGINES))
+        check_choice("planner_physics", self.planner_physics, list(ENGINES))
         if not 0 <= self.start_noise_deg <= 90:
             raise ConfigError("start_noise_deg", f"must be in [0, 90] deg, got {self.start_noise_deg}")
 
@@ -178,7 +180,7 @@ def load_trajectory(out: Path, row: dict) -> Trajectory | None:
 
 # settings added after evaluations were already stored, with the value those evaluations used
 _ADDED_SETTINGS = {"time_weight": 1.0, "proposals": PROPOSALS, "refine": 0, "alternatives": 0, "cost_to_go": None,
-                   "physics": "dynamic"}
+                   "physics": "dynamic", "planner_physics": "dynamic"}
 
 
 def _extends(stored: dict, new: dict) -> bool:
@@ -319,6 +321,7 @@ class RunEvaluator:
             if method in WEAR_AWARE:
                 kwargs["cost_variant"] = spec.cost_variant
                 kwargs["time_weight"] = spec.time_weight
+                kwargs["engine"] = spec.planner_physics
             if method == PolicySearchPlanner.name:
                 kwargs.update(proposals=spec.proposals, refine=spec.refine, alternatives=spec.alternatives,
                               cost_to_go=spec.cost_to_go)
