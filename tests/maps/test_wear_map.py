@@ -274,8 +274,8 @@ def test_wear_map_command_builds_a_loadable_map_and_names_bad_input(tmp_path, ca
     assert main(["wear-map", "--station", "default", "--samples", "8", "--out", str(out), "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert info["settled"] == 8 and info["path"] == str(out) and info["engine"] == "fast"
-    assert main(["wear-map", "--station", "default", "--samples", "2", "--out", str(out), "--physics", "dynamic",
-                 "--json"]) == 0
+    assert main(["wear-map", "--station", "default", "--samples", "2", "--out", str(tmp_path / "mujoco.npz"),
+                 "--physics", "dynamic", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["engine"] == "dynamic"
     assert len(WearMap.load(out, load_station("default"))) == 8
     assert main(["wear-map", "--station", "default", "--robot", "3", "--samples", "8", "--out", str(out)]) == 2

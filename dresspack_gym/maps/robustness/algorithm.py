@@ -230,11 +230,12 @@ class RobustnessEvaluator:
         while True:
             self.sim.set_state(start)
             jams, misses = self._flags()
-            devs, ratio, converged = self._paths(index, v, speed)
+            last = speed <= s.min_speed_fraction * (1 + 1e-9)
+            devs, ratio, converged = self._paths(index, v, speed, stop_above=None if last else s.max_dynamic_ratio)
             jams_after, misses_after = self._flags()
             jammed = jams_after > jams
             converged = converged and not jammed and misses_after == misses
-            if ratio <= s.max_dynamic_ratio or speed <= s.min_speed_fraction * (1 + 1e-9):
+            if ratio <= s.max_dynamic_ratio or last:
                 return ConfigurationResult(devs[0], devs[1], converged, ratio, speed, jammed)
             speed = max(speed / 2.0, s.min_speed_fraction)
 
@@ -242,7 +243,12 @@ class RobustnessEvaluator:
         """The fast engine's running counts of jammed samples and unconverged motion steps (MuJoCo: none)."""
         return (self.sim.jammed_samples, self.sim.unconverged_steps) if self.fast else (0, 0)
 
-    def _paths(self, index: int, v: np.ndarray, speed: float) -> tuple[tuple[float, float], float, bool]:
+    def _paths(self, index: int, v: np.ndarray, speed: float, stop_above: float | None = None
+               ) -> tuple[tuple[float, float], float, bool]:
+        """The paths' deviations, the largest vertex acceleration / g of their excursions and whether every stored
+        shape converged. ``stop_above``: give up (deviations 0, not converged) at the first excursion move whose
+        ratio exceeds it: the caller redoes the configuration slower, so the rest of this attempt could not change
+        the result."""
         s = self.settings
         q = self.joints(v)
         _, converged = self._go(q, True, speed)
@@ -257,8 +263,12 @@ class RobustnessEvaluator:
         devs = []
         for delta in deltas:
             out_ratio, _ = self._go(self.joints(v, delta), False, speed)
+            if stop_above is not None and out_ratio > stop_above:
+                return (0.0, 0.0), out_ratio, False
             back_ratio, ok = self._go(q, True, speed)
             ratio = max(ratio, out_ratio, back_ratio)
+            if stop_above is not None and ratio > stop_above:
+                return (0.0, 0.0), ratio, False
             converged &= ok
             devs.append(float(np.linalg.norm(self._shape() - s0, axis=1).max()))
         if s.n_paths > 0:
