@@ -228,3 +228,24 @@ def test_cli_robustness_paths_json(tmp_path, capsys):
                  "--k-paths", "2", "--sample", "1", "--backend", "serial", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["n_compared"] == 1 and 0.0 <= out["agreement"] <= 1.0
+
+
+def test_an_attempt_redone_slower_stops_early_with_the_same_result(station, monkeypatch):
+    """An attempt whose excursion exceeds the ratio bound is redone at half speed whatever follows, so it stops at
+    that excursion: the result equals that of every attempt run to its end, in fewer moves."""
+    strict = replace(FAST, speed_fraction=1.0, max_dynamic_ratio=1e-6, min_speed_fraction=0.25)
+    v = np.radians([20.0, 40.0, 30.0, -60.0])
+    moves = []
+
+    def counted(ev):
+        go = ev._go
+        ev._go = lambda *a: (moves.append(1), go(*a))[1]
+        return ev
+
+    early = counted(RobustnessEvaluator(station, strict)).evaluate(0, v)
+    n_early = len(moves)
+    full = RobustnessEvaluator(station, strict)
+    paths = full._paths
+    monkeypatch.setattr(full, "_paths", lambda index, v, speed, stop_above=None: paths(index, v, speed))
+    assert counted(full).evaluate(0, v) == early
+    assert early.speed_fraction == 0.25 and n_early < len(moves) - n_early
