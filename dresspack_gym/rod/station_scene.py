@@ -93,8 +93,7 @@ class StationScene:
 def own_robot_links(station: Station, robot: int) -> dict[int, int]:
     """Geom id -> link number (0 = base .. 6) of every collision geom of robot ``robot``."""
     r = station.robots[robot]
-    links = r.geom_links if r.geom_links is not None else np.full(len(r.geom_ids), -1)
-    return {int(g): int(k) for g, k in zip(r.geom_ids, links)}
+    return {int(g): int(k) for g, k in zip(r.geom_ids, r.geom_links)}
 
 
 def pair_mask_of(cable: StationCable, geoms: np.ndarray, own_links: dict[int, int]) -> np.ndarray:
