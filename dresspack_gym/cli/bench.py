@@ -382,7 +382,7 @@ def robustness_benchmark(station_ref: str = "default", repeats: int = 1, n_rows:
 
     grid = RobustnessGrid.from_dict(read_yaml(find_shipped(grid_name, "grids", "grid")))
     config = load_station(station_ref)
-    settings = RobustnessSettings()
+    settings = RobustnessSettings(engine="dynamic", cable_robot_contact=False)  # MuJoCo's step timer: its engine
     n_per_row = len(grid.j6)
     rows = np.linspace(0, len(grid) // n_per_row - 1, n_rows).round().astype(int)
     indices = (rows[:, None] * n_per_row + np.arange(n_per_row)).ravel()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import shlex
@@ -9,7 +10,7 @@ import sys
 from pathlib import Path
 
 from ..io.outputs import write_text
-from .args import add_station_argument, file_to_write, number, output_dir, positive_int, seed
+from .args import add_physics_argument, add_station_argument, file_to_write, number, output_dir, positive_int, seed
 from .common import INTERRUPTED, robot_index
 
 MAX_WORKERS = 256  # worker processes (one per core; Ray clusters may have more)
@@ -29,13 +30,17 @@ def cmd_robustness(args) -> int:
              "speed_fraction": args.speed_fraction, "settle_time": args.settle_time, "start": args.start,
              "timestep": args.timestep, "settle_timestep": args.settle_timestep,
              "max_dynamic_ratio": args.max_dynamic_ratio, "min_speed_fraction": args.min_speed_fraction,
-             "cable_robot_contact": args.cable_robot_contact or None, "engine": args.physics,
+             "cable_robot_contact": args.cable_robot_contact, "engine": args.physics,
              "excursion": tuple(math.radians(e) for e in args.excursion) if args.excursion else None}
     settings = RobustnessSettings(**{k: v for k, v in given.items() if v is not None})
+    indices = None
+    if args.every_row is not None:  # a sample of whole rows (each row's configurations continue from each other)
+        n = len(grid.j6)
+        indices = [i for r in range(0, len(grid) // n, args.every_row) for i in range(r * n, (r + 1) * n)]
     try:
         summary = run_map(grid, load_station(args.station), args.out, settings, backend=args.backend,
                           workers=args.workers, ray_address=args.ray_address, progress=not args.json,
-                          limit=args.limit)
+                          limit=args.limit, indices=indices)
     except KeyboardInterrupt:
         results = Path(args.out) / "results.csv"
         saved = max(0, len(results.read_text().splitlines()) - 1) if results.is_file() else 0
@@ -88,18 +93,20 @@ def cmd_robustness_paths(args) -> int:
 def cmd_wear_map(args) -> int:
     from ..io.loading import load_station
     from ..maps.wear_map import WearMapSettings, build_wear_map, shipped_map_path
+    from ..physics.profiles import ENGINE_TITLES
 
     config = load_station(args.station)
     robot = robot_index(config, args.robot)
     settings = WearMapSettings(samples=args.samples, seed=args.seed)
-    out = args.out or shipped_map_path(config, robot)
-    wear_map = build_wear_map(config, robot, settings, progress=not args.json)
+    out = args.out or shipped_map_path(config, robot, args.physics)
+    wear_map = build_wear_map(config, robot, settings, progress=not args.json, engine=args.physics)
     wear_map.save(out)
     info = {**wear_map.info, "path": str(out)}
     if args.json:
         print(json.dumps(info))
     else:
-        print(f"wear map of {info['station']} / {info['robot']}: {info['settled']} of {info['drawn']} drawn "
+        print(f"wear map of {info['station']} / {info['robot']} on the {ENGINE_TITLES[info['engine']]}: "
+              f"{info['settled']} of {info['drawn']} drawn "
               f"configurations settled ({info['unconverged']} unconverged) in {info['build_seconds']} s; "
               f"wrote {out}")
     return 0
@@ -117,7 +124,6 @@ def add_worker_flags(p, result: str) -> None:
 def add_robustness_map(sub) -> None:
     """``dresspack robustness-map``."""
     from ..maps.robustness.algorithm import START_MODES
-    from ..physics.profiles import ENGINES
 
     rm = sub.add_parser("robustness-map", help="map non-robust cable configurations (thesis Algorithm 1), resumable")
     rm.add_argument("--grid", required=True, help="grid YAML or shipped grid name (thesis_24336, thesis_67500, small)")
@@ -144,11 +150,10 @@ def add_robustness_map(sub) -> None:
                     help="quasi-static bound: largest cable vertex acceleration / g during excursions (default 0.5)")
     rm.add_argument("--settle-time", type=number(0, 60, lo_open=True, unit="s"), default=None,
                     help="max relaxation to equilibrium after each return [s] (default 5)")
-    rm.add_argument("--cable-robot-contact", action="store_true",
-                    help="let the cable touch the robot's links (the thesis maps the cable alone: off by default)")
-    rm.add_argument("--physics", choices=list(ENGINES), default="dynamic",
-                    help="the cable engine: dynamic (MuJoCo, default) or fast (the quasi-static rod engine, whose "
-                         "cable-robot contact is its barrier against the links' capsules); a map keeps its engine")
+    rm.add_argument("--cable-robot-contact", action=argparse.BooleanOptionalAction, default=None,
+                    help="the cable touches the robot's links (default: on; --no-cable-robot-contact maps the cable "
+                         "alone, as the thesis did); a map keeps its setting")
+    add_physics_argument(rm, "maps on (a map keeps its engine)")
     rm.add_argument("--timestep", type=number(1e-4, 0.01, unit="s"), default=None,
                     help="physics step during motions [s] (default 0.004)")
     rm.add_argument("--settle-timestep", type=number(1e-4, 0.02, unit="s"), default=None,
@@ -156,6 +161,9 @@ def add_robustness_map(sub) -> None:
     rm.add_argument("--start", choices=START_MODES, default=None,
                     help="row: each configuration continues from the previous one of its grid row (default); "
                          "ry: every configuration from the settled state of its Ry")
+    rm.add_argument("--every-row", type=positive_int, default=None,
+                    help="map only every K-th grid row (rows 0, K, 2K, ...; a row: all j6 at one Ry, j4, j5): a "
+                         "sample of the grid, resumable into the whole map")
     rm.add_argument("--limit", type=positive_int, default=None, help="compute at most this many new configurations")
     rm.add_argument("--json", action="store_true", help="print the summary as one JSON object (no progress bar)")
     rm.set_defaults(func=cmd_robustness)
@@ -190,6 +198,7 @@ def add_wear_map(sub) -> None:
     wm.add_argument("--out", type=file_to_write(".npz"),
                     help="output .npz (default: the shipped location for this robot and dresspack, "
                          "configs/wear_maps/<key>.npz)")
+    add_physics_argument(wm, "settles the map's samples on (a map keeps its engine)")
     wm.add_argument("--json", action="store_true", help="print the map's summary as one JSON object (no progress "
                                                          "bar)")
     wm.set_defaults(func=cmd_wear_map)

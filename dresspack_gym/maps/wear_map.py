@@ -24,7 +24,7 @@ from ..cable.shape import reference_shape
 from ..errors import ConfigError
 from ..io.artefacts import reading
 from ..io.outputs import replacing
-from ..physics.simulation import CableSimulator
+from ..physics.profiles import DEFAULT_ENGINE, ENGINES, make_simulator
 from ..shipped import shipped_root
 from ..stations.config import StationConfig
 from ..stations.station import DOWN, Station, node_frames
@@ -109,13 +109,16 @@ class ShapeModel:
             return None
 
 
-def map_key(config: StationConfig, robot: int = 0) -> str:
+def map_key(config: StationConfig, robot: int = 0, engine: str = "dynamic") -> str:
     """What the map depends on: the robot's kinematic chain and joint limits (where samples are drawn), its base
-    pose, its dresspack, the physics and gravity; not the robot's name, tool, speeds, collision geometry (the map
-    settles the cable alone) or controller conventions, nor the obstacles, weld points or other robots."""
+    pose, its dresspack, the physics and gravity, and the engine that settled it (physics.profiles.ENGINES); not the
+    robot's name, tool, speeds, collision geometry (the map settles the cable alone) or controller conventions, nor
+    the obstacles, weld points or other robots. MuJoCo's ("dynamic") key leaves the engine out: the maps settled
+    on it before engines were chosen keep theirs."""
     p = config.robots[robot]
     arm = p.robot.kinematics if p.robot.chain is None else p.robot.chain
-    what = repr((MAP_VERSION, arm, p.robot.joint_limits_rad, p.base_pos, p.base_yaw, p.dresspack, config.simulation))
+    what = repr((MAP_VERSION, arm, p.robot.joint_limits_rad, p.base_pos, p.base_yaw, p.dresspack, config.simulation)
+                + (() if engine == "dynamic" else (engine,)))
     return hashlib.sha256(what.encode()).hexdigest()[:16]
 
 
@@ -176,7 +179,7 @@ class WearMap:
         with reading(path, "wear_map", what, recover), np.load(Path(path), allow_pickle=False) as z:
             info = json.loads(str(z["info"]))
             settings = WearMapSettings(**info.pop("settings"))
-            if info.get("key") != map_key(config, robot):
+            if info.get("key") != map_key(config, robot, info.get("engine", "dynamic")):
                 raise ConfigError("wear_map", f"{path} was built for another robot, dresspack or physics "
                                               f"(key {info.get('key')}, this station needs {map_key(config, robot)})")
             return WearMap(ShapeModel(config, robot, settings.lever), settings, z["configurations"], z["features"],
@@ -191,10 +194,11 @@ def sample_configurations(limits: np.ndarray, settings: WearMapSettings) -> np.n
 
 
 def build_wear_map(config: StationConfig, robot: int = 0, settings: WearMapSettings = WearMapSettings(),
-                   progress: bool = False) -> WearMap:
-    """Settle the cable alone at every drawn configuration the cable can span and record its shape and measures."""
+                   progress: bool = False, engine: str = DEFAULT_ENGINE) -> WearMap:
+    """Settle the cable alone at every drawn configuration the cable can span on ``engine`` (one of
+    physics.profiles.ENGINES) and record its shape and measures."""
     model = ShapeModel(config, robot, settings.lever)
-    sim = CableSimulator(model.station)
+    sim = make_simulator(model.station, engine)
     q_all = model.station.home.copy()
     qs = sample_configurations(model.placement.robot.joint_limits, settings)
     kept, feats, devs, meas, conv = [], [], [], [], []
@@ -220,7 +224,8 @@ def build_wear_map(config: StationConfig, robot: int = 0, settings: WearMapSetti
             bar.update()
     if bar is not None:
         bar.close()
-    info = {"key": map_key(config, robot), "station": config.name, "robot": config.robots[robot].name,
+    info = {"key": map_key(config, robot, engine), "engine": engine, "station": config.name,
+            "robot": config.robots[robot].name,
             "drawn": len(qs), "settled": len(feats), "unconverged": int(len(conv) - sum(conv)),
             "build_seconds": round(time.perf_counter() - start, 1)}
     return WearMap(model, settings, np.array(kept).reshape(-1, 6), np.array(feats).reshape(len(feats), -1),
@@ -228,19 +233,24 @@ def build_wear_map(config: StationConfig, robot: int = 0, settings: WearMapSetti
                    info)
 
 
-def shipped_map_path(config: StationConfig, robot: int = 0) -> Path:
-    """Where a shipped map for this robot and dresspack lives (``configs/wear_maps/<key>.npz``), present or not.
+def shipped_map_path(config: StationConfig, robot: int = 0, engine: str = "dynamic") -> Path:
+    """Where a shipped map for this robot and dresspack settled on ``engine`` lives (``configs/wear_maps/<key>.npz``),
+    present or not.
     Only shipped or explicitly named maps are used: a map found in some cache would make a plan depend on
     the machine's history."""
-    return shipped_root() / "wear_maps" / f"{map_key(config, robot)}.npz"
+    return shipped_root() / "wear_maps" / f"{map_key(config, robot, engine)}.npz"
 
 
 def load_wear_map(config: StationConfig, robot: int = 0, path: str | Path | None = None) -> WearMap | None:
-    """The map at ``path``, else the shipped one for this robot and dresspack, else None."""
+    """The map at ``path``, else the shipped one for this robot and dresspack (settled on the default engine, else
+    on any other, in ENGINES' order), else None."""
     if path is not None:
         if not Path(path).is_file():
             raise ConfigError("wear_map", f"{path} is not a file (build one with: dresspack wear-map STATION "
                                           "--out PATH)")
         return WearMap.load(path, config, robot)
-    shipped = shipped_map_path(config, robot)
-    return WearMap.load(shipped, config, robot) if shipped.is_file() else None
+    for engine in (DEFAULT_ENGINE, *(e for e in ENGINES if e != DEFAULT_ENGINE)):
+        shipped = shipped_map_path(config, robot, engine)
+        if shipped.is_file():
+            return WearMap.load(shipped, config, robot)
+    return None

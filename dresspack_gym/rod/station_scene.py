@@ -59,11 +59,7 @@ class StationScene:
         self.held_local = np.array([hp.local for hp in cable.held], dtype=float).reshape(-1, 3)
         self.clamp_body = np.array([link_body.get(c.link, -1) for c in cable.clamps], dtype=int)
         self.clamp_local = np.array([c.local_director for c in cable.clamps], dtype=float).reshape(-1, 3)
-        held = set(cable.model.held)
-        self.mask = np.ones((cable.model.segments, len(self.geoms)), dtype=np.bool_)
-        for e in range(cable.model.segments):
-            if e in held and e + 1 in held:  # a clamp's own edge is part of the node
-                self.mask[e] = False
+        self.mask = pair_mask_of(cable, self.geoms, own_robot_links(station, cable.robot))
 
     def pose(self, q: np.ndarray) -> None:
         """MuJoCo's kinematics with the robots at ``q`` (n_robots, 6): the body and geom poses in ``data``."""
@@ -92,6 +88,37 @@ class StationScene:
         """The fraction (0, 1] of the way from ``now`` to ``end`` the primitives may move in one sub-step: no
         moving primitive closes more than CLOSING_FRACTION of its gap to the cable ``x``."""
         return closing_fraction(x, radius, now, end, self.bound)
+
+
+def own_robot_links(station: Station, robot: int) -> dict[int, int]:
+    """Geom id -> link number (0 = base .. 6) of every collision geom of robot ``robot``."""
+    r = station.robots[robot]
+    return {int(g): int(k) for g, k in zip(r.geom_ids, r.geom_links)}
+
+
+def pair_mask_of(cable: StationCable, geoms: np.ndarray, own_links: dict[int, int]) -> np.ndarray:
+    """Which (edge, primitive) pairs may touch (n_edges, k): all but
+
+    * a clamp's own edge (both ends held), which is part of its node;
+    * an edge leaving a node (one end held) against the links of the cable's own robot other than the node's link.
+      The held end is the node's hardware, rigid on its link: where another link of the same robot comes at it
+      (the tool support against the forearm at a folded wrist), the robot meets its own dresspack's support, a
+      contact between two driven bodies that no motion of the cable resolves (its barrier would be infinite with
+      nothing free to move). The edge's free end stays guarded by its other edge.
+
+    ``own_links``: geom id -> link number of the cable's own robot's geoms (see :func:`own_robot_links`).
+    """
+    held = {hp.vertex: hp.link for hp in cable.held}
+    mask = np.ones((cable.model.segments, len(geoms)), dtype=np.bool_)
+    for e in range(cable.model.segments):
+        if e in held and e + 1 in held:
+            mask[e] = False
+        elif (e in held) != (e + 1 in held):
+            link = held[e] if e in held else held[e + 1]
+            for j, g in enumerate(geoms):
+                if int(g) in own_links and own_links[int(g)] != link:
+                    mask[e, j] = False
+    return mask
 
 
 @njit(cache=True)

@@ -2,6 +2,7 @@
 
 import csv
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -15,7 +16,9 @@ from dresspack_gym.maps.robustness.runner import RobustnessMap, run_map
 
 TINY = {"name": "tiny", "ry": {"start": 0, "stop": 0, "step": 1}, "j4": {"start": 0, "stop": 0, "step": 1},
         "j5": {"start": -60, "stop": 60, "step": 120}, "j6": {"start": 0, "stop": 90, "step": 90}}
-FAST = RobustnessSettings(max_dynamic_ratio=100.0)  # tests of the machinery: no slowing down
+# Tests of the machinery: no slowing down, on MuJoCo with the cable alone (the fast engine: test_robustness_engine)
+FAST = RobustnessSettings(max_dynamic_ratio=100.0, engine="dynamic", cable_robot_contact=False)
+MUJOCO = ["--physics", "dynamic", "--no-cable-robot-contact"]
 
 
 def rows(out):
@@ -149,11 +152,12 @@ def test_excursions_never_swing_link3_the_long_way_round(station, ry):
 def test_excursions_are_quasi_static_and_shapes_are_equilibria(station):
     """A too-fast excursion is redone slower until the cable's kinetic energy stays below the bound; the
     stored shapes are converged equilibria."""
-    strict = RobustnessSettings(speed_fraction=1.0, max_dynamic_ratio=1e-6, min_speed_fraction=0.25)
+    strict = RobustnessSettings(speed_fraction=1.0, max_dynamic_ratio=1e-6, min_speed_fraction=0.25, engine="dynamic",
+                                cable_robot_contact=False)
     ev = RobustnessEvaluator(station, strict)
     r = ev.evaluate(0, np.radians([20.0, 40.0, 30.0, -60.0]))
     assert r.speed_fraction < strict.speed_fraction  # rated speed swings the cable: it slowed down
-    loose = RobustnessEvaluator(station, RobustnessSettings(speed_fraction=1.0, max_dynamic_ratio=100.0)).evaluate(
+    loose = RobustnessEvaluator(station, replace(FAST, speed_fraction=1.0)).evaluate(
         0, np.radians([20.0, 40.0, 30.0, -60.0]))
     assert loose.speed_fraction == 1.0 and loose.dynamic_ratio > r.dynamic_ratio
     assert r.converged and loose.converged
@@ -161,7 +165,7 @@ def test_excursions_are_quasi_static_and_shapes_are_equilibria(station):
 
 def test_cable_robot_contact_is_an_explicit_option(station):
     off = RobustnessEvaluator(station, FAST)
-    on = RobustnessEvaluator(station, RobustnessSettings(max_dynamic_ratio=100.0, cable_robot_contact=True))
+    on = RobustnessEvaluator(station, replace(FAST, cable_robot_contact=True))
     assert not off.station.config.robots[0].dresspack.collide_with_robot
     assert on.station.config.robots[0].dresspack.collide_with_robot
 
@@ -172,7 +176,7 @@ def test_cli_json_summary(tmp_path, capsys):
 
     grid.write_text(yaml.safe_dump(TINY))
     assert main(["robustness-map", "--grid", str(grid), "--station", "default", "--out", str(tmp_path / "o"),
-                 "--backend", "serial", "--max-dynamic-ratio", "100", "--json"]) == 0
+                 "--backend", "serial", "--max-dynamic-ratio", "100", "--json", *MUJOCO]) == 0
     out = json.loads(capsys.readouterr().out)
     assert {"n_configs", "n_non_robust", "fraction_non_robust", "per_ry", "n_unconverged"} <= set(out)
     assert out["n_configs"] == 4
@@ -224,3 +228,24 @@ def test_cli_robustness_paths_json(tmp_path, capsys):
                  "--k-paths", "2", "--sample", "1", "--backend", "serial", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["n_compared"] == 1 and 0.0 <= out["agreement"] <= 1.0
+
+
+def test_an_attempt_redone_slower_stops_early_with_the_same_result(station, monkeypatch):
+    """An attempt whose excursion exceeds the ratio bound is redone at half speed whatever follows, so it stops at
+    that excursion: the result equals that of every attempt run to its end, in fewer moves."""
+    strict = replace(FAST, speed_fraction=1.0, max_dynamic_ratio=1e-6, min_speed_fraction=0.25)
+    v = np.radians([20.0, 40.0, 30.0, -60.0])
+    moves = []
+
+    def counted(ev):
+        go = ev._go
+        ev._go = lambda *a: (moves.append(1), go(*a))[1]
+        return ev
+
+    early = counted(RobustnessEvaluator(station, strict)).evaluate(0, v)
+    n_early = len(moves)
+    full = RobustnessEvaluator(station, strict)
+    paths = full._paths
+    monkeypatch.setattr(full, "_paths", lambda index, v, speed, stop_above=None: paths(index, v, speed))
+    assert counted(full).evaluate(0, v) == early
+    assert early.speed_fraction == 0.25 and n_early < len(moves) - n_early

@@ -12,7 +12,7 @@ from dresspack_gym.io.loading import load_station
 from dresspack_gym.maps.map_cost import OBSTRUCTION_DEPTH, OBSTRUCTION_RATE, UNSPANNABLE_RATE, MapStateCost
 from dresspack_gym.maps.robustness.algorithm import cable_only
 from dresspack_gym.maps.wear_map import WearMap, WearMapSettings, build_wear_map, map_key, sample_configurations
-from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.profiles import DEFAULT_ENGINE, make_simulator
 from dresspack_gym.stations.config import Obstacle
 from dresspack_gym.stations.station import Station, node_frames
 from dresspack_gym.stations.validity import MotionValidity
@@ -107,7 +107,8 @@ def test_map_is_reproducible_and_exact_at_its_samples(default_config, small_map)
     assert small_map.info["settled"] == len(small_map) == 24  # a link 3 - link 6 cable spans everywhere
     # at a sample's own configuration the map returns that settle: re-settle independently and compare
     q = sample_configurations(default_config.robots[0].robot.joint_limits, small_map.settings)[5]
-    sim = CableSimulator(Station(cable_only(default_config)))
+    assert small_map.info["engine"] == DEFAULT_ENGINE  # settled on the default engine unless told otherwise
+    sim = make_simulator(Station(cable_only(default_config)), small_map.info["engine"])
     sim.reset(q[None], settle=False)
     assert sim.settle().converged  # the shape compared is an equilibrium, by its residual
     pred = small_map.predict(q)
@@ -135,7 +136,7 @@ def test_map_predicts_held_out_shapes_better_than_the_reference_curve(default_co
     """The interpolated deviation must carry real information: at configurations it never saw, the map's
     shape is nearer the settled one than the analytic curve through the same nodes."""
     wm = build_wear_map(default_config, 0, WearMapSettings(samples=300, seed=1))
-    sim = CableSimulator(Station(cable_only(default_config)))
+    sim = make_simulator(Station(cable_only(default_config)), wm.info["engine"])
     lim = default_config.robots[0].robot.joint_limits
     err_map, err_ref = [], []
     for q in np.random.default_rng(99).uniform(lim[:, 0], lim[:, 1], (12, 6)):
@@ -248,6 +249,22 @@ def test_roadmap_route_is_valid_no_worse_than_direct_and_reproducible(default_co
     np.testing.assert_array_equal(fresh.route(a, b, 50.0), first)
 
 
+def test_a_map_keeps_its_engine_and_mujoco_maps_their_key(default_config, tmp_path):
+    """The engine is part of a map's key except MuJoCo's (the shipped maps settled on it keep theirs); a map loads
+    under its own engine's key, and the default engine's shipped map is looked up before MuJoCo's."""
+    from dresspack_gym.maps.wear_map import load_wear_map, shipped_map_path
+
+    mujoco = build_wear_map(default_config, 0, WearMapSettings(samples=2, seed=0), engine="dynamic")
+    assert mujoco.info["engine"] == "dynamic" and mujoco.info["key"] == map_key(default_config)
+    assert map_key(default_config, 0, "fast") != map_key(default_config)
+    for m in (mujoco, build_wear_map(default_config, 0, WearMapSettings(samples=2, seed=0), engine="fast")):
+        assert WearMap.load(m.save(tmp_path / f"{m.info['engine']}.npz"), default_config).info["engine"] \
+            == m.info["engine"]
+    config = load_station("thesis_tension")  # ships a MuJoCo map only: still found
+    assert not shipped_map_path(config, 0, "fast").is_file() and shipped_map_path(config, 0).is_file()
+    assert load_wear_map(config, 0).info.get("engine", "dynamic") == "dynamic"
+
+
 def test_wear_map_command_builds_a_loadable_map_and_names_bad_input(tmp_path, capsys):
     import json
 
@@ -256,7 +273,10 @@ def test_wear_map_command_builds_a_loadable_map_and_names_bad_input(tmp_path, ca
     out = tmp_path / "m.npz"
     assert main(["wear-map", "--station", "default", "--samples", "8", "--out", str(out), "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
-    assert info["settled"] == 8 and info["path"] == str(out)
+    assert info["settled"] == 8 and info["path"] == str(out) and info["engine"] == "fast"
+    assert main(["wear-map", "--station", "default", "--samples", "2", "--out", str(tmp_path / "mujoco.npz"),
+                 "--physics", "dynamic", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["engine"] == "dynamic"
     assert len(WearMap.load(out, load_station("default"))) == 8
     assert main(["wear-map", "--station", "default", "--robot", "3", "--samples", "8", "--out", str(out)]) == 2
     assert "--robot" in capsys.readouterr().err

@@ -20,16 +20,17 @@ on every cable vertex (its acceleration, averaged over a few steps) stays below 
 of its weight; a configuration
 whose excursions exceed it is re-run from the same start at half the speed, down to
 ``min_speed_fraction``. A configuration whose stored shape never reaches equilibrium (e.g. a cable
-jammed against a link) is reported as unconverged, not as a sample. Cable-robot contact is off by
-default, as in the thesis, which maps the cable with its nodes moved alone (``cable_robot_contact``).
+jammed against a link) is reported as unconverged, not as a sample. Cable-robot contact is on by default
+(``cable_robot_contact``: the cable rests on and is pushed by the robot's links; the thesis mapped the cable with its
+nodes moved alone, which ``cable_robot_contact=False`` reproduces).
 
-Engines (``engine``, one of physics.profiles.ENGINES): "dynamic" (MuJoCo, the default) or "fast" (the quasi-static
-rod engine, dresspack_gym.rod). Both see the same station: with ``cable_robot_contact`` off the dresspack's
-``collide_with_robot`` is cleared, which removes the robot's own links from MuJoCo's contacts and from the rod
-engine's barrier primitives alike. On the fast engine a settle is the rod's static rest solve, the excursions are
-the same slowed time law with one implicit step per 0.05 s sample, and a configuration is unconverged when a rest
-solve or a motion step missed its tolerance or a link jammed against the cable (``jammed``: a sample the links did
-not get through in the engine's sub-step budget).
+Engines (``engine``, one of physics.profiles.ENGINES): "fast" (the quasi-static rod engine, dresspack_gym.rod, the
+default: physics.profiles.DEFAULT_ENGINE) or "dynamic" (MuJoCo). Both see the same station: with
+``cable_robot_contact`` off the dresspack's ``collide_with_robot`` is cleared, which removes the robot's own links
+from MuJoCo's contacts and from the rod engine's barrier primitives alike. On the fast engine a settle is the rod's
+static rest solve, the excursions are the same slowed time law with one implicit step per 0.05 s sample, and a
+configuration is unconverged when a rest solve or a motion step missed its tolerance or a link jammed against the
+cable (``jammed``: a sample the links did not get through in the engine's sub-step budget).
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...errors import ConfigError
-from ...physics.profiles import ENGINES, make_simulator
+from ...physics.profiles import DEFAULT_ENGINE, ENGINES, make_simulator
 from ...robots.joint_limits import LIMIT_TOL
 from ...stations.config import StationConfig
 from ...stations.station import Station
@@ -62,7 +63,7 @@ class RobustnessSettings:
     settle_time: float = 5.0  # max settle after each return [s]; settles end on the equilibrium residual
     max_dynamic_ratio: float = 0.5  # bound on the cable's vertex accelerations / g during excursions
     min_speed_fraction: float = 1.0 / 16.0  # the slowest excursion speed tried
-    cable_robot_contact: bool = False  # the thesis maps the cable alone (nodes moved, no robot to touch)
+    cable_robot_contact: bool = True  # the cable against the robot's links (False: the thesis's cable alone)
     n_paths: int = 0  # 0: the thesis's two paths; K > 0: K random approach paths instead
     seed: int = 0  # for the random paths (combined with the configuration index)
     robot: int = 0
@@ -72,7 +73,7 @@ class RobustnessSettings:
     timestep: float = 0.004  # [s] during motions
     settle_timestep: float = 0.016  # [s] while the robot stands still and the cable relaxes
     start: str = "row"  # "row": continue from the previous configuration of the grid row; "ry": from Ry's state
-    engine: str = "dynamic"  # the cable engine (physics.profiles.ENGINES): "dynamic" (MuJoCo) or "fast" (rod engine)
+    engine: str = DEFAULT_ENGINE  # the cable engine (physics.profiles.ENGINES): "fast" (rod engine) or "dynamic"
 
     def __post_init__(self):
         checks = {
@@ -229,11 +230,12 @@ class RobustnessEvaluator:
         while True:
             self.sim.set_state(start)
             jams, misses = self._flags()
-            devs, ratio, converged = self._paths(index, v, speed)
+            last = speed <= s.min_speed_fraction * (1 + 1e-9)
+            devs, ratio, converged = self._paths(index, v, speed, stop_above=None if last else s.max_dynamic_ratio)
             jams_after, misses_after = self._flags()
             jammed = jams_after > jams
             converged = converged and not jammed and misses_after == misses
-            if ratio <= s.max_dynamic_ratio or speed <= s.min_speed_fraction * (1 + 1e-9):
+            if ratio <= s.max_dynamic_ratio or last:
                 return ConfigurationResult(devs[0], devs[1], converged, ratio, speed, jammed)
             speed = max(speed / 2.0, s.min_speed_fraction)
 
@@ -241,7 +243,12 @@ class RobustnessEvaluator:
         """The fast engine's running counts of jammed samples and unconverged motion steps (MuJoCo: none)."""
         return (self.sim.jammed_samples, self.sim.unconverged_steps) if self.fast else (0, 0)
 
-    def _paths(self, index: int, v: np.ndarray, speed: float) -> tuple[tuple[float, float], float, bool]:
+    def _paths(self, index: int, v: np.ndarray, speed: float, stop_above: float | None = None
+               ) -> tuple[tuple[float, float], float, bool]:
+        """The paths' deviations, the largest vertex acceleration / g of their excursions and whether every stored
+        shape converged. ``stop_above``: give up (deviations 0, not converged) at the first excursion move whose
+        ratio exceeds it: the caller redoes the configuration slower, so the rest of this attempt could not change
+        the result."""
         s = self.settings
         q = self.joints(v)
         _, converged = self._go(q, True, speed)
@@ -256,8 +263,12 @@ class RobustnessEvaluator:
         devs = []
         for delta in deltas:
             out_ratio, _ = self._go(self.joints(v, delta), False, speed)
+            if stop_above is not None and out_ratio > stop_above:
+                return (0.0, 0.0), out_ratio, False
             back_ratio, ok = self._go(q, True, speed)
             ratio = max(ratio, out_ratio, back_ratio)
+            if stop_above is not None and ratio > stop_above:
+                return (0.0, 0.0), ratio, False
             converged &= ok
             devs.append(float(np.linalg.norm(self._shape() - s0, axis=1).max()))
         if s.n_paths > 0:

@@ -163,6 +163,13 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
             raise ConfigError("engine", f"{out} holds a map computed on the {map_engine(meta)!r} engine, not on "
                                         f"{settings.engine!r} (--physics {settings.engine}); resume it with "
                                         f"--physics {map_engine(meta)} or use another --out folder")
+        contact = meta.get("settings", {}).get("cable_robot_contact", settings.cable_robot_contact)
+        if contact != settings.cable_robot_contact:
+            flag = "--cable-robot-contact" if contact else "--no-cable-robot-contact"
+            raise ConfigError("cable_robot_contact", f"{out} holds a map computed with cable-robot contact "
+                                                     f"{'on' if contact else 'off'}, not "
+                                                     f"{'on' if settings.cable_robot_contact else 'off'}; resume it "
+                                                     f"with {flag} or use another --out folder")
         if meta.get("fingerprint") != fp:
             raise ConfigError("out", f"{out} holds a map of a different grid, station, settings or time law "
                                      f"({meta.get('grid')}, {meta.get('station')}, "
@@ -210,7 +217,8 @@ def run_map(grid: RobustnessGrid, config: StationConfig, out: str | Path, settin
             bar.update(len(rows))
     if bar is not None:
         bar.close()
-    return summarize(out, grid, settings.threshold)
+    return {**summarize(out, grid, settings.threshold), "engine": settings.engine,
+            "cable_robot_contact": settings.cable_robot_contact}
 
 
 def summarize(out: str | Path, grid: RobustnessGrid, threshold: float) -> dict:
