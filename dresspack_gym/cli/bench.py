@@ -322,7 +322,8 @@ def env_benchmark(station_ref: str = "default", repeats: int = 3, env_steps: int
         "coarse_step_vs_accurate": round(rates["coarse_step"][0] / rates["accurate"][0], 2),
         # the same cable on the rod engine (training) and on MuJoCo at an 8 ms step (coarse_step)
         "training_vs_coarse_step": round(rates["training"][0] / rates["coarse_step"][0], 2),
-        "motion_s_per_s": {**{k: round(v[3], 2) for k, v in rates.items()}, "training_primitives": round(prim_rate[3], 2)},
+        "motion_s_per_s": {**{k: round(v[3], 2) for k, v in rates.items()},
+                           "training_primitives": round(prim_rate[3], 2)},
         "primitives_env_steps_per_s": round(prim_rate[0], 2),
         "primitives_vs_accurate_motion": round(prim_rate[3] / rates["accurate"][3], 2),
     }

@@ -151,8 +151,8 @@ def add_robustness_map(sub) -> None:
     rm.add_argument("--settle-time", type=number(0, 60, lo_open=True, unit="s"), default=None,
                     help="max relaxation to equilibrium after each return [s] (default 5)")
     rm.add_argument("--cable-robot-contact", action=argparse.BooleanOptionalAction, default=None,
-                    help="the cable touches the robot's links (default: on; --no-cable-robot-contact maps the cable "
-                         "alone, as the thesis did); a map keeps its setting")
+                    help="the cable touches the robot's links (default: off, the cable alone, as the thesis maps it); "
+                         "a map keeps its setting")
     add_physics_argument(rm, "maps on (a map keeps its engine)")
     rm.add_argument("--timestep", type=number(1e-4, 0.01, unit="s"), default=None,
                     help="physics step during motions [s] (default 0.004)")

@@ -20,12 +20,13 @@ on every cable vertex (its acceleration, averaged over a few steps) stays below 
 of its weight; a configuration
 whose excursions exceed it is re-run from the same start at half the speed, down to
 ``min_speed_fraction``. A configuration whose stored shape never reaches equilibrium (e.g. a cable
-jammed against a link) is reported as unconverged, not as a sample. Cable-robot contact is on by default
-(``cable_robot_contact``: the cable rests on and is pushed by the robot's links; the thesis mapped the cable with its
-nodes moved alone, which ``cable_robot_contact=False`` reproduces).
+jammed against a link) is reported as unconverged, not as a sample. Cable-robot contact is off by default, as in the
+thesis, which maps the cable with its nodes moved alone (``cable_robot_contact``: the cable rests on and is pushed by
+the robot's links; on either engine a third or more of the configurations then end unconverged or jammed,
+docs/robustness.md).
 
-Engines (``engine``, one of physics.profiles.ENGINES): "fast" (the quasi-static rod engine, dresspack_gym.rod, the
-default: physics.profiles.DEFAULT_ENGINE) or "dynamic" (MuJoCo). Both see the same station: with
+Engines (``engine``, one of physics.profiles.ENGINES): "dynamic" (MuJoCo, the default:
+physics.profiles.DEFAULT_ENGINE) or "fast" (the quasi-static rod engine, dresspack_gym.rod). Both see the same station: with
 ``cable_robot_contact`` off the dresspack's ``collide_with_robot`` is cleared, which removes the robot's own links
 from MuJoCo's contacts and from the rod engine's barrier primitives alike. On the fast engine a settle is the rod's
 static rest solve, the excursions are the same slowed time law with one implicit step per 0.05 s sample, and a
@@ -63,7 +64,7 @@ class RobustnessSettings:
     settle_time: float = 5.0  # max settle after each return [s]; settles end on the equilibrium residual
     max_dynamic_ratio: float = 0.5  # bound on the cable's vertex accelerations / g during excursions
     min_speed_fraction: float = 1.0 / 16.0  # the slowest excursion speed tried
-    cable_robot_contact: bool = True  # the cable against the robot's links (False: the thesis's cable alone)
+    cable_robot_contact: bool = False  # the thesis's cable alone (True: the cable against the robot's links)
     n_paths: int = 0  # 0: the thesis's two paths; K > 0: K random approach paths instead
     seed: int = 0  # for the random paths (combined with the configuration index)
     robot: int = 0
@@ -73,7 +74,7 @@ class RobustnessSettings:
     timestep: float = 0.004  # [s] during motions
     settle_timestep: float = 0.016  # [s] while the robot stands still and the cable relaxes
     start: str = "row"  # "row": continue from the previous configuration of the grid row; "ry": from Ry's state
-    engine: str = DEFAULT_ENGINE  # the cable engine (physics.profiles.ENGINES): "fast" (rod engine) or "dynamic"
+    engine: str = DEFAULT_ENGINE  # the cable engine (physics.profiles.ENGINES): "dynamic" (MuJoCo) or "fast"
 
     def __post_init__(self):
         checks = {
