@@ -147,9 +147,9 @@ def test_a_segment_checked_again_is_answered_from_memory_with_its_queries_counte
     q1 = q0 + np.array([0.6, -0.3, 0.2, 0.5, -0.4, 0.3])
     clear = validity.segment_clear(q0, q1)
     first = validity.n_checks
-    calls = []
-    real = validity.checker.min_distance
-    validity.checker.min_distance = lambda q: calls.append(q) or real(q)
+    calls = []  # the checker's advancements (each a compiled run of distance queries)
+    real = validity.checker.advance
+    validity.checker.advance = lambda *args: calls.append(args) or real(*args)
     assert validity.segment_clear(q0.copy(), list(q1)) == clear  # the same ends, as another array or a list
     assert calls == [] and validity.n_checks == 2 * first > 2
     validity.segment_clear(q1, q0)  # the other way is another segment
