@@ -96,8 +96,7 @@ class RobotCollisionChecker:
         self._freeze_static_geometry()
         self._kernel_tables()
         self._bind()
-        self._fk = self._compiled_kinematics_match()
-        self._bind()
+        self._ints[kernels.H_FK, 0] = self._compiled_kinematics_match()
 
     def _freeze_static_geometry(self) -> None:
         """Precompute what every query shares. Only this robot's geoms move (the obstacles and the other robots,
@@ -167,8 +166,8 @@ class RobotCollisionChecker:
         bodies the robot's joints move with their joints, geoms and sites, and the state a query hands the next."""
         m, d = self.model, self.data
         own = self._own_geoms
-        self._own_i = np.stack([own, self.robot.geom_links]).T.astype(np.int64).reshape(-1, 2)
-        self._own_f = self.rbound[own].astype(float)
+        own_i = np.stack([own, self.robot.geom_links]).T.reshape(-1, 2)  # (geom, link)
+        own_f = self.rbound[own].reshape(-1, 1)
         pair_i = np.zeros((len(self.pairs), 6), dtype=np.int64)
         pair_f = np.zeros((len(self.pairs), kernels.P_FLOATS))
         for k, (row_g, row_h, scale, relative, g, o, extra) in enumerate(self._pair_walk):
@@ -190,7 +189,6 @@ class RobotCollisionChecker:
             pair_i[k, :4] = row_g, o, row_h, kind
             pair_f[k, :3] = scale, extra, self._bound_radii[k]
             pair_f[k, kernels.P_FRAME:kernels.P_FRAME + 9] = frame
-        self._pair_i, self._pair_f = pair_i, pair_f
         # the bodies to pose: those carrying the robot's geoms and their ancestors, where a joint moves them
         chain = set()
         for body in {int(m.geom_bodyid[g]) for g in own}:
@@ -218,26 +216,24 @@ class RobotCollisionChecker:
                 if int(body_of[k]) in bodies:
                     item_i.append([kind, k, body_of[k], sameframe[k]])
                     item_f.append([*pos[k], *quat[k]])
-        self._fk_tables = (np.array(body_i, dtype=np.int64).reshape(-1, 5), np.array(body_f, float).reshape(-1, 14),
-                           np.array(joint_i, dtype=np.int64).reshape(-1, 3), np.array(joint_f, float).reshape(-1, 7),
-                           np.array(item_i, dtype=np.int64).reshape(-1, 4), np.array(item_f, float).reshape(-1, 7))
         # the compiled kinematics covers hinges, slides and balls of bodies that are not mocap, without sleep
         self._fk_supported = (all(int(m.jnt_type[j]) != mujoco.mjtJoint.mjJNT_FREE for j, *_ in joint_i)
                               and all(m.body_mocapid[b] < 0 for b in bodies)
                               and not m.opt.enableflags & mujoco.mjtEnableBit.mjENBL_SLEEP)
-        self._qpos_adr = np.asarray(self.robot.qpos, dtype=np.int64)
-        self._fk = False
-        # what a query hands the next: [kept?, its q], its geom centres, its pairs' bounds (exact where queried)
-        self._reference = (np.zeros(1 + len(self._qpos_adr)), np.zeros((len(own), 3)), np.zeros(len(self.pairs)))
+        self._fk_rows = (body_i, joint_i, item_i)
+        self._ints, self._floats = kernels.pack(False, self.robot.qpos, (body_i, body_f), (joint_i, joint_f),
+                                                (item_i, item_f), (own_i, own_f), (pair_i, pair_f))
+        # what a query hands the next (the kernels' state): its q, its geom centres, its pairs' bounds
+        self._state = np.zeros(kernels.state_size(len(self.robot.qpos), len(own), len(self.pairs)))
 
     def _bind(self) -> None:
-        """The kernels' arguments that hold addresses of this checker's MjModel and MjData (made again for a copy:
-        see __setstate__)."""
-        self._posing = (self._qpos_adr, kernels.binding(self.model, self.data), self._fk, *self._fk_tables)
+        """The addresses the kernels reach this checker's MjModel and MjData by (made again for a copy: see
+        __setstate__)."""
+        self._binding = kernels.binding(self.model, self.data)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        del state["_posing"]
+        del state["_binding"]
         return state
 
     def __setstate__(self, state: dict) -> None:
@@ -251,7 +247,8 @@ class RobotCollisionChecker:
         if not self._fk_supported:
             return False
         m, d = self.model, self.data
-        body_i, _, joint_i, _, item_i, _ = self._fk_tables
+        body_i, joint_i, item_i = (np.array(rows, dtype=int).reshape(-1, n) for rows, n in
+                                   zip(self._fk_rows, (kernels.K_INTS, kernels.J_INTS, kernels.I_INTS)))
         bodies, joints = body_i[:, kernels.K_BODY], joint_i[:, kernels.J_ID]
         geoms = item_i[item_i[:, kernels.I_SITE] == 0, kernels.I_ID]
         sites = item_i[item_i[:, kernels.I_SITE] == 1, kernels.I_ID]
@@ -263,11 +260,12 @@ class RobotCollisionChecker:
 
         saved = d.qpos.copy()
         rng = np.random.default_rng(0)
-        qs = [saved[self._qpos_adr], *rng.uniform(self._limits[:, 0], self._limits[:, 1], size=(KINEMATICS_CHECKS, 6))]
-        posing = (self._qpos_adr, self._posing[1], True, *self._fk_tables)
+        qs = [saved[self.robot.qpos], *rng.uniform(self._limits[:, 0], self._limits[:, 1], size=(KINEMATICS_CHECKS, 6))]
+        ints = self._ints.copy()
+        ints[kernels.H_FK, 0] = 1
         match = True
         for q in qs:
-            kernels.pose(np.asarray(q, dtype=float), *posing)
+            kernels.pose(np.asarray(q, dtype=float), self._binding, ints, self._floats)
             compiled = poses()
             mujoco.mj_kinematics(m, d)
             match &= all(np.array_equal(a, b) for a, b in zip(compiled, poses()))
@@ -277,7 +275,7 @@ class RobotCollisionChecker:
 
     def _kinematics(self, q) -> None:
         """Pose the robot at ``q`` (the compiled kinematics, or MuJoCo's, of the private MjData)."""
-        kernels.pose(np.asarray(q, dtype=float), *self._posing)
+        kernels.pose(np.asarray(q, dtype=float), self._binding, self._ints, self._floats)
 
     def _bounds(self, pos: np.ndarray) -> np.ndarray:
         """Every pair's lower bound (B, pairs) with this robot's geom centres at ``pos`` (B, geoms, 3); a bound
@@ -316,8 +314,7 @@ class RobotCollisionChecker:
         """:meth:`min_distance` of each configuration of ``qs`` (B, 6), in one compiled loop; the configuration
         posed last is the last one (as for :meth:`joint_reach`)."""
         qs = np.ascontiguousarray(np.atleast_2d(np.asarray(qs, dtype=float)))
-        return kernels.min_distances(qs, *self._posing, self._own_i, self._own_f, self._pair_i, self._pair_f,
-                                     *self._reference)
+        return kernels.min_distances(qs, self._binding, self._ints, self._floats, self._state)
 
     def min_distance(self, q) -> float:
         """Smallest robot-obstacle surface distance at configuration ``q`` (negative when penetrating); a
@@ -327,16 +324,16 @@ class RobotCollisionChecker:
         bound is also the last query's bound (its exact distance, where it queried the pair) less how far the
         pair's geoms can have moved since (clearance_kernels.min_distance), so few pairs need an exact query.
         Either way the answer is the smallest exact pair distance."""
-        return float(kernels.min_distance(np.asarray(q, dtype=float), *self._posing, self._own_i, self._own_f,
-                                          self._pair_i, self._pair_f, *self._reference))
+        return float(kernels.min_distance(np.asarray(q, dtype=float), self._binding, self._ints, self._floats,
+                                          self._state))
 
     def advance(self, q0, dq, reach_per_t: float, t: float = 0.0) -> tuple[bool, int]:
         """Conservative advancement along ``q0 + t dq`` from ``t`` to 1 (MotionValidity's, see _advance there),
         in one compiled loop: (whether it stays at least ``margin`` clear, the distance queries it made). Each
         query is :meth:`min_distance`'s, so the steps and the answer are those of calling it step by step."""
         clear, queries = kernels.advance(np.asarray(q0, dtype=float), np.asarray(dq, dtype=float),
-                                         float(reach_per_t), float(t), self.margin, *self._posing, self._own_i,
-                                         self._own_f, self._pair_i, self._pair_f, *self._reference)
+                                         float(reach_per_t), float(t), self.margin, self._binding, self._ints,
+                                         self._floats, self._state)
         return bool(clear), int(queries)
 
     def joint_reach(self) -> np.ndarray:
@@ -376,8 +373,8 @@ class RobotCollisionChecker:
 
     def collides(self, q) -> bool:
         """True if any robot geom is closer than ``margin`` to static geometry (stops at the first hit)."""
-        return bool(kernels.collides(np.asarray(q, dtype=float), self.margin, *self._posing, self._own_i,
-                                     self._pair_i, self._pair_f))
+        return bool(kernels.collides(np.asarray(q, dtype=float), self.margin, self._binding, self._ints,
+                                     self._floats, self._state))
 
     def collides_batch(self, qs: np.ndarray) -> np.ndarray:
         return np.array([self.collides(q) for q in np.atleast_2d(qs)], dtype=bool)
