@@ -47,6 +47,7 @@ class RobotCollisionChecker:
         self.robot = station.robots[robot]
         self.margin = float(margin)
         self._limits = station.config.robots[robot].robot.joint_limits
+        self._joints = (len(self.robot.qpos),)
         m = self.model
         floor = m.geom("floor").id if station.config.floor else -1
         exempt = {m.body(f"{self.robot.name}/{link}").id for link in FLOOR_EXEMPT_LINKS}
@@ -86,7 +87,7 @@ class RobotCollisionChecker:
         # tighter than sphere to sphere, so fewer exact distance queries are needed.
         self.box = ((m.geom_type[self.pairs[:, 1]] == mujoco.mjtGeom.mjGEOM_BOX) & (self.scale == 1.0)
                     if len(self.pairs) else np.zeros(0, bool))  # obstacles and parked robots only
-        # each pair's (geom, geom, extra, scale) as Python numbers, for the exact queries' loop
+        # each pair's (geom, geom, extra, scale) as Python numbers, for the tables below
         self._pair_rows = [(int(g), int(o), float(e), float(c))
                            for (g, o), e, c in zip(self.pairs, self.extra, self.scale)]
         # Robot geoms each joint moves: joint j moves the bodies of link j+1 .. link6.
@@ -275,7 +276,18 @@ class RobotCollisionChecker:
 
     def _kinematics(self, q) -> None:
         """Pose the robot at ``q`` (the compiled kinematics, or MuJoCo's, of the private MjData)."""
-        kernels.pose(np.asarray(q, dtype=float), self._binding, self._ints, self._floats)
+        kernels.pose(self._configuration(q), self._binding, self._ints, self._floats)
+
+    def _configuration(self, q, rows: bool = False) -> np.ndarray:
+        """``q`` as the kernels read it: floats, one per robot joint (a row each when ``rows``); the kernels do not
+        check lengths, so this does."""
+        q = np.asarray(q, dtype=float)
+        if rows:
+            q = np.ascontiguousarray(np.atleast_2d(q))
+        if q.shape[-1:] != self._joints or q.ndim != 1 + rows:
+            raise ValueError(f"expected {'rows of ' if rows else ''}{self._joints[0]} joint values, got shape "
+                             f"{q.shape}")
+        return q
 
     def _bounds(self, pos: np.ndarray) -> np.ndarray:
         """Every pair's lower bound (B, pairs) with this robot's geom centres at ``pos`` (B, geoms, 3); a bound
@@ -313,7 +325,7 @@ class RobotCollisionChecker:
     def min_distances(self, qs) -> np.ndarray:
         """:meth:`min_distance` of each configuration of ``qs`` (B, 6), in one compiled loop; the configuration
         posed last is the last one (as for :meth:`joint_reach`)."""
-        qs = np.ascontiguousarray(np.atleast_2d(np.asarray(qs, dtype=float)))
+        qs = self._configuration(qs, rows=True)
         return kernels.min_distances(qs, self._binding, self._ints, self._floats, self._state)
 
     def min_distance(self, q) -> float:
@@ -324,14 +336,14 @@ class RobotCollisionChecker:
         bound is also the last query's bound (its exact distance, where it queried the pair) less how far the
         pair's geoms can have moved since (clearance_kernels.min_distance), so few pairs need an exact query.
         Either way the answer is the smallest exact pair distance."""
-        return float(kernels.min_distance(np.asarray(q, dtype=float), self._binding, self._ints, self._floats,
+        return float(kernels.min_distance(self._configuration(q), self._binding, self._ints, self._floats,
                                           self._state))
 
     def advance(self, q0, dq, reach_per_t: float, t: float = 0.0) -> tuple[bool, int]:
         """Conservative advancement along ``q0 + t dq`` from ``t`` to 1 (MotionValidity's, see _advance there),
         in one compiled loop: (whether it stays at least ``margin`` clear, the distance queries it made). Each
         query is :meth:`min_distance`'s, so the steps and the answer are those of calling it step by step."""
-        clear, queries = kernels.advance(np.asarray(q0, dtype=float), np.asarray(dq, dtype=float),
+        clear, queries = kernels.advance(self._configuration(q0), self._configuration(dq),
                                          float(reach_per_t), float(t), self.margin, self._binding, self._ints,
                                          self._floats, self._state)
         return bool(clear), int(queries)
@@ -373,7 +385,7 @@ class RobotCollisionChecker:
 
     def collides(self, q) -> bool:
         """True if any robot geom is closer than ``margin`` to static geometry (stops at the first hit)."""
-        return bool(kernels.collides(np.asarray(q, dtype=float), self.margin, self._binding, self._ints,
+        return bool(kernels.collides(self._configuration(q), self.margin, self._binding, self._ints,
                                      self._floats, self._state))
 
     def collides_batch(self, qs: np.ndarray) -> np.ndarray:
