@@ -14,7 +14,11 @@ from numba.extending import intrinsic
 
 # MuJoCo's exact pair distance and full kinematics are called from the compiled loops by their C names (no Python
 # call per query); the symbols resolve when a kernel is compiled or loaded from numba's cache.
-llvm.load_library_permanently(sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco*")))[0])
+_LIBRARY = [path for pattern in ("libmujoco.so*", "libmujoco*.dylib", "mujoco*.dll")
+            for path in sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), pattern)))]
+if not _LIBRARY:
+    raise ImportError(f"MuJoCo's shared library is not beside its Python package ({os.path.dirname(mujoco.__file__)})")
+llvm.load_library_permanently(_LIBRARY[0])
 _geom_distance = types.ExternalFunction(
     "mj_geomDistance", types.float64(types.voidptr, types.voidptr, types.intc, types.intc, types.float64,
                                      types.voidptr))
@@ -242,7 +246,7 @@ def _local_to_global(out_pos, out_mat, k, pos, quat, sameframe, b, xpos, xquat, 
             out_mat[k, i] = ximat[b, i]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _forward(bind, qpos, ints, floats):
     """mj_kinematics for the bodies one robot's joints move (in MuJoCo's order, parents first), their joints, geoms
     and sites; every other body keeps its pose (nothing else moves)."""
@@ -310,7 +314,7 @@ def _forward(bind, qpos, ints, floats):
                              xpos, xquat, xmat, xipos, ximat)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def pose(q, bind, ints, floats):
     """Write the robot's joints ``q`` and pose it: the compiled kinematics when the header says so (they were
     checked to give MuJoCo's poses), else MuJoCo's full mj_kinematics."""
@@ -332,7 +336,7 @@ def _exact(bind, ints, floats, k):
     return (distance - floats[k, P_EXTRA]) * floats[k, P_SCALE]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _fresh_bounds(bind, ints, floats, state, centres, bounds):
     """Read the posed geom centres into the state (at ``centres``), and every pair's lower bound from them (at
     ``bounds``; -inf where it is not positive: no bound)."""
@@ -368,7 +372,7 @@ def _fresh_bounds(bind, ints, floats, state, centres, bounds):
 
 
 @njit(cache=True, inline="always")
-def min_distance(q, bind, ints, floats, state):
+def _min_distance(q, bind, ints, floats, state):
     """The smallest exact pair distance at ``q`` (MuJoCo's mj_geomDistance, (distance - extra) x scale).
 
     Each pair's lower bound is the larger of two: from the geom centres (bounding spheres, boxes, planes), and the
@@ -437,6 +441,13 @@ def min_distance(q, bind, ints, floats, state):
 
 
 @njit(cache=True)
+def min_distance(q, bind, ints, floats, state):
+    """_min_distance, called on its own (the advancement compiles its own copy inline: its step loop is the hot
+    path; the kinematics and bounds stay calls, which cost little and compile once)."""
+    return _min_distance(q, bind, ints, floats, state)
+
+
+@njit(cache=True)
 def advance(q0, dq, reach_per_t, t, margin, bind, ints, floats, state):
     """Conservative advancement along q0 + t dq from ``t`` to 1, as MotionValidity states it: (clear, queries)."""
     q = np.empty(len(q0))
@@ -445,7 +456,7 @@ def advance(q0, dq, reach_per_t, t, margin, bind, ints, floats, state):
         queries += 1
         for i in range(len(q0)):
             q[i] = q0[i] + t * dq[i]
-        d = min_distance(q, bind, ints, floats, state)
+        d = _min_distance(q, bind, ints, floats, state)
         if d < margin:
             return False, queries
         if t >= 1.0 or reach_per_t == 0.0:
