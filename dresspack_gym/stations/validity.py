@@ -107,11 +107,24 @@ class MotionValidity:
     def _advance(self, q0: np.ndarray, dq: np.ndarray, reach_per_t: float, t: float) -> bool:
         """Conservative advancement along q0 + t dq from ``t`` to 1: True when it stays clear. From ``t``, query the
         clearance d at q0 + t dq; fail if d < margin, succeed at t = 1, else step to t + (d - margin / 2) /
-        reach_per_t (capped at 1): the clearance stays above margin / 2 in between. The loop runs compiled
-        (RobotCollisionChecker.advance); each query counts in n_checks."""
-        clear, queries = self.checker.advance(q0, dq, reach_per_t, t)
-        self.n_checks += queries
-        return clear
+        reach_per_t (capped at 1): the clearance stays above margin / 2 in between. Each query counts in
+        n_checks. With the checker's own queries the loop runs compiled (RobotCollisionChecker.advance); a
+        clearance function put in their place (a subclass's, or one set on the instance) is stepped here."""
+        checker = self.checker
+        distance = checker.min_distance
+        if getattr(distance, "__func__", None) is RobotCollisionChecker.min_distance:
+            clear, queries = checker.advance(q0, dq, reach_per_t, t)
+            self.n_checks += queries
+            return clear
+        margin = checker.margin
+        while True:
+            self.n_checks += 1
+            d = distance(q0 + t * dq)
+            if d < margin:
+                return False
+            if t >= 1.0 or reach_per_t == 0.0:
+                return True
+            t = min(1.0, t + (d - 0.5 * margin) / reach_per_t)
 
     def segments_clear(self, q0: np.ndarray, q1s: np.ndarray) -> np.ndarray:
         """:meth:`segment_clear` of each segment from ``q0`` to a row of ``q1s`` (the env's masks check dozens

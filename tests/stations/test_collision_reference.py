@@ -295,3 +295,18 @@ def test_segment_valid_answers_as_the_reference_where_the_dresspack_can_tear():
             expected.append(reference.segment_clear(q0, q1))
     assert len(answers) == len(expected) and all(a == e for a, e in zip(answers, expected))
     assert 0.1 < np.mean([ok for ok, _ in answers]) < 0.95 and sum(k > 2 for _, k in answers) > 300
+
+
+def test_a_clearance_function_set_on_the_checker_is_what_the_advancement_queries():
+    """The advancement runs compiled with the checker's own queries; a clearance function set in their place (a
+    wrapper here) is stepped in Python, query for query the same answers and counts."""
+    station = Station(load_station("default"))
+    compiled = MotionValidity(station, 0, margin=PLANNER_MARGIN)
+    stepped = MotionValidity(station, 0, margin=PLANNER_MARGIN)
+    calls = []
+    real = stepped.checker.min_distance
+    stepped.checker.min_distance = lambda q: calls.append(q) or real(q)
+    segments = random_segments(station, 0, 200, seed=9)
+    assert [compiled.segment_clear(q0, q1) for q0, q1 in segments] == [stepped.segment_clear(q0, q1)
+                                                                        for q0, q1 in segments]
+    assert compiled.n_checks == stepped.n_checks and len(calls) > 200
