@@ -4,14 +4,10 @@ rings) against its own links."""
 
 from __future__ import annotations
 
-import math
-from bisect import insort
-from itertools import accumulate, chain, islice
-from operator import add, mul, sub
-
 import mujoco
 import numpy as np
 
+from . import clearance_kernels as kernels
 from .station import Station, as_slice
 
 # Links that stand on the floor: their contact with it is not a collision.
@@ -25,17 +21,9 @@ ROBOT_CLEARANCE = 0.02
 # edge it holds rigidly, into the forearm: the flex contact then reported crushing forces of tens of MN as
 # cable tension.
 HARDWARE_LINK_GAP = 2
-# [m] a pair is skipped only when its lower bound clears the nearest distance found by this much: MuJoCo's convex
-# distances (GJK) are accurate to about its ccd_tolerance (1e-6 m by default), so the minimum is the one every
-# pair's exact query gives, whatever bounds order and prune the queries (one at a time or batched alike)
-BOUND_SLACK = 1e-5
-# A query hands its nearest pairs to the next one, which checks them one by one (the head); the other pairs wait
-# in a list sorted by bound, excluded together while the robot's displacements since allow (see _near_reference).
-HEAD_PAIRS = 4
-# more waiting pairs than this joining the head at once (a jump, not a step): every pair's bound is computed again
-JOIN_MAX = 8
-# pairs in the waiting list (the nearest after the head's): the others wait under the smallest bound among them
-WAITING_PAIRS = 32
+# Configurations on which the compiled kinematics must reproduce mj_kinematics to the last bit before a checker
+# uses it (random ones within the joint limits, and Home); otherwise its queries call mj_kinematics.
+KINEMATICS_CHECKS = 8
 
 
 _ONES3 = np.ones(3)
@@ -44,9 +32,11 @@ _ONES3 = np.ones(3)
 class RobotCollisionChecker:
     """``collides(q)`` and ``min_distance(q)`` for one robot of a station, with a safety ``margin`` [m].
 
-    Uses a private MjData (so it never disturbs a running simulation), ``mj_kinematics`` for the link poses,
-    lower bounds of every (robot geom, other geom) pair's distance, and MuJoCo's exact ``mj_geomDistance`` for
-    the pairs the bounds cannot exclude: the answer is the smallest exact pair distance, whatever the bounds.
+    Uses a private MjData (so it never disturbs a running simulation), posed by compiled kinematics that give
+    MuJoCo's poses to the last bit (checked on construction, else ``mj_kinematics``), lower bounds of every
+    (robot geom, other geom) pair's distance, and MuJoCo's exact ``mj_geomDistance`` for the pairs the bounds
+    cannot exclude: the answer is the smallest exact pair distance, whatever the bounds. The queries run in
+    compiled code (clearance_kernels), which calls MuJoCo's C functions directly.
     """
 
     def __init__(self, station: Station, robot: int = 0, margin: float = 0.0):
@@ -56,6 +46,8 @@ class RobotCollisionChecker:
         self.data = station.data_at_home()
         self.robot = station.robots[robot]
         self.margin = float(margin)
+        self._limits = station.config.robots[robot].robot.joint_limits
+        self._joints = (len(self.robot.qpos),)
         m = self.model
         floor = m.geom("floor").id if station.config.floor else -1
         exempt = {m.body(f"{self.robot.name}/{link}").id for link in FLOOR_EXEMPT_LINKS}
@@ -95,7 +87,7 @@ class RobotCollisionChecker:
         # tighter than sphere to sphere, so fewer exact distance queries are needed.
         self.box = ((m.geom_type[self.pairs[:, 1]] == mujoco.mjtGeom.mjGEOM_BOX) & (self.scale == 1.0)
                     if len(self.pairs) else np.zeros(0, bool))  # obstacles and parked robots only
-        # each pair's (geom, geom, extra, scale) as Python numbers, for the exact queries' loop
+        # each pair's (geom, geom, extra, scale) as Python numbers, for the tables below
         self._pair_rows = [(int(g), int(o), float(e), float(c))
                            for (g, o), e, c in zip(self.pairs, self.extra, self.scale)]
         # Robot geoms each joint moves: joint j moves the bodies of link j+1 .. link6.
@@ -103,9 +95,9 @@ class RobotCollisionChecker:
         self.joint_ids = [m.joint(f"{self.robot.name}/j{j + 1}").id for j in range(6)]
         self.moved_geoms = [self.robot.geom_ids[links >= j + 1] for j in range(6)]
         self._freeze_static_geometry()
-        # the last query's: (configuration, geom centres, every pair's bound) when it computed them all, else
-        # (configuration, geom centres, head, waiting, their decay); see _near_reference
-        self._reference = None
+        self._kernel_tables()
+        self._bind()
+        self._ints[kernels.H_FK, 0] = self._compiled_kinematics_match()
 
     def _freeze_static_geometry(self) -> None:
         """Precompute what every query shares. Only this robot's geoms move (the obstacles and the other robots,
@@ -153,11 +145,9 @@ class RobotCollisionChecker:
         # way (separating the two bounding spheres separates the geoms), but the queries treat every bound that is
         # not positive as none: one rule, and the penetrating configurations they meet are few.
 
-        # for the displacement bounds (_near_reference): each own geom's link and bounding radius
-        self._own_links = [int(link) for link in self.robot.geom_links]
-        self._own_radii = [float(self.rbound[g]) for g in own]
-        # each pair's (own row of each geom, -1 for static geometry; scale; relative reach; then _pair_rows)
-        links = dict(zip((int(g) for g in own), self._own_links))
+        # for the displacement bounds (see clearance_kernels.min_distance): each pair's (own row of each geom, -1
+        # for static geometry; scale; relative reach of two geoms of the robot; then _pair_rows)
+        links = {int(g): int(link) for g, link in zip(own, self.robot.geom_links)}
         anchors = d.xanchor[self.joint_ids]  # at Home: the distances read from them do not depend on the pose
         link_len = np.linalg.norm(np.diff(anchors, axis=0), axis=1)  # anchor j -> anchor j + 1
 
@@ -171,14 +161,133 @@ class RobotCollisionChecker:
 
         self._pair_walk = [(row[g], row.get(o, -1), scale, relative_reach(g, o) if o in row else None, g, o, extra)
                            for g, o, extra, scale in self._pair_rows]
-        # a pair of two moving geoms closes by at most scale x (both displacements): how many times one
-        # displacement bound the most any pair's bound can shrink
-        self._shrink = max([1.0] + [2.0 * scale for g, o, _, scale in self._pair_rows if o in row])
+
+    def _kernel_tables(self) -> None:
+        """The compiled queries' tables (clearance_kernels): the robot's geoms, every pair's bound as numbers, the
+        bodies the robot's joints move with their joints, geoms and sites, and the state a query hands the next."""
+        m, d = self.model, self.data
+        own = self._own_geoms
+        own_i = np.stack([own, self.robot.geom_links]).T.reshape(-1, 2)  # (geom, link)
+        own_f = self.rbound[own].reshape(-1, 1)
+        pair_i = np.zeros((len(self.pairs), 6), dtype=np.int64)
+        pair_f = np.zeros((len(self.pairs), kernels.P_FLOATS))
+        for k, (row_g, row_h, scale, relative, g, o, extra) in enumerate(self._pair_walk):
+            frame = d.geom_xmat[o]
+            if row_h >= 0:
+                kind = kernels.OWN
+                pair_i[k, kernels.P_LINK_A], pair_i[k, kernels.P_LINK_B] = relative[:2]
+                pair_f[k, kernels.P_REACH:kernels.P_REACH + len(relative[2])] = relative[2]
+            elif self.plane[k]:
+                kind = kernels.PLANE
+                pair_f[k, kernels.P_CENTRE] = frame.reshape(3, 3)[:, 2] @ d.geom_xpos[o]  # the plane's height
+            elif self.box[k]:
+                kind = kernels.BOX
+                pair_f[k, kernels.P_CENTRE:kernels.P_CENTRE + 3] = d.geom_xpos[o] @ frame.reshape(3, 3)
+                pair_f[k, kernels.P_SIZE:kernels.P_SIZE + 3] = m.geom_size[o]
+            else:
+                kind = kernels.CENTRE
+                pair_f[k, kernels.P_CENTRE:kernels.P_CENTRE + 3] = d.geom_xpos[o]
+            pair_i[k, :4] = row_g, o, row_h, kind
+            pair_f[k, :3] = scale, extra, self._bound_radii[k]
+            pair_f[k, kernels.P_FRAME:kernels.P_FRAME + 9] = frame
+        # the bodies to pose: those carrying the robot's geoms and their ancestors, where a joint moves them
+        chain = set()
+        for body in {int(m.geom_bodyid[g]) for g in own}:
+            while body:
+                chain.add(body)
+                body = int(m.body_parentid[body])
+
+        def moved_by_a_joint(body: int) -> bool:
+            return body != 0 and (m.body_jntnum[body] > 0 or moved_by_a_joint(int(m.body_parentid[body])))
+
+        bodies = sorted(b for b in chain if moved_by_a_joint(b))  # MuJoCo numbers parents before children
+        body_i, body_f, joint_i, joint_f = [], [], [], []
+        for b in bodies:
+            first = int(m.body_jntadr[b])
+            body_i.append([b, m.body_parentid[b], len(joint_i), m.body_jntnum[b], m.body_sameframe[b]])
+            body_f.append([*m.body_pos[b], *m.body_quat[b], *m.body_ipos[b], *m.body_iquat[b]])
+            for j in range(first, first + int(m.body_jntnum[b])):
+                joint_i.append([j, m.jnt_qposadr[j], m.jnt_type[j]])
+                joint_f.append([*m.jnt_axis[j], *m.jnt_pos[j], m.qpos0[m.jnt_qposadr[j]]])
+        item_i, item_f = [], []
+        for kind, count, body_of, pos, quat, sameframe in (
+                (0, m.ngeom, m.geom_bodyid, m.geom_pos, m.geom_quat, m.geom_sameframe),
+                (1, m.nsite, m.site_bodyid, m.site_pos, m.site_quat, m.site_sameframe)):
+            for k in range(count):
+                if int(body_of[k]) in bodies:
+                    item_i.append([kind, k, body_of[k], sameframe[k]])
+                    item_f.append([*pos[k], *quat[k]])
+        # the compiled kinematics covers hinges, slides and balls of bodies that are not mocap, without sleep
+        self._fk_supported = (all(int(m.jnt_type[j]) != mujoco.mjtJoint.mjJNT_FREE for j, *_ in joint_i)
+                              and all(m.body_mocapid[b] < 0 for b in bodies)
+                              and not m.opt.enableflags & mujoco.mjtEnableBit.mjENBL_SLEEP)
+        self._fk_rows = (body_i, joint_i, item_i)
+        self._ints, self._floats = kernels.pack(False, self.robot.qpos, (body_i, body_f), (joint_i, joint_f),
+                                                (item_i, item_f), (own_i, own_f), (pair_i, pair_f))
+        # what a query hands the next (the kernels' state): its q, its geom centres, its pairs' bounds
+        self._state = np.zeros(kernels.state_size(len(self.robot.qpos), len(own), len(self.pairs)))
+
+    def _bind(self) -> None:
+        """The addresses the kernels reach this checker's MjModel and MjData by (made again for a copy: see
+        __setstate__)."""
+        self._binding = kernels.binding(self.model, self.data)
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        del state["_binding"]
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._bind()
+
+    def _compiled_kinematics_match(self) -> bool:
+        """Whether the compiled kinematics pose this robot exactly as mj_kinematics does (every pose they write,
+        bit for bit) at Home and at KINEMATICS_CHECKS random configurations within the joint limits; the data is
+        left posed as it was."""
+        if not self._fk_supported:
+            return False
+        m, d = self.model, self.data
+        body_i, joint_i, item_i = (np.array(rows, dtype=int).reshape(-1, n) for rows, n in
+                                   zip(self._fk_rows, (kernels.K_INTS, kernels.J_INTS, kernels.I_INTS)))
+        bodies, joints = body_i[:, kernels.K_BODY], joint_i[:, kernels.J_ID]
+        geoms = item_i[item_i[:, kernels.I_SITE] == 0, kernels.I_ID]
+        sites = item_i[item_i[:, kernels.I_SITE] == 1, kernels.I_ID]
+
+        def poses() -> list[np.ndarray]:
+            return [d.xpos[bodies], d.xquat[bodies], d.xmat[bodies], d.xipos[bodies], d.ximat[bodies],
+                    d.xanchor[joints], d.xaxis[joints], d.geom_xpos[geoms], d.geom_xmat[geoms], d.site_xpos[sites],
+                    d.site_xmat[sites]]
+
+        saved = d.qpos.copy()
+        rng = np.random.default_rng(0)
+        qs = [saved[self.robot.qpos], *rng.uniform(self._limits[:, 0], self._limits[:, 1], size=(KINEMATICS_CHECKS, 6))]
+        ints = self._ints.copy()
+        ints[kernels.H_FK, 0] = 1
+        match = True
+        for q in qs:
+            kernels.pose(np.asarray(q, dtype=float), self._binding, ints, self._floats)
+            compiled = poses()
+            mujoco.mj_kinematics(m, d)
+            match &= all(np.array_equal(a, b) for a, b in zip(compiled, poses()))
+        d.qpos[:] = saved
+        mujoco.mj_kinematics(m, d)
+        return bool(match)
 
     def _kinematics(self, q) -> None:
-        """Pose the robot at ``q`` (MuJoCo kinematics of the private MjData)."""
-        self.data.qpos[self._qpos_index] = q
-        mujoco.mj_kinematics(self.model, self.data)
+        """Pose the robot at ``q`` (the compiled kinematics, or MuJoCo's, of the private MjData)."""
+        kernels.pose(self._configuration(q), self._binding, self._ints, self._floats)
+
+    def _configuration(self, q, rows: bool = False) -> np.ndarray:
+        """``q`` as the kernels read it: floats, one per robot joint (a row each when ``rows``); the kernels do not
+        check lengths, so this does."""
+        q = np.asarray(q, dtype=float)
+        if rows:
+            q = np.ascontiguousarray(np.atleast_2d(q))
+        if q.shape[-1:] != self._joints or q.ndim != 1 + rows:
+            raise ValueError(f"expected {'rows of ' if rows else ''}{self._joints[0]} joint values, got shape "
+                             f"{q.shape}")
+        return q
 
     def _bounds(self, pos: np.ndarray) -> np.ndarray:
         """Every pair's lower bound (B, pairs) with this robot's geom centres at ``pos`` (B, geoms, 3); a bound
@@ -214,155 +323,30 @@ class RobotCollisionChecker:
         return pos, mat, np.where(lb > 0.0, lb, -np.inf)
 
     def min_distances(self, qs) -> np.ndarray:
-        """:meth:`min_distance` of each configuration of ``qs`` (B, 6), the bounds computed in one batch; the
-        configuration posed last is the last one (as for :meth:`joint_reach`)."""
-        qs = np.atleast_2d(np.asarray(qs, dtype=float))
-        if len(self.pairs) == 0:
-            return np.full(len(qs), np.inf)
-        pos, mat, lbs = self._pose_batch(qs)
-        own = self._own_index
-        # every configuration's pairs by lower bound, sorted at once and read as Python numbers: the loop below
-        # is per exact query (what _nearest does per configuration, without its per-call array operations)
-        order = np.argsort(lbs, axis=1, kind="stable")
-        bounds = np.take_along_axis(lbs, order, axis=1).tolist()
-        order = order.tolist()
-        out = np.empty(len(qs))
-        for b in range(len(qs)):  # the exact queries read the geoms' poses: this configuration's
-            self.data.geom_xpos[own] = pos[b]
-            self.data.geom_xmat[own] = mat[b]
-            pairs, lb = order[b], bounds[b]
-            best = self._pair_distance(pairs[0], np.inf)
-            for k, bound in zip(pairs[1:], lb[1:]):
-                if bound >= best + BOUND_SLACK:  # sorted by lower bound: none of the rest can be nearer
-                    break
-                best = min(best, self._pair_distance(k, best + BOUND_SLACK))
-            out[b] = best
-        return out
+        """:meth:`min_distance` of each configuration of ``qs`` (B, 6), in one compiled loop; the configuration
+        posed last is the last one (as for :meth:`joint_reach`)."""
+        qs = self._configuration(qs, rows=True)
+        return kernels.min_distances(qs, self._binding, self._ints, self._floats, self._state)
 
     def min_distance(self, q) -> float:
         """Smallest robot-obstacle surface distance at configuration ``q`` (negative when penetrating); a
         hardware-to-own-link pair counts half its distance.
 
-        Consecutive queries are usually close (conservative advancement steps along a segment): a query first
-        tries the pairs the last query found nearest, each bound shrunk by how far the pair's geoms can have moved
-        since (:meth:`_near_reference`); only when that cannot exclude the other pairs (a jump rather than a step)
-        are every pair's bounds computed again. Either way the answer is the smallest exact pair distance."""
-        if len(self.pairs) == 0:
-            return np.inf
-        q = np.asarray(q, dtype=float)
-        self._kinematics(q)
-        if self._reference is not None:
-            best = self._near_reference(q)
-            if best is not None:
-                return best
-        lb = self._bounds(self.data.geom_xpos[self._own_index][None])[0]
-        best = self._nearest(lb)
-        self._remember(q, lb)
-        return best
+        Consecutive queries are usually close (conservative advancement steps along a segment): each pair's
+        bound is also the last query's bound (its exact distance, where it queried the pair) less how far the
+        pair's geoms can have moved since (clearance_kernels.min_distance), so few pairs need an exact query.
+        Either way the answer is the smallest exact pair distance."""
+        return float(kernels.min_distance(self._configuration(q), self._binding, self._ints, self._floats,
+                                          self._state))
 
-    def _nearest(self, lb: np.ndarray) -> float:
-        """The smallest exact pair distance, given every pair's lower bound at the posed configuration; the
-        bounds of the pairs queried are raised to their exact distances (in place)."""
-        first = int(lb.argmin())
-        best = lb[first] = self._pair_distance(first, np.inf)
-        # only pairs whose bound is below the nearest pair's distance can be nearer: usually a few of the
-        # hundreds, so they alone are sorted (and read as Python numbers: the loop is per exact query)
-        rest = (lb < max(best, 0.0) + BOUND_SLACK).nonzero()[0]
-        if len(rest) > 1:
-            rest = rest[np.argsort(lb[rest])]
-            for k, bound in zip(rest.tolist(), lb[rest].tolist()):
-                if bound >= max(best, 0.0) + BOUND_SLACK:  # sorted by lower bound: none of the rest can be nearer
-                    break
-                if k != first:
-                    exact = self._pair_distance(k, best + BOUND_SLACK)
-                    lb[k] = max(bound, exact)
-                    best = min(best, exact)
-        return float(best)
-
-    def _remember(self, q: np.ndarray, lb: np.ndarray) -> None:
-        """Make the posed configuration ``q`` the reference of the next query, given every pair's lower bound
-        (exact distances where queried); its lists are made when a query steps from it (see _lists)."""
-        self._reference = (q.tolist(), self.data.geom_xpos[self._own_index].tolist(), lb)
-
-    @staticmethod
-    def _lists(lb: np.ndarray) -> tuple[list, list, float]:
-        """A reference's pairs from their bounds: the HEAD_PAIRS nearest (the head), the next WAITING_PAIRS
-        waiting, sorted by bound, and the rest waiting together behind them, under the smallest bound among them;
-        the waiting bounds' decay so far (none)."""
-        kept = HEAD_PAIRS + WAITING_PAIRS
-        order = np.argsort(lb)
-        bounds = [b if b > 0.0 else -math.inf for b in lb[order[:kept + 1]].tolist()]  # not positive: no bound
-        pairs = list(zip(bounds, order[:kept].tolist()))
-        rest = (bounds[kept] if len(lb) > kept else math.inf, -1)  # pair -1: the rest; reaching it ends the walk
-        return pairs[:HEAD_PAIRS], pairs[HEAD_PAIRS:] + [rest], 0.0
-
-    def _near_reference(self, q: np.ndarray) -> float | None:
-        """The smallest exact pair distance at the posed configuration ``q``, from the last query's (the
-        reference's) pairs; None when too many pairs would need a look (every pair's bound is cheaper then).
-        The posed configuration becomes the reference.
-
-        A pair's distance is at least its bound at the reference less how far its geoms have moved since (each
-        point of a geom moves at most its centre's displacement plus the geom's turn times its bounding radius;
-        the turn of link L is at most the sum of |dq| over the joints before it; two geoms of the robot move
-        relative to each other only by the joints between them), when that is positive (a penetration depth is
-        not bounded so: such pairs are queried). The head's pairs are checked one by one: bound shrunk by their
-        geoms' displacements, or an exact query; the waiting ones share one decay, the largest displacement of
-        every step since the list was made, and join the head when that no longer excludes them. Python numbers
-        throughout: the work is a few dozen operations, which one numpy call each would multiply."""
-        ref_q, ref_pos, *lists = self._reference
-        head, waiting, decay = self._lists(*lists) if len(lists) == 1 else lists
-        q_list = q.tolist()
-        moved = list(map(abs, map(sub, q_list, ref_q)))
-        turn = list(accumulate(moved, initial=0.0))
-        pos = self.data.geom_xpos[self._own_index].tolist()
-        delta = list(map(add, map(math.dist, pos, ref_pos), map(mul, map(turn.__getitem__, self._own_links),
-                                                                self._own_radii)))
-        reach = self._shrink * max(delta)  # the most any pair's bound can have shrunk since the reference
-        prior, decay = decay, decay + reach
-        bound, first = head[0]
-        if len(waiting) > JOIN_MAX and waiting[JOIN_MAX][0] - decay < bound + reach:
-            return None  # most likely a jump: with the nearest pair as far as it may now be, too many would join
-        model, data, walk = self.model, self.data, self._pair_walk
-        _, _, scale, _, g, o, extra = walk[first]
-        best = (mujoco.mj_geomDistance(model, data, g, o, 10.0, None) - extra) * scale
-        limit = max(best, 0.0) + BOUND_SLACK
-        joining = 0
-        while waiting[joining][0] - decay < limit:  # the shared decay no longer excludes the pair
-            if joining == JOIN_MAX or waiting[joining][1] < 0:  # a jump, or the rest: every bound again
-                return None
-            joining += 1
-        joined = [(b - prior, k) for b, k in islice(waiting, joining)]  # their bounds at the last configuration
-        del waiting[:joining]
-        kept = [(best, first)]
-        for bound, k in chain(islice(head, 1, None), joined):
-            row_g, row_h, scale, relative, g, o, extra = walk[k]
-            if bound > 0.0:
-                if row_h < 0:
-                    low = bound - delta[row_g]
-                else:  # two geoms of the robot: what each moves, or what one moves relative to the other
-                    a, b, reaches = relative
-                    low = bound - scale * min(delta[row_g] + delta[row_h], sum(map(mul, reaches, moved[a:b])))
-                if low > 0.0 and low >= best + BOUND_SLACK:
-                    kept.append((low, k))
-                    continue
-            exact = (mujoco.mj_geomDistance(model, data, g, o, 10.0, None) - extra) * scale
-            kept.append((exact, k))
-            if exact < best:
-                best = exact
-        kept.sort()
-        for low, k in islice(kept, HEAD_PAIRS, None):  # the head's farthest wait again, with the bound they have
-            insort(waiting, (low + decay if low > 0.0 else -math.inf, k))
-        del kept[HEAD_PAIRS:]
-        self._reference = (q_list, pos, kept, waiting, decay)
-        return float(best)
-
-    def _pair_distance(self, k: int, cap: float) -> float:
-        """Pair k's exact distance (as :meth:`min_distance` counts it), or at least ``cap`` when farther. The cap
-        passed to MuJoCo is never negative: below zero it no longer bounds a penetration depth but cuts it short
-        (a query capped by an earlier pair's penetration returned a shallower depth than the pair's own)."""
-        g, o, extra, scale = self._pair_rows[k]
-        return (mujoco.mj_geomDistance(self.model, self.data, g, o, min(max(cap, 0.0) / scale + extra, 10.0),
-                                       None) - extra) * scale
+    def advance(self, q0, dq, reach_per_t: float, t: float = 0.0) -> tuple[bool, int]:
+        """Conservative advancement along ``q0 + t dq`` from ``t`` to 1 (MotionValidity's, see _advance there),
+        in one compiled loop: (whether it stays at least ``margin`` clear, the distance queries it made). Each
+        query is :meth:`min_distance`'s, so the steps and the answer are those of calling it step by step."""
+        clear, queries = kernels.advance(self._configuration(q0), self._configuration(dq),
+                                         float(reach_per_t), float(t), self.margin, self._binding, self._ints,
+                                         self._floats, self._state)
+        return bool(clear), int(queries)
 
     def joint_reach(self) -> np.ndarray:
         """For each joint, the largest distance of a robot geom surface it moves from its axis [m].
@@ -401,14 +385,8 @@ class RobotCollisionChecker:
 
     def collides(self, q) -> bool:
         """True if any robot geom is closer than ``margin`` to static geometry (stops at the first hit)."""
-        if len(self.pairs) == 0:
-            return False
-        lb = self._pose(q)[2]
-        for k in np.flatnonzero(lb < self.margin + BOUND_SLACK).tolist():  # pairs bounded farther can't touch
-            # capped 1 mm (in the pair's own units) beyond the margin: enough to decide, no farther
-            if self._pair_distance(k, self.margin + 1e-3 * self._pair_rows[k][3]) < self.margin:
-                return True
-        return False
+        return bool(kernels.collides(self._configuration(q), self.margin, self._binding, self._ints,
+                                     self._floats, self._state))
 
     def collides_batch(self, qs: np.ndarray) -> np.ndarray:
         return np.array([self.collides(q) for q in np.atleast_2d(qs)], dtype=bool)

@@ -15,9 +15,9 @@ from .station import LINK_INDEX, Station, node_frames
 MIN_MARGIN = 0.002  # [m] conservative advancement needs a positive clearance to make progress
 # [m] robot-station clearance the planners keep (and the policy's masks, so its paths pass the planners' check)
 PLANNER_MARGIN = 0.005
-# segments_clear batches a round only while more segments than this are still advancing: a round's array work
-# costs about what a few one-at-a-time queries do (dresspack bench collision)
-LOCKSTEP_MIN = 4
+# segments_clear makes the common first query of more segments than this once (fewer are checked one by one, as
+# segment_clear checks them)
+SHARED_START_MIN = 4
 # segments whose collision answers a MotionValidity keeps (a planner checks many again: 1,400 of the ompl-wear
 # plan's 6,300 on the default station); past this, the oldest are forgotten (about 250 bytes each)
 SEGMENT_MEMORY = 20_000
@@ -105,8 +105,18 @@ class MotionValidity:
         return known[0]
 
     def _advance(self, q0: np.ndarray, dq: np.ndarray, reach_per_t: float, t: float) -> bool:
-        """Conservative advancement along q0 + t dq from ``t`` to 1: True when it stays clear."""
-        margin, distance = self.checker.margin, self.checker.min_distance
+        """Conservative advancement along q0 + t dq from ``t`` to 1: True when it stays clear. From ``t``, query the
+        clearance d at q0 + t dq; fail if d < margin, succeed at t = 1, else step to t + (d - margin / 2) /
+        reach_per_t (capped at 1): the clearance stays above margin / 2 in between. Each query counts in
+        n_checks. With the checker's own queries the loop runs compiled (RobotCollisionChecker.advance); a
+        clearance function put in their place (a subclass's, or one set on the instance) is stepped here."""
+        checker = self.checker
+        distance = checker.min_distance
+        if getattr(distance, "__func__", None) is RobotCollisionChecker.min_distance:
+            clear, queries = checker.advance(q0, dq, reach_per_t, t)
+            self.n_checks += queries
+            return clear
+        margin = checker.margin
         while True:
             self.n_checks += 1
             d = distance(q0 + t * dq)
@@ -114,13 +124,13 @@ class MotionValidity:
                 return False
             if t >= 1.0 or reach_per_t == 0.0:
                 return True
-            t = min(1.0, t + (d - 0.5 * margin) / reach_per_t)  # clearance stays above margin / 2
+            t = min(1.0, t + (d - 0.5 * margin) / reach_per_t)
 
     def segments_clear(self, q0: np.ndarray, q1s: np.ndarray) -> np.ndarray:
         """:meth:`segment_clear` of each segment from ``q0`` to a row of ``q1s`` (the env's masks check dozens
-        from one configuration): the same advancement, run in lockstep so each round's distance queries are one
-        batch (:meth:`RobotCollisionChecker.min_distances`); every segment takes the steps, and gets the answer,
-        it would alone (tested). The last few go on alone, where one-at-a-time queries are cheaper than a round."""
+        from one configuration): the same advancement and answers, with the segments' common first query (q0's)
+        made once when there are more than SHARED_START_MIN of them (then q0 in collision answers all after one
+        query); each segment then goes on alone from its first step."""
         q0 = np.asarray(q0, dtype=float)
         dq = np.asarray(q1s, dtype=float) - q0
         chain = self.checker.chain_reach()
@@ -128,9 +138,9 @@ class MotionValidity:
         margin = self.checker.margin
         t = np.zeros(len(dq))
         clear = np.zeros(len(dq), dtype=bool)
-        if len(dq) > LOCKSTEP_MIN:  # every segment's first query is q0's: made once, the first round for all
+        if len(dq) > SHARED_START_MIN:  # every segment's first query is q0's: made once for all
             self.n_checks += 1
-            d0 = float(self.checker.min_distances(q0[None])[0])
+            d0 = self.checker.min_distance(q0)
             if d0 < margin:
                 return clear
             clear[reach_per_t == 0.0] = True
@@ -138,16 +148,7 @@ class MotionValidity:
             t[active] = np.minimum(1.0, (d0 - 0.5 * margin) / reach_per_t[active])
         else:
             active = np.arange(len(dq))
-        while len(active) > LOCKSTEP_MIN:
-            self.n_checks += len(active)
-            d = self.checker.min_distances(q0 + t[active, None] * dq[active])
-            free = d >= margin
-            done = free & ((t[active] >= 1.0) | (reach_per_t[active] == 0.0))
-            clear[active[done]] = True
-            going = free & ~done
-            active = active[going]
-            t[active] = np.minimum(1.0, t[active] + (d[going] - 0.5 * margin) / reach_per_t[active])
-        for k in active.tolist():  # the last few go on alone, each from where it stands
+        for k in active.tolist():
             clear[k] = self._advance(q0, dq[k], float(reach_per_t[k]), float(t[k]))
         return clear
 

@@ -147,9 +147,9 @@ def test_a_segment_checked_again_is_answered_from_memory_with_its_queries_counte
     q1 = q0 + np.array([0.6, -0.3, 0.2, 0.5, -0.4, 0.3])
     clear = validity.segment_clear(q0, q1)
     first = validity.n_checks
-    calls = []
-    real = validity.checker.min_distance
-    validity.checker.min_distance = lambda q: calls.append(q) or real(q)
+    calls = []  # the checker's advancements (each a compiled run of distance queries)
+    real = validity.checker.advance
+    validity.checker.advance = lambda *args: calls.append(args) or real(*args)
     assert validity.segment_clear(q0.copy(), list(q1)) == clear  # the same ends, as another array or a list
     assert calls == [] and validity.n_checks == 2 * first > 2
     validity.segment_clear(q1, q0)  # the other way is another segment
@@ -220,3 +220,93 @@ def test_a_pickled_motion_validity_answers_as_the_original():
     for q0, q1 in segments[150:]:
         assert copy.segment_clear(q0, q1) == validity.segment_clear(q0, q1)
         assert copy.checker.min_distance(q1) == validity.checker.min_distance(q1)
+
+
+@pytest.mark.parametrize("name, robot", [("default", 0), ("side_framing_4r", 0), ("side_framing_4r", 2),
+                                         ("thesis_tension", 0)])
+def test_the_compiled_kinematics_pose_the_robot_as_mj_kinematics_to_the_last_bit(name, robot):
+    """The checker poses its robot with compiled kinematics (it checked them on construction): every body, joint,
+    geom and site they write equals what MuJoCo's mj_kinematics writes, bit for bit, anywhere within the limits."""
+    from dresspack_gym.stations import clearance_kernels as kernels
+
+    station = Station(load_station(name))
+    checker = MotionValidity(station, robot, margin=PLANNER_MARGIN).checker
+    assert checker._ints[kernels.H_FK, 0] == 1  # the compiled kinematics are in use
+    m, d = checker.model, checker.data
+    body_i, joint_i, item_i = (np.array(rows).reshape(len(rows), -1) for rows in checker._fk_rows)
+    bodies, joints = body_i[:, kernels.K_BODY], joint_i[:, kernels.J_ID]
+    geoms = item_i[item_i[:, kernels.I_SITE] == 0, kernels.I_ID]
+    moving = checker.robot.geom_ids[checker.robot.geom_links > 0]  # the base stands still
+    assert set(moving.tolist()) <= set(geoms.tolist()) and len(bodies) >= 6
+
+    def poses():
+        return [a.copy() for a in (d.xpos[bodies], d.xquat[bodies], d.xmat[bodies], d.xipos[bodies],
+                                   d.ximat[bodies], d.xanchor[joints], d.xaxis[joints], d.geom_xpos[geoms],
+                                   d.geom_xmat[geoms])]
+
+    lim = station.config.robots[robot].robot.joint_limits
+    for q in np.random.default_rng(robot).uniform(lim[:, 0], lim[:, 1], size=(300, 6)):
+        checker._kinematics(q)
+        compiled = poses()
+        mujoco.mj_kinematics(m, d)
+        for a, b in zip(compiled, poses()):
+            np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("name, robot", [("default", 0), ("side_framing_4r", 2), ("thesis_tension", 0)])
+def test_distances_at_random_configurations_are_every_pairs_exact_minimum(name, robot):
+    """Jumps anywhere within the limits (each query far from the last) and the steps between them: one query at a
+    time, in a batch and as collides answers it, the smallest exact pair distance, to the last bit."""
+    station = Station(load_station(name))
+    checker = MotionValidity(station, robot, margin=PLANNER_MARGIN).checker
+    reference = Reference(station, robot, checker)
+    lim = station.config.robots[robot].robot.joint_limits
+    rng = np.random.default_rng(3)
+    jumps = rng.uniform(lim[:, 0], lim[:, 1], size=(150, 6))
+    qs = np.concatenate([jumps, jumps + rng.normal(0.0, 0.01, size=jumps.shape)])[np.argsort(np.tile(range(150), 2))]
+    exact = []
+    for q in qs:
+        reference.pose(q)
+        exact.append(exact_min_distance(reference.model, reference.data, reference.rows))
+    np.testing.assert_array_equal([checker.min_distance(q) for q in qs], exact)
+    np.testing.assert_array_equal(checker.min_distances(qs), exact)
+    np.testing.assert_array_equal([checker.collides(q) for q in qs], np.array(exact) < checker.margin)
+    assert (np.array(exact) < checker.margin).any() and (np.array(exact) > 0.05).any()
+
+
+def test_segment_valid_answers_as_the_reference_where_the_dresspack_can_tear():
+    """thesis_tension (a dresspack short enough to tear: segments check its slack too) over thousands of segments:
+    segment_valid is the sampled limits, restrictions and slack with the reference's collision answer, and takes the
+    reference's queries."""
+    station = Station(load_station("thesis_tension"))
+    validity = MotionValidity(station, 0, margin=PLANNER_MARGIN)
+    reference = Reference(station, 0, validity.checker)
+    assert validity._may_tear
+    answers, expected = [], []
+    for q0, q1 in random_segments(station, 0, 3000, seed=4):
+        before = validity.n_checks
+        answers.append((validity.segment_valid(q0, q1), validity.n_checks - before))
+        n = max(1, int(np.ceil(np.max(np.abs(q1 - q0)) / validity.resolution)))
+        qs = q0 + np.linspace(0.0, 1.0, n + 1)[1:, None] * (q1 - q0)
+        if not (validity.within_limits(qs).all() and validity.restrictions.allowed(qs).all()
+                and all(validity.cable_slack(q) >= 0.0 for q in qs)):
+            expected.append((False, 0))
+        else:
+            expected.append(reference.segment_clear(q0, q1))
+    assert len(answers) == len(expected) and all(a == e for a, e in zip(answers, expected))
+    assert 0.1 < np.mean([ok for ok, _ in answers]) < 0.95 and sum(k > 2 for _, k in answers) > 300
+
+
+def test_a_clearance_function_set_on_the_checker_is_what_the_advancement_queries():
+    """The advancement runs compiled with the checker's own queries; a clearance function set in their place (a
+    wrapper here) is stepped in Python, query for query the same answers and counts."""
+    station = Station(load_station("default"))
+    compiled = MotionValidity(station, 0, margin=PLANNER_MARGIN)
+    stepped = MotionValidity(station, 0, margin=PLANNER_MARGIN)
+    calls = []
+    real = stepped.checker.min_distance
+    stepped.checker.min_distance = lambda q: calls.append(q) or real(q)
+    segments = random_segments(station, 0, 200, seed=9)
+    assert [compiled.segment_clear(q0, q1) for q0, q1 in segments] == [stepped.segment_clear(q0, q1)
+                                                                        for q0, q1 in segments]
+    assert compiled.n_checks == stepped.n_checks and len(calls) > 200
