@@ -106,7 +106,7 @@ class LegCost:
         self._cache: dict[bytes, tuple[float, np.ndarray, dict]] = {}
         self.jobs = check_jobs(jobs)
         self._ahead: dict = {}  # key -> a worker's simulation of that leg, started by prefetch
-        self._workers = LegWorkers(station.config, self.settings, self.jobs) if self.jobs > 1 else None
+        self._workers = LegWorkers(LegCost, station.config, self.settings, self.jobs) if self.jobs > 1 else None
 
     def reset(self) -> None:
         """Forget the cache and the counters (once per plan, so a plan never depends on an earlier one)."""

@@ -29,17 +29,17 @@ class Pending:
 
 
 class LegWorkers:
-    """``jobs`` processes, each with its own station and leg cost (``settings``: LegCost's keyword arguments), that
+    """``jobs`` processes, each with its own station and leg cost (``leg_cost(Station(config), **settings)``), that
     simulate legs from given cable states. A leg's simulation is a function of its start state alone (the
     simulators' whole state is in it), so a worker's answer is the one the planner's own simulator would give."""
 
-    def __init__(self, config, settings: dict, jobs: int):
+    def __init__(self, leg_cost: type, config, settings: dict, jobs: int):
         context = multiprocessing.get_context("spawn")  # no inherited MuJoCo or OMPL state in the workers
         # the workers start with Ctrl-C ignored, as the evaluation's: the planner's process handles it
         main = threading.current_thread() is threading.main_thread()
         ctrl_c = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
         try:
-            self._pool = context.Pool(jobs, initializer=_init, initargs=(config, settings))
+            self._pool = context.Pool(jobs, initializer=_init, initargs=(leg_cost, config, settings))
         finally:
             if main:
                 signal.signal(signal.SIGINT, ctrl_c)
@@ -57,21 +57,19 @@ class LegWorkers:
 _WORKER: dict = {}  # a worker's arguments, then its LegCost (built by its first task)
 
 
-def _init(config, settings: dict) -> None:
+def _init(leg_cost: type, config, settings: dict) -> None:
     """Ctrl-C is the parent's. Nothing that can fail runs here: a failing initializer makes the pool start workers
     forever."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _WORKER["args"] = (config, settings)
+    _WORKER["args"] = (leg_cost, config, settings)
 
 
 def _leg_cost():
     if "cost" not in _WORKER:
         from dresspack_gym.stations.station import Station
 
-        from .leg_cost import LegCost
-
-        config, settings = _WORKER["args"]
-        _WORKER["cost"] = LegCost(Station(config), **settings)
+        leg_cost, config, settings = _WORKER["args"]
+        _WORKER["cost"] = leg_cost(Station(config), **settings)
     return _WORKER["cost"]
 
 

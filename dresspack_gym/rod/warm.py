@@ -1,4 +1,5 @@
-"""Compile every kernel of the rod engine once into numba's disk cache: ``python -m dresspack_gym.rod.warm``.
+"""Compile every kernel of the rod engine (and the robot collision checks') once into numba's disk cache:
+``python -m dresspack_gym.rod.warm``.
 
 The setup script runs it, so that the first simulation, and the test workers, load compiled code instead of each
 compiling it (about a minute on 2 cores). Caches compiled from other sources of the engine are cleared first."""
@@ -45,6 +46,7 @@ def compile_all() -> float:
     from ..io.loading import load_station
     from ..physics.trajectory import Trajectory, replay
     from ..stations.station import Station
+    from ..stations.validity import MotionValidity
     from .contact.warm import compile_kernels
     from .simulator import RodSimulator
 
@@ -57,6 +59,10 @@ def compile_all() -> float:
     via = home + np.radians([10.0, 5.0, -5.0, 20.0, 10.0, -20.0])
     replay(sim, Trajectory(np.stack([home, via, home]), stops=(2,)))  # motion steps, segment states, damage
     sim.hold(0.1)
+    # the robot collision checks' kernels (stations/clearance_kernels.py), which every planner and mask calls
+    validity = MotionValidity(station, 0)
+    validity.segment_valid(home, via)
+    validity.checker.min_distances(np.stack([home, via]))
     return time.perf_counter() - start
 
 

@@ -47,8 +47,8 @@ def test_a_fast_map_records_its_engine_and_refuses_another(tmp_path, capsys):
     assert main(ARGS + ["--out", str(out), "--limit", "1", "--physics", "dynamic", "--no-cable-robot-contact"]) == 2
     error = json.loads(capsys.readouterr().out)
     assert error["field"] == "engine" and "'fast'" in error["error"] and "--physics dynamic" in error["error"]
-    # ... and so is resuming with cable-robot contact on (the default; the map was made with it off)
-    assert main(ARGS + ["--out", str(out), "--limit", "1"]) == 2
+    # ... and so is resuming with cable-robot contact on (the map was made with it off)
+    assert main(ARGS + ["--out", str(out), "--limit", "1", "--physics", "fast", "--cable-robot-contact"]) == 2
     error = json.loads(capsys.readouterr().out)
     assert error["field"] == "cable_robot_contact" and "--no-cable-robot-contact" in error["error"]
     # ... and so is the other way round (through the API)
@@ -65,16 +65,16 @@ def test_a_fast_map_records_its_engine_and_refuses_another(tmp_path, capsys):
                 progress=False)
 
 
-def test_maps_default_to_the_fast_engine_with_cable_robot_contact(tmp_path):
+def test_maps_default_to_mujoco_with_the_cable_alone(tmp_path):
     from dresspack_gym.physics.profiles import DEFAULT_ENGINE
 
     settings = RobustnessSettings()
-    assert settings.engine == DEFAULT_ENGINE == "fast" and settings.cable_robot_contact
+    assert settings.engine == DEFAULT_ENGINE == "dynamic" and not settings.cable_robot_contact
     from dresspack_gym.cli.main import build_parser
 
     args = build_parser().parse_args(["robustness-map", "--grid", "small", "--station", "default", "--out",
                                       str(tmp_path)])
-    assert args.physics == "fast" and args.cable_robot_contact is None  # None: the settings' default (on)
+    assert args.physics == "dynamic" and args.cable_robot_contact is None  # None: the settings' default (off)
 
 
 def test_mujoco_maps_made_before_engines_keep_their_fingerprint():

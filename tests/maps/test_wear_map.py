@@ -273,7 +273,7 @@ def test_wear_map_command_builds_a_loadable_map_and_names_bad_input(tmp_path, ca
     out = tmp_path / "m.npz"
     assert main(["wear-map", "--station", "default", "--samples", "8", "--out", str(out), "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
-    assert info["settled"] == 8 and info["path"] == str(out) and info["engine"] == "fast"
+    assert info["settled"] == 8 and info["path"] == str(out) and info["engine"] == "dynamic"
     assert main(["wear-map", "--station", "default", "--samples", "2", "--out", str(tmp_path / "mujoco.npz"),
                  "--physics", "dynamic", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["engine"] == "dynamic"
