@@ -15,7 +15,7 @@ ENGINES = ("dynamic", "fast")
 # The engine that plans and judges motions unless a command is told otherwise (--physics): MuJoCo. The rod engine
 # ranks random weld cycles by wear as MuJoCo does (Spearman rho 0.99-1.00 on three stations) at 3.5x the speed, but
 # ompl-wear planning on it finds routes whose cable MuJoCo bends past the curvature threshold for a second at a bent
-# wrist where the rod engine's does not: judged on MuJoCo they cost 1.20x the plans made on MuJoCo (18 drawn welds),
+# wrist where the rod engine's does not: judged on MuJoCo they cost 1.11x the plans made on MuJoCo (30 drawn welds),
 # while MuJoCo's plans cost the same as its own on the rod engine (docs/rod_engine.md, "Plans made on each engine").
 DEFAULT_ENGINE = "dynamic"
 ENGINE_TITLES = {"dynamic": "MuJoCo dynamic simulation", "fast": "quasi-static rod engine"}
