@@ -29,7 +29,9 @@ def _plan(station, planner: str, jobs: int):
     return result.trajectory.waypoints, json.dumps(result.info, sort_keys=True, default=str)
 
 
-@pytest.mark.parametrize("planner", ["ompl-wear", "thesis-local"])
+# ompl-wear's plan (its candidate routes in batches) takes about a minute: the slow tier; the bound arithmetic of a
+# batch is the next test's
+@pytest.mark.parametrize("planner", [pytest.param("ompl-wear", marks=pytest.mark.slow), "thesis-local"])
 def test_a_plan_on_two_workers_is_the_plan_of_one_process(tension, planner):
     station, _ = tension
     one, two = _plan(station, planner, 1), _plan(station, planner, 2)

@@ -25,6 +25,7 @@ class FakeCost:
 
     def __init__(self):
         self.queries = 0
+        self.jobs = 1  # LegCost's: legs simulated one at a time
 
     def cost(self, state, leg, bound=float("inf")):
         j, end, summary = self._cost(state, leg)
@@ -129,7 +130,7 @@ class _DistanceCost:
     """A leg cost that rewards wandering far from the straight line (what would add turns if moves were free)."""
 
     def __init__(self):
-        self.queries = 0
+        self.queries, self.jobs = 0, 1
 
     def cost(self, state, leg, bound=None):  # J itself above the bound too: what a bound saves is only time
         self.queries += 1
@@ -175,7 +176,7 @@ class _TravelCost:
     """A leg cost that charges every joint's travel (what a turn adds), or with ``detours`` pays for it."""
 
     def __init__(self, detours=False):
-        self.queries, self.sign = 0, -1.0 if detours else 1.0
+        self.queries, self.sign, self.jobs = 0, -1.0 if detours else 1.0, 1
 
     def cost(self, state, leg, bound=None):
         self.queries += 1

@@ -101,8 +101,8 @@ def test_bench_restrictions_json(capsys):
 def test_bench_collision_json(capsys):
     assert main(["bench", "collision", "--json", "--repeats", "1"]) == 0
     out = json.loads(capsys.readouterr().out)
-    # a query poses the robot (one kinematics pass) and then does more: its cost is a ratio above 1
+    # a compiled query poses only this robot's bodies, so it may cost less than MuJoCo's whole kinematics pass: the
+    # ratios are timings, which a loaded machine can swap, so only their being measured is checked
     assert out["pairs"] > 0 and out["kinematics_us"] > 0
-    # (each is tens of kinematics passes; how the two compare is timing, which a loaded machine can swap)
-    assert out["pose_and_bounds_vs_kinematics"] > 1.0 and out["min_distance_vs_kinematics"] > 1.0
+    assert out["pose_and_bounds_vs_kinematics"] > 0.0 and out["min_distance_vs_kinematics"] > 0.0
     assert 0.0 < out["collides_fraction"] < 1.0
