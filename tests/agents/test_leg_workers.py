@@ -5,10 +5,10 @@ import math
 
 import numpy as np
 import pytest
-
 from dresspack.agents.planners.leg_cost import LegCost
 from dresspack.agents.planners.leg_workers import check_jobs
 from dresspack.agents.planners.registry import make_planner
+
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.io.loading import load_station
 from dresspack_gym.stations.collision import RobotCollisionChecker
