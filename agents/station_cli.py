@@ -8,7 +8,16 @@ import shlex
 import sys
 from pathlib import Path
 
-from dresspack_gym.cli.args import add_station_argument, number, output_dir, seed
+from dresspack_gym.cli.args import (
+    ALL_CORES,
+    MAX_JOBS,
+    Renamed,
+    add_physics_argument,
+    add_station_argument,
+    number,
+    output_dir,
+    seed,
+)
 from dresspack_gym.physics.wear_cost import COST_VARIANTS
 
 from .planners.budget import DEFAULT_ITERATIONS, MAX_WORK
@@ -70,8 +79,13 @@ def add_station_plan_command(sub) -> None:
                    help="wear and balanced objectives: plan every robot's moves between its Home and weld options "
                         "before solving, so the solver knows every leg (slower: on side_framing_4r 1,722 legs, "
                         "cached in OUT/planned_legs.jsonl for a later run; the time objective plans lazily anyway)")
-    p.add_argument("--leg-workers", type=number(1, 64, integer=True), default=2,
-                   help="processes planning the legs up front (default 2; the legs do not depend on it)")
+    add_physics_argument(p, "costs the weld options, runs the legs and replays the plans on (fast: no contact "
+                            "between two robots' cables)")
+    p.add_argument("--jobs", "--leg-workers", action=Renamed, type=number(1, MAX_JOBS, integer=True),
+                   default=ALL_CORES,
+                   help="processes costing the weld options, checking the straight moves, planning the legs and "
+                        f"running them with their cables; the plans do not depend on it (default {ALL_CORES}: all "
+                        "cores)")
     p.add_argument("--cost-variant", choices=list(COST_VARIANTS), default="thesis",
                    help="wear cost the options, the wear objective and the replays use (default: %(default)s)")
     p.add_argument("--seed", type=seed, default=0, help="seed of the solver and the leg planners (default %(default)s)")
@@ -129,45 +143,57 @@ def _config(args, objective: str):
                              fly_by=not args.stop_at_via_points, pair_solves=args.pair_solves,
                              bound_work=args.bound_work, costed_options=args.costed_options,
                              kept_options=args.kept_options, legs_up_front=args.legs_up_front,
-                             leg_workers=args.leg_workers, welds=tuple(args.welds) if args.welds else None)
+                             physics=args.physics, jobs=args.jobs, welds=tuple(args.welds) if args.welds else None)
 
 
 def _plan_objectives(args, station, configs, out: Path, bar) -> dict:
     """Each objective planned (one planner: costs and legs shared), saved and drawn as it finishes."""
-    from .stations import StationPlanner, save_plan
-    from .stations.report import plot_plan
+    from .stations import StationPlanner
 
     plans = {}
     planner = None
-    for cfg in configs:
-        # one planner object: settled-cable costs and planned legs are shared between the objectives
-        planner = StationPlanner(station, cfg, progress=bar) if planner is None else planner.reconfigured(cfg)
-        plan = planner.plan(cache=out / "option_costs.json", leg_cache=out / "planned_legs.jsonl")
-        if not args.no_replay and plan.replay is None:
-            planner.replay(plan)
-        folder = out / cfg.objective
-        save_plan(plan, folder)
-        plot_plan(station, plan, folder)
-        plans[cfg.objective] = plan
-        if not args.json:
-            s = plan.summary()
-            line = (f"{cfg.objective}: makespan {s['makespan']:.1f} s (lower bound {s['makespan_lower_bound']:.1f} s), "
-                    f"waits {s['total_wait']:.1f} s, robot-robot collisions {s['verification']['collisions']}")
-            if plan.replay is not None:
-                line += f", integrated wear {s['replay']['cost']:.4g}"
-                if not s["replay"]["start_settled"]:
-                    line += (f" -- the cables' start at Home is not settled (force residual "
-                             f"{s['replay']['start_force_residual']:.3g} of a vertex weight)")
-                if s["replay"]["jammed"]:
-                    line += f" -- JAMMED cable(s) {', '.join(s['replay']['jammed'])}: pulled beyond 5 % strain " \
-                            "(pinned by a robot); the wear figure is not meaningful"
-            if s["info"].get("rerouted_legs"):
-                line += f" -- {len(s['info']['rerouted_legs'])} leg(s) re-routed or blocked after jamming a cable"
-            if s["info"]["unconverged_cost_settles"]:
-                line += (f" -- wear estimates of {', '.join(s['info']['unconverged_cost_settles'])} come from "
-                         "settles that did not reach equilibrium")
-            print(line)
+    try:
+        for cfg in configs:
+            # one planner object: settled-cable costs and planned legs are shared between the objectives
+            planner = StationPlanner(station, cfg, progress=bar) if planner is None else planner.reconfigured(cfg)
+            plans[cfg.objective] = _plan_objective(args, station, planner, out)
+    finally:
+        if planner is not None:
+            planner.close()  # the worker processes, also after Ctrl-C
     return plans
+
+
+def _plan_objective(args, station, planner, out: Path):
+    """The objective of ``planner``'s config planned, replayed, saved and drawn, and its line printed."""
+    from .stations import save_plan
+    from .stations.report import ENGINE_NOTES, plot_plan
+
+    cfg = planner.config
+    plan = planner.plan(cache=out / "option_costs.json", leg_cache=out / "planned_legs.jsonl")
+    if not args.no_replay and plan.replay is None:
+        planner.replay(plan)
+    folder = out / cfg.objective
+    save_plan(plan, folder)
+    plot_plan(station, plan, folder)
+    if not args.json:
+        s = plan.summary()
+        line = (f"{cfg.objective}: makespan {s['makespan']:.1f} s (lower bound {s['makespan_lower_bound']:.1f} s), "
+                f"waits {s['total_wait']:.1f} s, robot-robot collisions {s['verification']['collisions']}")
+        if plan.replay is not None:
+            line += f", integrated wear {s['replay']['cost']:.4g} ({ENGINE_NOTES[s['replay']['engine']]})"
+            if not s["replay"]["start_settled"]:
+                line += (f" -- the cables' start at Home is not settled (force residual "
+                         f"{s['replay']['start_force_residual']:.3g} of a vertex weight)")
+            if s["replay"]["jammed"]:
+                line += f" -- JAMMED cable(s) {', '.join(s['replay']['jammed'])}: pulled beyond 5 % strain " \
+                        "(pinned by a robot); the wear figure is not meaningful"
+        if s["info"].get("rerouted_legs"):
+            line += f" -- {len(s['info']['rerouted_legs'])} leg(s) re-routed or blocked after jamming a cable"
+        if s["info"]["unconverged_cost_settles"]:
+            line += (f" -- wear estimates of {', '.join(s['info']['unconverged_cost_settles'])} come from "
+                     "settles that did not reach equilibrium")
+        print(line)
+    return plan
 
 
 def _saved(out: Path, objectives: list[str]) -> str:

@@ -169,14 +169,15 @@ def compare_plans_and_report(args) -> int:
     say = None if args.json else (lambda msg: print(msg, flush=True))
     try:  # the comparison is written only when every plan is replayed: a refused one leaves no folder behind
         with output_folder(args.out, keep_on_interrupt=False) as out:
-            rows = compare_station_plans(args.station_plans, args.station, out, args.cost_variant, progress=say)
+            rows = compare_station_plans(args.station_plans, args.station, out, args.cost_variant, progress=say,
+                                         engine=args.physics)
     except DresspackError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     if args.json:
         print(json.dumps(rows, indent=2))
     else:
-        print(station_table(rows, args.station, args.cost_variant))
+        print(station_table(rows, args.station, args.cost_variant, args.physics))
         print(f"\nwrote {Path(args.out).resolve()}/station_comparison.md (.json, .csv) and station_wear.png")
     return 0 if all(r["collisions"] == 0 and not r["jammed"] for r in rows) else 1
 
@@ -193,6 +194,7 @@ def add_eval_command(sub) -> None:
                    help="instead of planners: plan folders written by `dresspack station-plan` (e.g. "
                         "station_plans/time station_plans/wear), each replayed on --station and measured alike; "
                         "the first is the reference of the relative columns (default: none)")
+    add_physics_argument(p, "replays the --station-plans on (fast: no contact between two robots' cables)")
     p.set_defaults(func=cmd_eval)
 
 

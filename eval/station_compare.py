@@ -1,7 +1,8 @@
 """``dresspack eval --station-plans``: station plans (e.g. time-only against wear-aware) compared like single-robot
 methods: each plan replayed in the same cable simulator, checked by the same dense collision check and measured the
 same way (makespan, ∫C dt, peak measures, smoothness), into one table, a JSON/CSV and a picture of the wear over the
-cycle.
+cycle. The cables run on one engine (physics.profiles.ENGINES, ``--physics``); the rod engine (fast) has no contact
+between two robots' cables, so a plan whose cables meet reads better on it than on MuJoCo (dynamic).
 
     dresspack eval --station-plans station_plans/time station_plans/wear --station side_framing_4r --out out/plans
 """
@@ -19,7 +20,7 @@ from dresspack_gym.io.loading import load_station
 from dresspack_gym.multi.coordination import verify
 from dresspack_gym.multi.replay import replay_station
 from dresspack_gym.multi.schedule import load_schedule
-from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.profiles import DEFAULT_ENGINE, ENGINE_TITLES, make_simulator
 from dresspack_gym.physics.trajectory import schedule_smoothness
 from dresspack_gym.stations.station import Station
 
@@ -27,15 +28,18 @@ COLUMNS = ("plan", "makespan", "waits", "cost", "max_curvature", "max_tension", 
            "samples", "min_robot_distance", "reversals_per_s", "peak_joint_acceleration", "jammed", "start_settled")
 
 
-def station_plan_row(name: str, folder: Path, station: Station, cost_variant: str = "thesis") -> tuple[dict, object]:
-    """One plan folder replayed and measured: (its row, its replay)."""
+def station_plan_row(name: str, folder: Path, station: Station, cost_variant: str = "thesis",
+                     engine: str = DEFAULT_ENGINE) -> tuple[dict, object]:
+    """One plan folder replayed on ``engine`` and measured: (its row, its replay)."""
     schedule, _ = load_schedule(folder, station)
-    replay = replay_station(CableSimulator(station), schedule, record_every=RECORD_EVERY, cost_variant=cost_variant)
+    replay = replay_station(make_simulator(station, engine), schedule, record_every=RECORD_EVERY,
+                            cost_variant=cost_variant)
     check = verify(station, schedule)
     names = [r.name for r in station.config.robots]
     per = replay.integrated_cost()
     moving = [schedule_smoothness(s) for s in schedule.robots if s.welds]
-    row = {"plan": name, "folder": str(folder), "makespan": schedule.makespan, "waits": max(0.0, schedule.total_wait()),
+    row = {"plan": name, "folder": str(folder), "engine": replay.engine, "makespan": schedule.makespan,
+           "waits": max(0.0, schedule.total_wait()),
            "cost": float(per.sum()),
            "max_curvature": float(replay.measures["curvature"].max()),
            "max_tension": float(replay.measures["tension"].max()),
@@ -54,9 +58,9 @@ def station_plan_row(name: str, folder: Path, station: Station, cost_variant: st
 
 
 def compare_station_plans(folders: list[Path], station_ref: str, out: Path, cost_variant: str = "thesis",
-                          progress=None) -> list[dict]:
-    """Replay and measure every plan folder (named by its folder), write ``station_comparison.md``, ``.json``,
-    ``.csv`` and ``station_wear.png`` under ``out``; the rows."""
+                          progress=None, engine: str = DEFAULT_ENGINE) -> list[dict]:
+    """Replay every plan folder (named by its folder) on ``engine`` and measure it, write ``station_comparison.md``,
+    ``.json``, ``.csv`` and ``station_wear.png`` under ``out``; the rows."""
     station = Station(load_station(station_ref))
     out.mkdir(parents=True, exist_ok=True)
     names = _plan_names(folders)
@@ -64,7 +68,7 @@ def compare_station_plans(folders: list[Path], station_ref: str, out: Path, cost
     for name, folder in zip(names, folders):
         if progress is not None:
             progress(f"replaying {folder}")
-        row, replay = station_plan_row(name, Path(folder), station, cost_variant)
+        row, replay = station_plan_row(name, Path(folder), station, cost_variant, engine)
         rows.append(row)
         replays.append(replay)
     (out / "station_comparison.json").write_text(json.dumps(rows, indent=1))
@@ -73,15 +77,18 @@ def compare_station_plans(folders: list[Path], station_ref: str, out: Path, cost
         w.writerow(COLUMNS)
         for r in rows:
             w.writerow([", ".join(r[c]) if isinstance(r[c], list) else r[c] for c in COLUMNS])
-    (out / "station_comparison.md").write_text(station_table(rows, station.config.name, cost_variant) + "\n")
+    (out / "station_comparison.md").write_text(station_table(rows, station.config.name, cost_variant, engine) + "\n")
     _plot_wear(rows, replays, out / "station_wear.png", station.config.name)
     return rows
 
 
-def station_table(rows: list[dict], station_name: str = "", cost_variant: str = "thesis") -> str:
+def station_table(rows: list[dict], station_name: str = "", cost_variant: str = "thesis",
+                  engine: str = DEFAULT_ENGINE) -> str:
     """The comparison as a markdown table (the first plan is the reference of the relative columns)."""
     ref = rows[0]
-    lines = [f"# Station plans compared: {station_name} (cost: {cost_variant})", "",
+    limit = " (no contact between two robots' cables)" if engine == "fast" else ""
+    lines = [f"# Station plans compared: {station_name} (cost: {cost_variant}; cables: {ENGINE_TITLES[engine]}{limit})",
+             "",
              ("| plan | makespan [s] | waits [s] | ∫C dt | vs first | max κ [1/m] | max F [N] | min clearance [m] | "
               "robot-robot collisions | min robot distance [mm] | reversals/s | peak q̈ [rad/s²] | jammed |"),
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from dresspack_gym.errors import ConfigError
 from dresspack_gym.fields import check_choice, check_integer, check_number
 from dresspack_gym.multi.tasks import DEFAULT_WELD_TIME
+from dresspack_gym.physics.profiles import DEFAULT_ENGINE, ENGINES
 from dresspack_gym.physics.wear_cost import cost_function
 
 from ..planners.budget import DEFAULT_ITERATIONS
@@ -63,12 +64,17 @@ class StationPlanConfig:
     # like a path: stations/fast_routes.curve_valid), else stop at each; False: every leg stops at each
     fly_by: bool = True
     # the wear and balanced objectives: every robot's moves between its Home and options planned before the rounds
-    # (LegBook.plan_every_move, in ``leg_workers`` processes), so their solver times every move exactly and chooses
+    # (LegBook.plan_every_move), so their solver times every move exactly and chooses
     # among legs it knows (side_framing_4r's wear plan: 3,852 against 4,021). The time objective plans its legs
     # lazily whatever this says: with every move exact its answers packed the robots tighter than coordination could
     # keep (36.1 s against 24.7 s)
     legs_up_front: bool = False
-    leg_workers: int = 2
+    # the cable engine of every simulation of the plan: option costs, leg runs, the station replay and its jams
+    # (physics.profiles.ENGINES; the rod engine has no contact between two robots' cables)
+    physics: str = DEFAULT_ENGINE
+    # processes settling the options' cables, checking straight moves, planning legs and running them with their
+    # cables (1: in this process). A plan does not depend on it: each of those results depends only on its inputs
+    jobs: int = 1
 
     def __post_init__(self):
         check_choice("objective", self.objective, OBJECTIVES)
@@ -88,7 +94,8 @@ class StationPlanConfig:
         check_integer(self.pair_solves, "pair_solves", lo=0, hi=10_000)
         check_number(self.bound_work, "bound_work", lo=0.0, lo_open=True, hi=1e6)
         check_integer(self.cable_repairs, "cable_repairs", lo=0, hi=100)
-        check_integer(self.leg_workers, "leg_workers", lo=1, hi=64)
+        check_choice("physics", self.physics, ENGINES)
+        check_integer(self.jobs, "jobs", lo=1, hi=64)
         check_number(self.makespan_slack, "makespan_slack", lo=0.0, hi=10.0)
         check_integer(self.seed, "seed", lo=0, hi=2 ** 32 - 1)
         cost_function(self.cost_variant)

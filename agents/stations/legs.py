@@ -1,5 +1,6 @@
 """Leg planning: each robot's collision-free legs between its Home and weld options (straight where valid, else
-its leg planner; cached), their timed motions, and their cable runs with the robot alone."""
+its leg planner; cached), their timed motions, and their cable runs with the robot alone (in worker processes
+where a batch of them is known ahead: :meth:`LegBook.prefetch`)."""
 
 from __future__ import annotations
 
@@ -41,9 +42,10 @@ class LegBook:
     (what was re-routed, and why) belong to one plan."""
 
     def __init__(self, leg_planners: list, limits: list[time_law.JointLimits], fly_by: bool, costs: OptionCosts,
-                 settings: tuple):
+                 settings: tuple, workers=None):
         self.planners, self.limits, self.fly_by, self.costs = leg_planners, limits, fly_by, costs
         self.settings = settings  # (station config, leg planner class, iterations, seed): what a leg depends on
+        self.workers = workers  # a StationWorkers (prefetch, check_straight_moves), or None: all in this process
         self.paths: dict[tuple, np.ndarray | None] = {}
         self.motions: dict[tuple, time_law.PathMotion] = {}  # by robot and waypoints: each leg's timed motion
         self.runs: dict[tuple, LegRun] = {}  # by robot, waypoints and weld time: depends on nothing else
@@ -68,6 +70,32 @@ class LegBook:
         if key not in self.paths:
             self.paths[key] = plan_leg(self.planners[robot], robot, qs[i], qs[j])
         return self.paths[key]
+
+    def prefetch(self, moves: list[tuple[int, int, int, float]], qs: np.ndarray) -> None:
+        """The paths, motions and cable runs :meth:`leg` and :meth:`run` will be asked for on ``moves`` (robot,
+        from node, to node, weld time at the end), computed ahead in the worker processes (nothing without
+        parallel workers). Only the caches are filled, with what this process would compute itself: which legs the
+        plan knows, and the re-routes, stay with the calls that ask for them."""
+        if self.workers is None or not self.workers.parallel:
+            return
+        wanted = {}
+        for r, i, j, _ in moves:
+            key = move_key(r, qs[i], qs[j])
+            if key not in self.rerouted and key not in self.paths:
+                wanted.setdefault(key, (r, qs[i], qs[j]))
+        for key, path in zip(wanted, self.workers.map("leg", list(wanted.values()))):
+            self.paths[key] = path
+        runs = {}
+        for r, i, j, weld in moves:
+            key = move_key(r, qs[i], qs[j])
+            leg = self.rerouted[key] if key in self.rerouted else self.paths[key]
+            if leg is not None and (int(r), leg.tobytes(), float(weld)) not in self.runs:
+                runs.setdefault((int(r), leg.tobytes(), float(weld)), (int(r), leg, float(weld)))
+        for (r, leg, weld), (fly_by, run) in zip(runs.values(), self.workers.map("run", list(runs.values()))):
+            key = (r, np.asarray(leg, dtype=float).tobytes())
+            if key not in self.motions:  # the worker's verdict on the fly-by curve, not its check again
+                self.motions[key] = time_law.PathMotion(leg, self.limits[r], fly_by=fly_by)
+            self.runs[(r, leg.tobytes(), weld)] = run
 
     def motion(self, robot: int, leg: np.ndarray) -> time_law.PathMotion:
         """The timed motion of robot ``robot``'s ``leg`` (waypoints): flying by its via points if allowed and the
@@ -122,8 +150,12 @@ class LegBook:
             elif self.paths[key] is not None and len(self.paths[key]) == 2:  # checked before: a valid straight move
                 self.known.add(key)
         bar = bar("checking straight moves", len(todo))
-        for r, i, j in todo:
-            if self.planners[r].validity.segment_valid(qs[i], qs[j]):
+        if self.workers is not None and self.workers.parallel:
+            valid = self.workers.map("straight", [(r, qs[i], qs[j]) for r, i, j in todo])
+        else:
+            valid = (self.planners[r].validity.segment_valid(qs[i], qs[j]) for r, i, j in todo)
+        for (r, i, j), ok in zip(todo, valid):
+            if ok:
                 key = move_key(r, qs[i], qs[j])
                 self.paths[key] = np.array([qs[i], qs[j]])
                 self.known.add(key)

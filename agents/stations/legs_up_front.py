@@ -101,7 +101,7 @@ def _run(units, workers: int, settings):
     import multiprocessing as mp
 
     ctx = mp.get_context("spawn")  # no inherited MuJoCo or OMPL state in the workers
-    with ctx.Pool(workers, initializer=_init_worker, initargs=settings) as pool:
+    with ctx.Pool(workers, initializer=_init_pool_worker, initargs=settings) as pool:
         yield from pool.imap_unordered(_plan_unit, units)
 
 
@@ -110,6 +110,15 @@ def _init_worker(station_config, leg_planner: type, iterations: int, seed: int) 
 
     station = Station(station_config)
     _PLANNERS[:] = [leg_planner(station, r, iterations=iterations, seed=seed) for r in range(station.n_robots)]
+
+
+def _init_pool_worker(*settings) -> None:
+    """A pool worker leaves Ctrl-C to the parent (which reports it and ends the pool): otherwise every worker
+    prints its own KeyboardInterrupt traceback."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _init_worker(*settings)
 
 
 def _plan_unit(unit) -> list[tuple[int, np.ndarray | None]]:

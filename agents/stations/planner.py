@@ -34,6 +34,7 @@ from .problem import ProblemBuilder
 from .replay import replay_plan
 from .rounds import solve_rounds
 from .solver import Assignment, RoutingProblem
+from .workers import StationWorkers
 
 
 class StationPlanner:
@@ -50,9 +51,12 @@ class StationPlanner:
                         for r in range(station.n_robots)]
         cfg = station.config
         limits = [r.robot.joint_motion_limits.at_speed(cfg.simulation.speed_fraction) for r in cfg.robots]
-        self.costs = OptionCosts(station, config.cost_variant)
+        # processes for what depends only on its inputs (settles, straight moves, legs, leg runs): shared by every
+        # planner reconfigured from this one, ended by close()
+        self.workers = StationWorkers(station.config, config, config.jobs)
+        self.costs = OptionCosts(station, config.cost_variant, config.physics, self.workers)
         settings = (station.config, LEG_PLANNERS[config.leg_route], config.iterations, config.seed)
-        self.legs = LegBook(leg_planners, limits, config.fly_by, self.costs, settings)
+        self.legs = LegBook(leg_planners, limits, config.fly_by, self.costs, settings, self.workers)
         self.problems = ProblemBuilder(station)
         self.bounds = Bounds()
         self.coordinator = Coordinator(station)
@@ -65,14 +69,24 @@ class StationPlanner:
     def reconfigured(self, config: StationPlanConfig) -> StationPlanner:
         """A planner with ``config`` that keeps this one's settled-cable costs and planned legs (same station,
         seed, OMPL iterations, leg route and cost variant: the cached answers do not depend on anything else)."""
-        if (config.seed, config.iterations, config.cost_variant, config.leg_route, config.fly_by) != \
-                (self.config.seed, self.config.iterations, self.config.cost_variant, self.config.leg_route,
-                 self.config.fly_by):
+        shared = ("seed", "iterations", "cost_variant", "leg_route", "fly_by", "physics", "jobs")
+        if any(getattr(config, f) != getattr(self.config, f) for f in shared):
+            self.close()
             return StationPlanner(self.station, config, self.progress)
         other = copy.copy(self)  # shares the caches
         other.config = config
         other.legs = self.legs.fresh()
         return other
+
+    def close(self) -> None:
+        """End the worker processes (a later plan starts them again)."""
+        self.workers.close()
+
+    def __enter__(self) -> StationPlanner:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
     def problem(self, task: StationTask, options: list[WeldOption]) -> RoutingProblem:
         """The routing problem over ``options`` with the legs this plan knows."""
@@ -98,7 +112,7 @@ class StationPlanner:
             self.costs.save(cache)
         legs.check_straight_moves(task, options, self.bar)
         if cfg.legs_up_front and cfg.objective != "time":
-            legs.plan_every_move(task, options, leg_cache, workers=cfg.leg_workers, bar=self.bar)
+            legs.plan_every_move(task, options, leg_cache, workers=cfg.jobs, bar=self.bar)
         qs = np.vstack([task.homes, np.array([o.q for o in options]).reshape(-1, 6)])
         stops = ["Home"] * task.n_robots + [o.weld for o in options]
         given, reference = [], None
@@ -150,7 +164,7 @@ class StationPlanner:
 
     def replay(self, plan: StationPlan, record_every: float = RECORD_EVERY) -> StationReplay:
         """``plan`` run in the cable simulator, every robot on one clock (kept as ``plan.replay``)."""
-        return replay_plan(self.station, plan, self.config.cost_variant, self.bar, record_every)
+        return replay_plan(self.station, plan, self.config.cost_variant, self.bar, record_every, self.config.physics)
 
     def bar(self, label: str, total):
         """A progress bar from ``progress``, or one that shows nothing."""

@@ -1,19 +1,21 @@
-"""Replaying a station plan in the cable simulator, every robot on one clock, with a progress bar."""
+"""Replaying a station plan in the cable simulator (on the plan's engine), every robot on one clock, with a progress
+bar."""
 
 from __future__ import annotations
 
 from dresspack_gym.multi.replay import StationReplay, replay_station
-from dresspack_gym.physics.simulation import CableSimulator
+from dresspack_gym.physics.profiles import make_simulator
 from dresspack_gym.stations.station import Station
 
 from .config import RECORD_EVERY
 from .plan import StationPlan
 
 
-def replay_plan(station: Station, plan: StationPlan, cost_variant: str, bar,
-                record_every: float = RECORD_EVERY) -> StationReplay:
-    """``plan`` run in the cable simulator (its cables' verdict), kept as ``plan.replay``; ``bar(label, total)`` a
-    progress bar factory (simulated seconds)."""
+def replay_plan(station: Station, plan: StationPlan, cost_variant: str, bar, record_every: float = RECORD_EVERY,
+                engine: str = "dynamic") -> StationReplay:
+    """``plan`` run in the cable simulator on ``engine`` (physics.profiles.ENGINES; its cables' verdict), kept as
+    ``plan.replay``; ``bar(label, total)`` a progress bar factory (simulated seconds). The rod engine (fast) has no
+    contact between two robots' cables: its replay cannot see a cable caught on another robot's cable."""
     bar = bar("station replay (simulated s)", round(plan.schedule.makespan + record_every, 2))
     last = [0.0]
 
@@ -21,7 +23,7 @@ def replay_plan(station: Station, plan: StationPlan, cost_variant: str, bar,
         bar.update(round(t - last[0], 3))
         last[0] = t
 
-    sim = CableSimulator(station)
+    sim = make_simulator(station, engine)
     plan.replay = replay_station(sim, plan.schedule, record_every=record_every, cost_variant=cost_variant,
                                  on_sample=tick)
     bar.close()

@@ -5,7 +5,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from dresspack_gym.physics.profiles import ENGINE_TITLES
 from dresspack_gym.plots.station_plan import plot_assignment, plot_gantt, plot_wear
+
+# a replay's engine, as the command's line names it beside the wear figure
+ENGINE_NOTES = {"dynamic": "MuJoCo", "fast": "rod engine, no contact between two robots' cables"}
+# what a plan judged on the rod engine cannot have seen (docs/rod_engine.md), said where its replay is reported
+FAST_ENGINE_LIMIT = ("the rod engine has no contact between two robots' cables: a cable caught on another robot's "
+                     "cable is neither felt nor flagged as a jam; `--physics dynamic` (MuJoCo) replays with it")
 
 
 def plot_plan(station, plan, folder: Path) -> None:
@@ -31,6 +38,10 @@ def write_summary(station, plans: dict, out: Path) -> dict:
         lines.append(f"| {name} | {s['makespan']:.2f} | {s['makespan_lower_bound']:.2f} | "
                      f"{100 * s['gap_to_bound']:.1f} % | {s['total_wait']:.2f} | {v['collisions']} of {v['samples']} "
                      f"samples | {1000 * v['min_distance']:.0f} | {wear} | {s['estimate']['wear']:.4g} |")
+    engines = sorted({s["replay"]["engine"] for s in rows.values() if "replay" in s})
+    if engines:
+        lines += ["", "Cables simulated on: " + ", ".join(ENGINE_TITLES[e] for e in engines)
+                  + (f" ({FAST_ENGINE_LIMIT})" if "fast" in engines else "") + "."]
     for name, s in rows.items():
         b = s.get("wear_estimate_bound")
         if b and b.get("bound") is not None:

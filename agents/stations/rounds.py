@@ -113,6 +113,7 @@ def _solve_until_exact(planner, task: StationTask, options: list[WeldOption], qs
             solves += 1
         rounds += 1
         solved = {id(a): a for a in [*answers.values(), chosen]}.values()
+        legs.prefetch([m for a in solved for m in _moves(problem, a)], qs)  # every answer's new legs in one batch
         changed = sum(plan_chosen_legs(planner, problem, a, qs, stops) for a in solved)
         candidates += solved  # every leg of each is planned now: exactly evaluable
         bar.update(1)
@@ -132,6 +133,7 @@ def plan_chosen_legs(planner, problem: RoutingProblem, assignment: Assignment, q
     """Plan every leg of the assignment and run it with its robot's cable (a leg that jams the cable is
     re-routed or blocked); the number that took longer, or (objectives with wear) wore more, than estimated."""
     legs = planner.legs
+    legs.prefetch(_moves(problem, assignment), qs)
     changed = 0
     for r, route in enumerate(assignment.routes):
         path = [r, *route, r]
@@ -148,6 +150,12 @@ def plan_chosen_legs(planner, problem: RoutingProblem, assignment: Assignment, q
             if leg is not None and planner.config.objective != "time":
                 changed += legs.run(r, leg, weld).wear > wear[a, b] * (1 + EXACT_TOLERANCE) + 1e-6
     return changed
+
+
+def _moves(problem: RoutingProblem, assignment: Assignment) -> list[tuple[int, int, int, float]]:
+    """Every leg of ``assignment``: (robot, from node, to node, weld time at its end)."""
+    return [(r, a, b, problem.weld_time if problem.node_weld[b] >= 0 else 0.0)
+            for r, route in enumerate(assignment.routes) for a, b in zip([r, *route], [*route, r])]
 
 
 def _pair_improvements(planner, task: StationTask, options: list[WeldOption], qs: np.ndarray,

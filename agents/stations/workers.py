@@ -1,0 +1,99 @@
+"""The station planner's worker processes: weld options' cable settles, straight-move checks, leg plans and leg runs."""
+
+from __future__ import annotations
+
+import signal
+
+# Items per work unit sent to a worker: enough to amortise a round trip, few enough to keep both cores busy to the end
+CHUNK = 4
+
+_PLANNER = None  # a worker's own StationPlanner (one process, no pool), built once by _init_worker
+
+
+class StationWorkers:
+    """``jobs`` processes, each with its own planner of the station (the same settings, one process), that
+    compute what only depends on its inputs: a settled option's cost rate, a straight move's validity, a leg's
+    path, and a leg's timed motion and cable run. Every result is the one the parent would compute itself, so the
+    plan does not depend on ``jobs``. With ``jobs`` 1 nothing is started: the caller computes in its own process.
+    The pool starts with the first work and lives until :meth:`close`."""
+
+    def __init__(self, station_config, config, jobs: int):
+        self.settings = (station_config, config)
+        self.jobs = int(jobs)
+        self._pool = None
+
+    @property
+    def parallel(self) -> bool:
+        return self.jobs > 1
+
+    def map(self, task: str, items: list) -> list:
+        """``task`` (a name in :data:`_TASKS`) on every item, in processes; the results in the items' order."""
+        if not items:
+            return []
+        pool = self._started()
+        units = [items[s:s + CHUNK] for s in range(0, len(items), CHUNK)]
+        out = []
+        for part in pool.imap(_run_unit, [(task, u) for u in units]):
+            out += part
+        return out
+
+    def _started(self):
+        if self._pool is None:
+            import multiprocessing as mp
+
+            # spawn: each worker builds its own MuJoCo models, OMPL planners and rod engine from nothing the parent
+            # holds; Ctrl-C is the parent's alone (it answers with one line, then the pool is ended)
+            self._pool = mp.get_context("spawn").Pool(min(self.jobs, 64), initializer=_init_worker,
+                                                      initargs=self.settings)
+        return self._pool
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool = None
+
+
+def _init_worker(station_config, config) -> None:
+    """A worker's planner of the station (Ctrl-C ignored: the parent ends the pool)."""
+    global _PLANNER
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from dataclasses import replace
+
+    from dresspack_gym.stations.station import Station
+
+    from .planner import StationPlanner
+
+    _PLANNER = StationPlanner(Station(station_config), replace(config, jobs=1))
+
+
+def _settle(item):
+    robot, q = item
+    rate = _PLANNER.costs.rate(robot, q)
+    return rate, _PLANNER.costs.converged(robot, q)
+
+
+def _straight(item):
+    robot, qa, qb = item
+    return bool(_PLANNER.legs.planners[robot].validity.segment_valid(qa, qb))
+
+
+def _leg(item):
+    from .legs_up_front import plan_leg
+
+    robot, qa, qb = item
+    return plan_leg(_PLANNER.legs.planners[robot], robot, qa, qb)
+
+
+def _run(item):
+    robot, leg, weld_time = item
+    legs = _PLANNER.legs
+    return legs.motion(robot, leg).fly_by, legs.run(robot, leg, weld_time)
+
+
+_TASKS = {"settle": _settle, "straight": _straight, "leg": _leg, "run": _run}
+
+
+def _run_unit(unit):
+    task, items = unit
+    return [_TASKS[task](item) for item in items]
