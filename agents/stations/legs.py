@@ -151,15 +151,17 @@ class LegBook:
                 self.known.add(key)
         bar = bar("checking straight moves", len(todo))
         if self.workers is not None and self.workers.parallel:
-            valid = self.workers.map("straight", [(r, qs[i], qs[j]) for r, i, j in todo])
+            valid = self.workers.map("straight", [(r, qs[i], qs[j]) for r, i, j in todo], bar)
         else:
-            valid = (self.planners[r].validity.segment_valid(qs[i], qs[j]) for r, i, j in todo)
+            valid = []
+            for r, i, j in todo:
+                valid.append(self.planners[r].validity.segment_valid(qs[i], qs[j]))
+                bar.update(1)
         for (r, i, j), ok in zip(todo, valid):
             if ok:
                 key = move_key(r, qs[i], qs[j])
                 self.paths[key] = np.array([qs[i], qs[j]])
                 self.known.add(key)
-            bar.update(1)
         bar.close()
 
     def plan_every_move(self, task: StationTask, options: list[WeldOption], cache: Path | None = None,

@@ -36,11 +36,13 @@ class OptionCosts:
         """Per weld and robot, the options the solver sees: the nearest Home and the cheapest of those costed."""
         jobs = [(w, r, self.costed(task, w, r, costed_options)) for w in task.weld_names for r in task.candidates(w)]
         bar = bar("costing weld options (settled cable)", sum(len(j[2]) for j in jobs))
-        if self.workers is not None and self.workers.parallel:
+        parallel = self.workers is not None and self.workers.parallel
+        if parallel:
             todo = list({_rate_key(r, o.q): (r, o.q) for _, r, opts in jobs for o in opts
                          if _rate_key(r, o.q) not in self.rates}.items())
+            bar.update(sum(len(j[2]) for j in jobs) - len(todo))
             # in the order the loop below would settle them: the saved file reads the same at any number of jobs
-            for (key, _), (rate, converged) in zip(todo, self.workers.map("settle", [x for _, x in todo])):
+            for (key, _), (rate, converged) in zip(todo, self.workers.map("settle", [x for _, x in todo], bar)):
                 self.rates[key] = rate
                 if not converged:
                     self.unconverged.add(key)
@@ -49,7 +51,8 @@ class OptionCosts:
             rates = []
             for o in opts:
                 rates.append(self.rate(r, o.q))
-                bar.update(1)
+                if not parallel:
+                    bar.update(1)
             near = list(range(min(len(opts), (kept_options + 1) // 2)))
             cheap = [int(i) for i in np.argsort(rates, kind="stable") if int(i) not in near]
             for i in sorted(near + cheap[:kept_options - len(near)]):

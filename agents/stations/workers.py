@@ -26,8 +26,9 @@ class StationWorkers:
     def parallel(self) -> bool:
         return self.jobs > 1
 
-    def map(self, task: str, items: list) -> list:
-        """``task`` (a name in :data:`_TASKS`) on every item, in processes; the results in the items' order."""
+    def map(self, task: str, items: list, bar=None) -> list:
+        """``task`` (a name in :data:`_TASKS`) on every item, in processes; the results in the items' order
+        (``bar``: a progress bar, updated as they come)."""
         if not items:
             return []
         pool = self._started()
@@ -35,6 +36,8 @@ class StationWorkers:
         out = []
         for part in pool.imap(_run_unit, [(task, u) for u in units]):
             out += part
+            if bar is not None:
+                bar.update(len(part))
         return out
 
     def _started(self):
@@ -42,9 +45,13 @@ class StationWorkers:
             import multiprocessing as mp
 
             # spawn: each worker builds its own MuJoCo models, OMPL planners and rod engine from nothing the parent
-            # holds; Ctrl-C is the parent's alone (it answers with one line, then the pool is ended)
-            self._pool = mp.get_context("spawn").Pool(min(self.jobs, 64), initializer=_init_worker,
-                                                      initargs=self.settings)
+            # holds. The workers start with Ctrl-C ignored (it stays ignored across exec, so also while they import),
+            # which the parent alone answers: one line, then the pool is ended
+            ctrl_c = signal.signal(signal.SIGINT, signal.SIG_IGN)
+            try:
+                self._pool = mp.get_context("spawn").Pool(self.jobs, initializer=_init_worker, initargs=self.settings)
+            finally:
+                signal.signal(signal.SIGINT, ctrl_c)
         return self._pool
 
     def close(self) -> None:
@@ -57,7 +64,7 @@ class StationWorkers:
 def _init_worker(station_config, config) -> None:
     """A worker's planner of the station (Ctrl-C ignored: the parent ends the pool)."""
     global _PLANNER
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # already inherited; said again for a pool started elsewhere
     from dataclasses import replace
 
     from dresspack_gym.stations.station import Station

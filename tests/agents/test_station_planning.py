@@ -586,20 +586,20 @@ def test_a_cable_pulled_beyond_the_jam_strain_is_flagged():
 
 
 def test_a_cost_settle_that_does_not_reach_equilibrium_is_reported(two_robot_station, tmp_path):
-    """With no time to settle, the option's cost comes from a shape that is not an equilibrium: it is listed,
-    and the verdict survives the cost cache."""
+    """With no time to settle (MuJoCo's settle runs for a time; the rod engine solves for rest), the option's cost
+    comes from a shape that is not an equilibrium: it is listed, and the verdict survives the cost cache."""
     cfg = two_robot_station.config
     hurried = Station(replace(cfg, simulation=replace(cfg.simulation, settle_time=0.0)))
-    planner = StationPlanner(hurried, StationPlanConfig())
+    planner = StationPlanner(hurried, StationPlanConfig(physics="dynamic"))
     task = make_station_task(hurried, lambda r: None, ["r1_sill_1"])
     option = task.options["r1_sill_1"][0]
     planner.costs.rate(option.robot, option.q)
     assert planner.costs.unconverged_options([option]) == ["r1_sill_1"]
     planner.costs.save(tmp_path / "costs.json")
-    again = StationPlanner(two_robot_station, StationPlanConfig())
+    again = StationPlanner(two_robot_station, StationPlanConfig(physics="dynamic"))
     again.costs.load(tmp_path / "costs.json")
     assert again.costs.unconverged_options([option]) == ["r1_sill_1"]
-    settled = StationPlanner(two_robot_station, StationPlanConfig())
+    settled = StationPlanner(two_robot_station, StationPlanConfig(physics="dynamic"))
     settled.costs.rate(option.robot, option.q)
     assert settled.costs.unconverged_options([option]) == []
 
@@ -940,7 +940,7 @@ def test_legs_up_front_make_every_move_exact_for_the_wear_objective_only(two_rob
     """``legs_up_front``: the wear objective plans every own move before its rounds (to the leg cache) and its
     solver knows them all; the time objective plans lazily whatever the flag says, so its plan is the lazy one."""
     config = StationPlanConfig(kept_options=1, costed_options=1, cable_repairs=0, work=0.5, legs_up_front=True,
-                               leg_workers=1)
+                               jobs=1)
     wear = StationPlanner(two_robot_station, replace(config, objective="wear"))
     cache = tmp_path / "planned_legs.jsonl"
     plan = wear.plan(leg_cache=cache)
@@ -958,8 +958,8 @@ def test_legs_up_front_make_every_move_exact_for_the_wear_objective_only(two_rob
     timed = StationPlanner(two_robot_station, config).plan(leg_cache=tmp_path / "unused.jsonl")
     assert timed.assignment.routes == lazy.assignment.routes and timed.schedule.makespan == lazy.schedule.makespan
     assert timed.info["planned_legs"] < len(own) and not (tmp_path / "unused.jsonl").exists()
-    with pytest.raises(ConfigError, match="leg_workers"):
-        StationPlanConfig(leg_workers=0)
+    with pytest.raises(ConfigError, match="jobs"):
+        StationPlanConfig(jobs=0)
 
 
 def test_planning_every_move_up_front_refuses_a_bad_worker_count(two_robot_station):
@@ -978,7 +978,7 @@ def test_station_plan_command_refuses_a_bound_work_of_zero(capsys):
     assert "--bound-work" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("flag", ["--leg-workers", "--kept-options", "--costed-options"])
+@pytest.mark.parametrize("flag", ["--jobs", "--leg-workers", "--kept-options", "--costed-options"])
 def test_station_plan_command_refuses_zero_workers_or_options(flag, capsys):
     from dresspack_gym.cli.main import main
 
