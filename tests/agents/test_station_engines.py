@@ -10,23 +10,34 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
 from dresspack.agents.stations import StationPlanConfig, StationPlanner
 from dresspack.agents.stations.replay import replay_plan
-from helpers import near_side_yaml
+from helpers import NEAR_SIDE, near_side_yaml
 
 from dresspack_gym.cli.main import main
 from dresspack_gym.errors import ConfigError
+from dresspack_gym.io.loading import load_station
 from dresspack_gym.multi.schedule import RobotSchedule, StationSchedule
 from dresspack_gym.multi.tasks import make_station_task
 from dresspack_gym.physics.profiles import DEFAULT_ENGINE, make_simulator
 from dresspack_gym.robots.time_law import segment_durations
+from dresspack_gym.stations.station import Station
 
 # small budgets: what is compared is the plan's dependence on the engine and the processes, not its quality
 SMALL = dict(kept_options=1, costed_options=2, cable_repairs=0, work=0.5, pair_solves=0, bound_work=0.5,
              exact_rounds=1)
+
+
+@pytest.fixture(scope="module")
+def two_robot_station() -> Station:
+    """The near side of the shipped side-framing station: robots r1 and r2, four of their welds."""
+    cfg = load_station("side_framing_4r")
+    return Station(replace(cfg, robots=cfg.robots[:2], weld_points=tuple(w for w in cfg.weld_points
+                                                                          if w.name in NEAR_SIDE)))
 
 
 def _base_turn(station, duration: float):
@@ -118,8 +129,8 @@ def test_option_costs_are_read_back_only_for_their_engine(two_robot_station, tmp
 def test_workers_compute_what_the_planner_computes_itself(two_robot_station):
     """Option costs, straight moves, legs and leg runs from two worker processes equal this process's own."""
     config = StationPlanConfig(**SMALL, objective="time")
-    task = make_station_task(two_robot_station, lambda r: None, ["r1_sill_1", "r2_sill_1"])
-    with StationPlanner(two_robot_station, replace_jobs(config, 2)) as two:
+    task = make_station_task(two_robot_station, lambda r: None, ["r1_sill_1"])
+    with StationPlanner(two_robot_station, replace(config, jobs=2)) as two:
         one = StationPlanner(two_robot_station, config)
         opts = [one.costs.choose(task, 2, 1), two.costs.choose(task, 2, 1)]
         assert [o.q.tobytes() for o in opts[0]] == [o.q.tobytes() for o in opts[1]]
@@ -139,12 +150,6 @@ def test_workers_compute_what_the_planner_computes_itself(two_robot_station):
             assert one.legs.run(r, a, weld) == two.legs.run(r, b, weld)
             assert one.legs.motion(r, a).duration == two.legs.motion(r, b).duration
         assert len(one.legs.runs) == len(two.legs.runs)
-
-
-def replace_jobs(config: StationPlanConfig, jobs: int) -> StationPlanConfig:
-    from dataclasses import replace
-
-    return replace(config, jobs=jobs)
 
 
 def _plan_files(out) -> dict:
