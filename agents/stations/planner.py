@@ -58,7 +58,7 @@ class StationPlanner:
         settings = (station.config, LEG_PLANNERS[config.leg_route], config.iterations, config.seed)
         self.legs = LegBook(leg_planners, limits, config.fly_by, self.costs, settings, self.workers)
         self.problems = ProblemBuilder(station)
-        self.bounds = Bounds()
+        self.bounds = Bounds(self.workers)
         self.coordinator = Coordinator(station)
         # finished time plans by (config, task): the wear and balanced objectives take the time objective's
         # answer as a candidate, and the command has usually just planned it with the same settings (a plan

@@ -32,6 +32,12 @@ def solve_rounds(planner, task: StationTask, options: list[WeldOption], qs: np.n
     straight = straight_times(qs, legs.limits)
     rounds, solves, bound, wear_failures = _solve_until_exact(planner, task, options, qs, stops, straight, candidates)
     problem = planner.problem(task, options)
+    # the bounds depend only on the options and the straight moves: solved in a worker while this process
+    # coordinates and re-solves pairs (the rounds before want every worker for their legs)
+    planner.bounds.start_makespan(problem, straight, cfg.bound_work, cfg.seed)
+    if cfg.objective == "wear" and reference is not None:  # its cap, as Coordinator.best measures it
+        planner.bounds.start_wear(problem, straight, float(reference) * (1 + cfg.makespan_slack), cfg.bound_work,
+                                  cfg.seed)
     pairs = RobotPairDistance(planner.station)
     planner.candidates = list(candidates)
     assignment, schedule, coordination = planner.coordinator.best(problem, candidates, task, options, qs, pairs,
@@ -83,12 +89,19 @@ def _solve_until_exact(planner, task: StationTask, options: list[WeldOption], qs
         # the fastest answer two ways: conflicting welds scheduled apart, or charged a wait and so avoided
         # (whose answers' legs cross less); both are candidates, and the coordination of their planned legs
         # decides. Later rounds start from the previous answer (still feasible: only leg times changed)
-        for model in INTERLOCKS:
+        # (independent solves: all but the last in workers, beside this process's)
+        pending = {}
+        for k, model in enumerate(INTERLOCKS):
             previous_answer = answers.get(model)
-            answers[model] = solve(problem, "time", work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
-                                   start=previous_answer.routes if previous_answer is not None else None,
-                                   interlocks=model)
+            kwargs = dict(work=cfg.work, seed=cfg.seed, time_limit=cfg.time_budget,
+                          start=previous_answer.routes if previous_answer is not None else None, interlocks=model)
+            pending[model] = planner.workers.submit("solve", (problem, "time", kwargs)) \
+                if k < len(INTERLOCKS) - 1 else None
+            if pending[model] is None:
+                answers[model] = solve(problem, "time", **kwargs)
             solves += 1
+        answers.update({model: p.get() for model, p in pending.items() if p is not None})
+        answers = {model: answers[model] for model in INTERLOCKS}  # in their order, as min() below breaks ties
         fastest = min(answers.values(), key=lambda a: (a.estimate["timed_makespan"], a.estimate["time"]))
         if np.array_equal(problem.travel, straight):  # a bound of any plan only while no leg is a planned path
             bound = max(bound, fastest.estimate.get("makespan_bound", 0.0))

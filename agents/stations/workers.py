@@ -1,4 +1,5 @@
-"""The station planner's worker processes: weld options' cable settles, straight-move checks, leg plans and leg runs."""
+"""The station planner's worker processes: weld options' cable settles, straight-move checks, leg plans and leg runs,
+and CP-SAT solves that do not wait for each other (bounds, the two interlock models of a round)."""
 
 from __future__ import annotations
 
@@ -40,6 +41,14 @@ class StationWorkers:
                 bar.update(len(part))
         return out
 
+    def submit(self, task: str, item) -> Pending:
+        """``task`` on ``item`` started in a worker now (with one job: computed here when asked for); its result
+        is :meth:`Pending.get`'s."""
+        if not self.parallel:
+            return Pending(lambda: _TASKS[task](item))
+        result = self._started().apply_async(_run_unit, ((task, [item]),))
+        return Pending(lambda: result.get()[0])
+
     def _started(self):
         if self._pool is None:
             import multiprocessing as mp
@@ -59,6 +68,18 @@ class StationWorkers:
             self._pool.terminate()
             self._pool.join()
             self._pool = None
+
+
+class Pending:
+    """A result on its way: :meth:`get` waits for it (once; later calls return it again)."""
+
+    def __init__(self, compute):
+        self._compute, self._done, self._value = compute, False, None
+
+    def get(self):
+        if not self._done:
+            self._value, self._done = self._compute(), True
+        return self._value
 
 
 def _init_worker(station_config, config) -> None:
@@ -98,7 +119,29 @@ def _run(item):
     return legs.motion(robot, leg).fly_by, legs.run(robot, leg, weld_time)
 
 
-_TASKS = {"settle": _settle, "straight": _straight, "leg": _leg, "run": _run}
+def _solve(item):
+    from .solver import solve
+
+    problem, objective, kwargs = item
+    return solve(problem, objective, **kwargs)
+
+
+def _makespan_bound(item):
+    from .solver import relaxation_bound
+
+    problem, work, seed = item
+    return relaxation_bound(problem, work=work, seed=seed)
+
+
+def _wear_bound(item):
+    from .solver import wear_relaxation_bound
+
+    problem, cap, work, seed = item
+    return wear_relaxation_bound(problem, cap, work=work, seed=seed)
+
+
+_TASKS = {"settle": _settle, "straight": _straight, "leg": _leg, "run": _run, "solve": _solve,
+          "makespan_bound": _makespan_bound, "wear_bound": _wear_bound}
 
 
 def _run_unit(unit):
