@@ -159,32 +159,28 @@ class RodSimulator:
     def follow(self, schedule_at, duration: float, *, record_every: float, on_sample=None) -> tuple[list, list]:
         """:meth:`CableSimulator.follow <dresspack_gym.physics.simulation.CableSimulator.follow>` on the rod
         engine: every robot driven along ``schedule_at(times) -> (q, qdot)`` ((N, n_robots, 6) each) for
-        ``duration`` seconds from the current motion time, one sample (STEPS_PER_SAMPLE implicit steps of every
-        cable) per ``record_every`` s, never settled in between. The last sample is shortened to end at
-        ``duration``, so a run's integral spans exactly the program. Returns the sample times and per sample the
+        ``duration`` seconds from the current motion time, never settled in between, one sample (STEPS_PER_SAMPLE
+        implicit steps of every cable) at a time: a whole number of equal samples of at most ``record_every`` s, so
+        a run ends, and its integral stops, at ``duration`` exactly. Returns the sample times and per sample the
         wear measures of each cable."""
         if not record_every > 0.0:
             raise ConfigError("record_every", f"must be a positive number of seconds, got {record_every}")
         if not duration >= 0.0:
             raise ConfigError("duration", f"must be a non-negative number of seconds, got {duration}")
         t_start = self.motion_time
-        # sample ends at k * record_every, the last at the duration itself (a remainder under a microsecond merged)
-        ends = list(np.arange(1, int(np.ceil(duration / record_every - 1e-9)) + 1) * float(record_every))
-        if ends and ends[-1] > duration - 1e-6:
-            ends[-1] = float(duration)
-        if len(ends) > 1 and ends[-1] - ends[-2] < 1e-6:
-            ends.pop(-2)
-        q_at, _ = schedule_at(t_start + np.asarray(ends, dtype=float)) if ends else (np.zeros((0,)), None)
-        times, samples, before = [], [], 0.0
-        for end, q in zip(ends, q_at):
-            h = end - before
-            self._sample(np.asarray(q, dtype=float).reshape(self.q.shape), h)
-            before = end
-            self.motion_time = t_start + end
-            times.append(self.motion_time)
-            samples.append(self.cable_measures(h))
-            if on_sample is not None:
-                on_sample(self.motion_time)
+        n = int(np.ceil(duration / record_every - 1e-9))
+        h = duration / n if n else 0.0
+        ends = np.arange(1, n + 1) * h
+        times, samples = [], []
+        if n:
+            q_at, _ = schedule_at(t_start + ends)
+            for end, q in zip(ends, q_at):
+                self._sample(np.asarray(q, dtype=float).reshape(self.q.shape), h)
+                self.motion_time = t_start + float(end)
+                times.append(self.motion_time)
+                samples.append(self.cable_measures(h))
+                if on_sample is not None:
+                    on_sample(self.motion_time)
         return times, samples
 
     def hold(self, seconds: float) -> None:
