@@ -79,8 +79,8 @@ def add_station_plan_command(sub) -> None:
                    help="wear and balanced objectives: plan every robot's moves between its Home and weld options "
                         "before solving, so the solver knows every leg (slower: on side_framing_4r 1,722 legs, "
                         "cached in OUT/planned_legs.jsonl for a later run; the time objective plans lazily anyway)")
-    add_physics_argument(p, "costs the weld options, runs the legs and replays the plans on (fast: no contact "
-                            "between two robots' cables)")
+    add_physics_argument(p, "every cable simulation of the plan runs on (the options' settles, the legs' runs, "
+                            "the replays; fast has no contact between two robots' cables)")
     p.add_argument("--jobs", "--leg-workers", action=Renamed, type=number(1, MAX_JOBS, integer=True),
                    default=ALL_CORES,
                    help="processes costing the weld options, checking the straight moves, planning the legs and "

@@ -194,7 +194,6 @@ def add_eval_command(sub) -> None:
                    help="instead of planners: plan folders written by `dresspack station-plan` (e.g. "
                         "station_plans/time station_plans/wear), each replayed on --station and measured alike; "
                         "the first is the reference of the relative columns (default: none)")
-    add_physics_argument(p, "replays the --station-plans on (fast: no contact between two robots' cables)")
     p.set_defaults(func=cmd_eval)
 
 
