@@ -366,6 +366,9 @@ def _deterministic_solver(work: float, seed: int | None = None):
 
     solver = cp_model.CpSolver()
     solver.parameters.num_workers = 1
+    # CP-SAT's own Ctrl-C handler leaves SIGINT at its default when a solve ends: the next Ctrl-C would kill the
+    # command outright, without its line saying what it saved (Python's handler stays, and stops after the solve)
+    solver.parameters.catch_sigint_signal = False
     if seed is not None:
         solver.parameters.random_seed = int(seed)
     solver.parameters.max_deterministic_time = float(work)

@@ -207,3 +207,15 @@ def _children(pid: int) -> list[str]:
         return open(f"/proc/{pid}/task/{pid}/children").read().split()
     except OSError:
         return []
+
+
+def test_a_solve_leaves_ctrl_c_to_the_command():
+    """CP-SAT does not take SIGINT over: after a solve it is still Python's (which raises KeyboardInterrupt, so
+    the command prints its line and exits 130), not the default that ends the process without a word."""
+    from dresspack.agents.stations.solver import RoutingProblem, solve
+
+    travel = np.array([[[0.0, 1.0, 2.0], [1.0, 0.0, 1.0], [2.0, 1.0, 0.0]]])
+    problem = RoutingProblem(travel, np.ones(3), np.array([0, 0, 0]), np.array([-1, 0, 1]), 1.0, 2)
+    solve(problem, "time", work=0.1)
+    caught = int(next(line for line in open("/proc/self/status") if line.startswith("SigCgt")).split()[1], 16)
+    assert caught >> (signal.SIGINT - 1) & 1
