@@ -160,14 +160,14 @@ def _plan_files(out) -> dict:
 @pytest.mark.slow  # two station plans, each with both objectives and their replays (~60 s)
 def test_station_plan_is_the_same_at_one_and_two_jobs(tmp_path, capsys):
     station = near_side_yaml(tmp_path)
-    args = ["station-plan", "--station", str(station), "--work", "0.5", "--pair-solves", "2", "--bound-work", "0.5",
-            "--cable-repairs", "1", "--json"]
+    args = ["station-plan", "--station", str(station), "--physics", "fast", "--work", "0.5", "--pair-solves", "2",
+            "--bound-work", "0.5", "--cable-repairs", "1", "--json"]
     assert main([*args, "--jobs", "1", "--out", str(tmp_path / "one")]) == 0
     assert main([*args, "--jobs", "2", "--out", str(tmp_path / "two")]) == 0
     capsys.readouterr()
     one, two = _plan_files(tmp_path / "one"), _plan_files(tmp_path / "two")
     assert one == two
-    assert one["summary"]["time"]["replay"]["engine"] == DEFAULT_ENGINE
+    assert one["summary"]["time"]["replay"]["engine"] == "fast"
     assert "no contact between two robots' cables" in (tmp_path / "one" / "summary.md").read_text()
 
 
