@@ -26,8 +26,8 @@ the robot's links; on either engine a third or more of the configurations then e
 docs/robustness.md).
 
 Engines (``engine``, one of physics.profiles.ENGINES): "dynamic" (MuJoCo, the default:
-physics.profiles.DEFAULT_ENGINE) or "fast" (the quasi-static rod engine, dresspack_gym.rod). Both see the same station: with
-``cable_robot_contact`` off the dresspack's ``collide_with_robot`` is cleared, which removes the robot's own links
+physics.profiles.DEFAULT_ENGINE) or "fast" (the quasi-static rod engine, dresspack_gym.rod). Both see the same
+station: with ``cable_robot_contact`` off the dresspack's ``collide_with_robot`` is cleared, which removes the robot's own links
 from MuJoCo's contacts and from the rod engine's barrier primitives alike. On the fast engine a settle is the rod's
 static rest solve, the excursions are the same slowed time law with one implicit step per 0.05 s sample, and a
 configuration is unconverged when a rest solve or a motion step missed its tolerance or a link jammed against the
