@@ -53,7 +53,7 @@ class StationPlanner:
         limits = [r.robot.joint_motion_limits.at_speed(cfg.simulation.speed_fraction) for r in cfg.robots]
         # processes for what depends only on its inputs (settles, straight moves, legs, leg runs): shared by every
         # planner reconfigured from this one, ended by close()
-        self.workers = StationWorkers(station.config, config, config.jobs)
+        self.workers = StationWorkers(type(self), station.config, config, config.jobs)
         self.costs = OptionCosts(station, config.cost_variant, config.physics, self.workers)
         settings = (station.config, LEG_PLANNERS[config.leg_route], config.iterations, config.seed)
         self.legs = LegBook(leg_planners, limits, config.fly_by, self.costs, settings, self.workers)

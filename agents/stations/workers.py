@@ -18,8 +18,8 @@ class StationWorkers:
     plan does not depend on ``jobs``. With ``jobs`` 1 nothing is started: the caller computes in its own process.
     The pool starts with the first work and lives until :meth:`close`."""
 
-    def __init__(self, station_config, config, jobs: int):
-        self.settings = (station_config, config)
+    def __init__(self, planner_class: type, station_config, config, jobs: int):
+        self.settings = (planner_class, station_config, config)
         self.jobs = int(jobs)
         self._pool = None
 
@@ -82,17 +82,16 @@ class Pending:
         return self._value
 
 
-def _init_worker(station_config, config) -> None:
-    """A worker's planner of the station (Ctrl-C ignored: the parent ends the pool)."""
+def _init_worker(planner_class: type, station_config, config) -> None:
+    """A worker's planner of the station, of the parent's planner class (Ctrl-C ignored: the parent ends the
+    pool)."""
     global _PLANNER
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # already inherited; said again for a pool started elsewhere
     from dataclasses import replace
 
     from dresspack_gym.stations.station import Station
 
-    from .planner import StationPlanner
-
-    _PLANNER = StationPlanner(Station(station_config), replace(config, jobs=1))
+    _PLANNER = planner_class(Station(station_config), replace(config, jobs=1))
 
 
 def _settle(item):

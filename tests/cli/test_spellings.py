@@ -119,7 +119,8 @@ def test_every_deprecated_spelling_is_declared_by_the_shared_mechanism():
     command declares an alias of its own."""
     aliases = {(name, o) for name, p in SUB.choices.items() for a in p._actions if isinstance(a, Renamed)
                for o in a.option_strings[1:]}
-    assert aliases == {("eval", "--methods"), ("eval", "--tasks"), ("demo", "--methods"), ("demo", "--tasks")}
+    assert aliases == {("eval", "--methods"), ("eval", "--tasks"), ("demo", "--methods"), ("demo", "--tasks"),
+                       ("station-plan", "--leg-workers")}
 
 
 def test_the_old_executables_say_once_they_are_deprecated_and_run_the_subcommand(tmp_path, capsys):
