@@ -77,6 +77,7 @@ def test_objective_integrates_the_python_state_cost_over_time(tension):
     assert objective.stateCost(s2).value() == pytest.approx(1 + 3.0 * 1.5)
 
 
+@pytest.mark.slow  # about 15-20 s on 2 cores: the fast tier's time
 def test_fmt_search_is_reproducible_valid_and_beats_the_direct_move_by_its_objective(tension):
     """The crossing leg of thesis_tension: the direct move drags the predicted cable through the cuboid (map cost
     high); FMT*'s route is valid, far cheaper by the same objective, and the same for the same seed."""

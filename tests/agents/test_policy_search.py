@@ -296,6 +296,7 @@ def _same_model(a, b) -> bool:
     return all(np.array_equal(x, y) for x, y in zip(a.net.state_dict().values(), b.net.state_dict().values()))
 
 
+@pytest.mark.slow  # about 15-20 s on 2 cores: the fast tier's time
 def test_cost_to_go_model_checked(station, tmp_path):
     from dresspack.agents.learned.cost_model import CostModel
 

@@ -604,6 +604,7 @@ def test_a_cost_settle_that_does_not_reach_equilibrium_is_reported(two_robot_sta
     assert settled.costs.unconverged_options([option]) == []
 
 
+@pytest.mark.slow  # about 15-20 s on 2 cores: the fast tier's time
 def test_a_leg_that_jams_its_cable_is_rerouted_then_blocked(two_robot_station):
     """The replay's verdict reaches the plan: a jam found while robot 0 runs its second leg blames that leg; the
     leg is re-routed (another OMPL route, or through Home), and once the re-routes are spent it is blocked for

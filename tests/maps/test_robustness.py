@@ -90,6 +90,7 @@ def test_rows_land_in_a_results_file_replaced_while_the_map_runs(tmp_path, stati
     assert set(rows(out)) == set(range(4))
 
 
+@pytest.mark.slow  # about 15-20 s on 2 cores: the fast tier's time
 def test_row_start_gives_the_same_rows_after_an_interruption_mid_row(tmp_path, station):
     # Each configuration of a row continues from the previous one, so a resumed half row is recomputed
     # from the row start: the results equal an uninterrupted run's.

@@ -220,6 +220,7 @@ def _objective(roadmap, route, weight):
     return total
 
 
+@pytest.mark.slow  # about 15-20 s on 2 cores: the fast tier's time
 def test_roadmap_route_is_valid_no_worse_than_direct_and_reproducible(default_config):
     st = Station(default_config)
     wm = build_wear_map(default_config, 0, WearMapSettings(samples=150, seed=2))

@@ -168,6 +168,7 @@ def _index_model(env, path, n_actions: int):
     return path
 
 
+@pytest.mark.slow  # about 15-20 s on 2 cores: the fast tier's time
 def test_a_ranked_rollout_labels_the_states_ppo_search_s_ranked_rule_visits(tiny_policy, tmp_path):
     """DAgger labels: each step is the one ppo-search's ranked rule takes (here with a model preferring the lowest
     action index among the policy's 3 most probable moves), and each state's proposals are labelled as for the
