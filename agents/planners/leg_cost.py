@@ -157,13 +157,15 @@ class LegCost:
                     del self._ahead[next(iter(self._ahead))]
                 self._ahead[key] = self._workers.submit(start_state, np.asarray(leg, dtype=float), bound)
 
-    def simulate(self, start_state: np.ndarray, waypoints: np.ndarray, bound: float = math.inf) -> SimulatedLeg:
-        """The leg simulated from ``start_state``, ended where J certainly exceeds ``bound``; no cache, no counts
-        (what a worker process runs)."""
+    def simulate(self, start_state: np.ndarray, waypoints: np.ndarray, bound: float = math.inf, *,
+                 track: bool = False) -> SimulatedLeg:
+        """The leg simulated from ``start_state``, ended where J certainly exceeds ``bound``; no cache, no counts.
+        ``track``: J's lower bound is followed even without a bound (a worker's leg may answer a bounded query
+        later); otherwise an unbounded leg spends no per-sample wear cost on it."""
         traj = Trajectory(np.asarray(waypoints), (len(waypoints) - 1,))
         life = self.cost_variant == "life"
         # the life variant's J comes from the whole leg's strain history: no sample-by-sample lower bound of it
-        above = None if life else self._above(traj, bound)
+        above = None if life else (self._lower_bound(traj, bound) if track else self._above(traj, bound))
         rep = replay(self.sim, traj, robot=self.robot, record_every=self.record_every,
                      cost_variant=self.cost_variant, start_state=start_state, give_up=above,
                      record_states=life)  # other variants: C carries the wear, no per-segment count needed
@@ -190,6 +192,11 @@ class LegCost:
     def _above(self, traj: Trajectory, bound: float):
         """The replay's ``give_up`` for ``bound`` (None: no bound, or weights under which J's lower bound does not
         grow with the samples)."""
+        return self._lower_bound(traj, bound) if math.isfinite(bound) else None
+
+    def _lower_bound(self, traj: Trajectory, bound: float):
+        """J's lower bound followed sample by sample, giving up above ``bound`` (None: weights under which it does
+        not grow with the samples)."""
         if self.wear_weight < 0:
             return None
         # the replay's motion time: each segment's whole steps cover its duration (SegmentMotion.on_steps, which

@@ -78,4 +78,4 @@ def _warm() -> None:
 
 
 def _simulate(start_state, waypoints, bound: float):
-    return _leg_cost().simulate(start_state, waypoints, bound)
+    return _leg_cost().simulate(start_state, waypoints, bound, track=True)

@@ -65,7 +65,7 @@ def test_the_lower_bound_never_exceeds_the_legs_cost_and_ends_at_it(tension_leg,
     state = cost.start_state(leg[0])
     j, _, summary = cost.cost(state, leg)
     bound = cost._above(Trajectory(leg, (2,)), math.inf)
-    assert math.isinf(bound.limit)  # no bound: it only tracks the lower bound, it never gives up
+    assert bound is None  # no bound: no give_up at all
     bound = cost._above(Trajectory(leg, (2,)), 1e12)
     lower = []
 
