@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import signal
 
 import numpy as np
 
@@ -81,3 +82,9 @@ def station_with_weld_csv(tmp_path, data: bytes):
     d["weld_points"] = []
     d["weld_points_csv"] = {"path": str(tmp_path / "welds.csv"), "units": "mm"}
     return station_from_dict(d)
+
+
+def as_a_shell_starts_it() -> None:
+    """``preexec_fn`` of a command a test interrupts: it starts with Ctrl-C at its default, as a shell starts it, so
+    the test process's own disposition (a test before may have left SIGINT ignored in this worker) never reaches it."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

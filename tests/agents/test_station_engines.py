@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from dresspack.agents.stations import StationPlanConfig, StationPlanner
 from dresspack.agents.stations.replay import replay_plan
-from helpers import NEAR_SIDE, near_side_yaml
+from helpers import NEAR_SIDE, as_a_shell_starts_it, near_side_yaml
 
 from dresspack_gym.cli.main import main
 from dresspack_gym.errors import ConfigError
@@ -30,12 +30,6 @@ from dresspack_gym.stations.station import Station
 # small budgets: what is compared is the plan's dependence on the engine and the processes, not its quality
 SMALL = dict(kept_options=1, costed_options=2, cable_repairs=0, work=0.5, pair_solves=0, bound_work=0.5,
              exact_rounds=1)
-
-
-def _as_a_shell_starts_it() -> None:
-    """A command starts with Ctrl-C at its default, as a shell starts it: the test process's own disposition (a test
-    before may have left SIGINT ignored in this worker) must not reach it."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 
@@ -193,7 +187,7 @@ def test_ctrl_c_with_two_jobs_prints_one_line_and_exits_130(tmp_path):
     out = tmp_path / "plans"
     args = ["station-plan", "--station", str(station), "--jobs", "2", "--out", str(out)]
     proc = subprocess.Popen([sys.executable, "-m", "dresspack_gym.cli.main", *args], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=_as_a_shell_starts_it)
+                            stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=as_a_shell_starts_it)
     deadline = time.time() + 180
     while time.time() < deadline and proc.poll() is None and len(_children(proc.pid)) < 3:  # 2 workers, a tracker
         time.sleep(0.1)

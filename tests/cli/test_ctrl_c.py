@@ -10,14 +10,9 @@ import sys
 import time
 
 import pytest
+from helpers import as_a_shell_starts_it
 
 CLI = "import sys; from dresspack_gym.cli.main import main; sys.exit(main(sys.argv[1:], extensions=[]))"
-
-
-def _as_a_shell_starts_it() -> None:
-    """A command starts with Ctrl-C at its default, as a shell starts it: the test process's own disposition (a test
-    before may have left SIGINT ignored in this worker) must not reach it."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 
@@ -26,7 +21,7 @@ def test_ctrl_c_in_robustness_map_prints_one_line_and_resumes(tmp_path):
     args = ["robustness-map", "--grid", "small", "--station", "default", "--out", str(out), "--workers", "2"]
     proc = subprocess.Popen([sys.executable, "-c", CLI, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, start_new_session=True,  # its own process group, as a terminal's job
-                            preexec_fn=_as_a_shell_starts_it)
+                            preexec_fn=as_a_shell_starts_it)
     deadline = time.time() + 180
     results = out / "results.csv"
     while time.time() < deadline and not (results.is_file() and len(results.read_text().splitlines()) >= 2):
@@ -56,7 +51,7 @@ def _interrupt(argv: list[str], ready, delay: float) -> tuple[int, list[str], fl
     """Run ``dresspack argv`` in its own process group, press Ctrl-C (SIGINT to the group, as a terminal does)
     ``delay`` s after ``ready()``; (exit code, the stderr lines that are not progress bars, seconds to exit)."""
     proc = subprocess.Popen([sys.executable, "-m", "dresspack_gym.cli.main", *argv], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=_as_a_shell_starts_it)
+                            stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=as_a_shell_starts_it)
     _wait_for(proc, lambda: ready(proc))
     time.sleep(delay)
     os.killpg(proc.pid, signal.SIGINT)

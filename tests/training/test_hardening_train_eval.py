@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from helpers import as_a_shell_starts_it
 
 pytest.importorskip("sb3_contrib")
 pytest.importorskip("ompl")
@@ -21,13 +22,6 @@ pytest.importorskip("ompl")
 from test_training import SMOKE  # noqa: E402
 
 from dresspack_gym.cli.main import main as dresspack_main  # noqa: E402
-
-
-def _as_a_shell_starts_it() -> None:
-    """A command starts with Ctrl-C at its default, as a shell starts it: the test process's own disposition (a test
-    before may have left SIGINT ignored in this worker) must not reach it."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-
 
 
 def train_main(argv: list[str]) -> int:
@@ -119,7 +113,7 @@ def _ctrl_c_once(tmp_path: Path, k: int) -> tuple[int, float, bool, list[str]]:
     path.write_text(yaml.safe_dump(cfg))
     proc = subprocess.Popen([sys.executable, "-m", "dresspack_gym.cli.main", "train", str(path), "--run-dir",
                              str(run), "--no-progress"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                            start_new_session=True, preexec_fn=_as_a_shell_starts_it, text=True)
+                            start_new_session=True, preexec_fn=as_a_shell_starts_it, text=True)
     deadline = time.time() + 120
     while time.time() < deadline and not list((run / "tb").rglob("events.out.tfevents*")):
         time.sleep(0.2)  # TensorBoard's event file appears when learning starts
@@ -293,7 +287,7 @@ def _interrupt_after_first_row(argv: list[str], log: Path) -> tuple[int, list[st
     """Run ``argv``, press Ctrl-C (SIGINT to its process group) once ``log`` holds a finished row, and return
     (exit code, the stderr lines that are not progress bars)."""
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True, preexec_fn=_as_a_shell_starts_it)
+                            start_new_session=True, preexec_fn=as_a_shell_starts_it)
     deadline = time.time() + 180
     while time.time() < deadline and not (log.is_file() and log.read_text().count("\n") >= 1):
         time.sleep(0.2)
