@@ -13,6 +13,7 @@ from dresspack_gym.io.animation import animate
 from dresspack_gym.io.loading import load_station
 from dresspack_gym.physics.profiles import ENGINES, make_simulator
 from dresspack_gym.physics.trajectory import Replay, Trajectory
+from dresspack_gym.process_pool import spawn_pool
 from dresspack_gym.stations.station import Station
 
 # small: every clip is embedded in report.html
@@ -48,11 +49,7 @@ def render_clips(station: str, robot: int, clips: list[Clip], *, jobs: int = 1, 
                 _render(sim, robot, clip)
                 bar.update(1)
             return
-        import multiprocessing
-
-        context = multiprocessing.get_context("spawn")  # no inherited MuJoCo or GL state in the workers
-        with context.Pool(min(jobs, len(clips)), initializer=_init_worker,
-                          initargs=(station, robot, engine)) as pool:
+        with spawn_pool(min(jobs, len(clips)), _init_worker, (station, robot, engine)) as pool:
             for _ in pool.imap_unordered(_render_in_worker, clips):
                 bar.update(1)
     finally:

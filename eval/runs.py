@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import math
-import signal
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -41,6 +40,7 @@ from dresspack_gym.io.provenance import code_fingerprint, library_versions
 from dresspack_gym.physics.profiles import DEFAULT_ENGINE, ENGINES, make_simulator
 from dresspack_gym.physics.trajectory import Replay, Trajectory, replay, smoothness
 from dresspack_gym.physics.wear_cost import cost_function
+from dresspack_gym.process_pool import spawn_pool
 from dresspack_gym.stations.station import Station
 from dresspack_gym.stations.tasks import Task, closest_branch, make_task, random_start
 from dresspack_gym.stations.validity import PLANNER_MARGIN, MotionValidity
@@ -281,18 +281,9 @@ def _finished_runs(spec: EvalSpec, out: Path, tasks: dict, todo: list[tuple], jo
                     raise KeyboardInterrupt
                 yield result
         return
-    import multiprocessing
-
-    context = multiprocessing.get_context("spawn")  # no inherited MuJoCo, OMPL or torch state in the workers
-    # the workers start with Ctrl-C ignored (an ignored signal stays ignored across exec, and Python then installs
-    # no handler of its own): one pressed while a worker still imports would end it with a traceback, and one that
-    # lands while a worker writes its result to the pool's pipe can leave the pool's terminate() waiting on it
-    ctrl_c = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        pool = context.Pool(min(jobs, len(todo)), initializer=_init_worker, initargs=(spec, out, tasks))
-    finally:
-        signal.signal(signal.SIGINT, ctrl_c)
-    with pool:
+    # the workers never see Ctrl-C: one that lands while a worker writes its result to the pool's pipe can leave the
+    # pool's terminate() waiting on it
+    with spawn_pool(min(jobs, len(todo)), _init_worker, (spec, out, tasks)) as pool:
         for row, rep, error in pool.imap_unordered(_run_in_worker, _slowest_first(todo)):
             if error is not None:
                 raise DresspackError(error)
@@ -363,9 +354,7 @@ _WORKER: dict = {}  # a pool worker's evaluation: its arguments, then its RunEva
 
 
 def _init_worker(spec: EvalSpec, out: Path, tasks: dict) -> None:
-    """A pool worker leaves Ctrl-C to the parent (which prints its line and ends the pool). Nothing that can fail
-    runs here: a failing initializer makes the pool start workers forever."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    """Nothing that can fail runs here: a failing initializer makes the pool start workers forever."""
     _WORKER.update(args=(spec, out, tasks))
 
 

@@ -19,9 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import json
-import multiprocessing
 import shlex
-import signal
 import sys
 import time
 from pathlib import Path
@@ -34,6 +32,7 @@ from dresspack_gym.fields import check_choice
 from dresspack_gym.io.artefacts import read_json, read_npz
 from dresspack_gym.io.outputs import output_folder, replacing, write_text
 from dresspack_gym.io.provenance import code_fingerprint, file_digest, library_versions
+from dresspack_gym.process_pool import spawn_pool
 
 from .cost_config import MAX_EPISODES, CostStudyConfig, CounterfactualConfig, load_cost_config
 from .rollouts import ROLLOUT_CODE
@@ -258,13 +257,7 @@ def generate(cfg: CounterfactualConfig, out: str | Path, *, jobs: int = 1, progr
 
         results = ray_imap_unordered(_init_worker, init, _episode_job, todo, jobs, ray_address)
     elif jobs > 1:
-        # spawn: each worker builds its own MuJoCo model, torch and env from nothing the parent holds; they start
-        # with Ctrl-C ignored (it stays ignored across exec), which the parent alone answers
-        ctrl_c = signal.signal(signal.SIGINT, signal.SIG_IGN)
-        try:
-            pool = multiprocessing.get_context("spawn").Pool(jobs, initializer=_init_worker, initargs=init)
-        finally:
-            signal.signal(signal.SIGINT, ctrl_c)
+        pool = spawn_pool(jobs, _init_worker, init)  # each worker builds its own MuJoCo model, torch and env
         results = pool.imap_unordered(_episode_job, todo)
     else:
         results = map(_episode_job, todo)

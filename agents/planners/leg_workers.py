@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import multiprocessing
-import signal
-import threading
+import multiprocessing.pool
 import weakref
 
 from dresspack_gym.cli.args import MAX_JOBS
 from dresspack_gym.errors import ConfigError
+from dresspack_gym.process_pool import spawn_pool
 
 
 def check_jobs(jobs) -> int:
@@ -34,15 +33,7 @@ class LegWorkers:
     simulators' whole state is in it), so a worker's answer is the one the planner's own simulator would give."""
 
     def __init__(self, leg_cost: type, config, settings: dict, jobs: int):
-        context = multiprocessing.get_context("spawn")  # no inherited MuJoCo or OMPL state in the workers
-        # the workers start with Ctrl-C ignored, as the evaluation's: the planner's process handles it
-        main = threading.current_thread() is threading.main_thread()
-        ctrl_c = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
-        try:
-            self._pool = context.Pool(jobs, initializer=_init, initargs=(leg_cost, config, settings))
-        finally:
-            if main:
-                signal.signal(signal.SIGINT, ctrl_c)
+        self._pool = spawn_pool(jobs, _init, (leg_cost, config, settings))
         self._closed = weakref.finalize(self, self._pool.terminate)
         for _ in range(jobs):  # each worker builds its station while the planner searches its first routes
             self._pool.apply_async(_warm)
@@ -58,9 +49,7 @@ _WORKER: dict = {}  # a worker's arguments, then its LegCost (built by its first
 
 
 def _init(leg_cost: type, config, settings: dict) -> None:
-    """Ctrl-C is the parent's. Nothing that can fail runs here: a failing initializer makes the pool start workers
-    forever."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    """Nothing that can fail runs here: a failing initializer makes the pool start workers forever."""
     _WORKER["args"] = (leg_cost, config, settings)
 
 

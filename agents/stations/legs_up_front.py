@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from dresspack_gym.fields import check_integer
+from dresspack_gym.process_pool import spawn_pool
 from dresspack_gym.stations.tasks import Task
 
 from ..planners.base import PlanningError
@@ -98,10 +99,7 @@ def _run(units, workers: int, settings):
         _init_worker(*settings)
         yield from map(_plan_unit, units)
         return
-    import multiprocessing as mp
-
-    ctx = mp.get_context("spawn")  # no inherited MuJoCo or OMPL state in the workers
-    with ctx.Pool(workers, initializer=_init_pool_worker, initargs=settings) as pool:
+    with spawn_pool(workers, _init_worker, settings) as pool:
         yield from pool.imap_unordered(_plan_unit, units)
 
 
@@ -110,15 +108,6 @@ def _init_worker(station_config, leg_planner: type, iterations: int, seed: int) 
 
     station = Station(station_config)
     _PLANNERS[:] = [leg_planner(station, r, iterations=iterations, seed=seed) for r in range(station.n_robots)]
-
-
-def _init_pool_worker(*settings) -> None:
-    """A pool worker leaves Ctrl-C to the parent (which reports it and ends the pool): otherwise every worker
-    prints its own KeyboardInterrupt traceback."""
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _init_worker(*settings)
 
 
 def _plan_unit(unit) -> list[tuple[int, np.ndarray | None]]:

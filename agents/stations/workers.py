@@ -3,7 +3,7 @@ and CP-SAT solves that do not wait for each other (bounds, the two interlock mod
 
 from __future__ import annotations
 
-import signal
+from dresspack_gym.process_pool import spawn_pool
 
 # Items per work unit sent to a worker: enough to amortise a round trip, few enough to keep both cores busy to the end
 CHUNK = 4
@@ -51,16 +51,8 @@ class StationWorkers:
 
     def _started(self):
         if self._pool is None:
-            import multiprocessing as mp
-
-            # spawn: each worker builds its own MuJoCo models, OMPL planners and rod engine from nothing the parent
-            # holds. The workers start with Ctrl-C ignored (it stays ignored across exec, so also while they import),
-            # which the parent alone answers: one line, then the pool is ended
-            ctrl_c = signal.signal(signal.SIGINT, signal.SIG_IGN)
-            try:
-                self._pool = mp.get_context("spawn").Pool(self.jobs, initializer=_init_worker, initargs=self.settings)
-            finally:
-                signal.signal(signal.SIGINT, ctrl_c)
+            # each worker builds its own MuJoCo models, OMPL planners and rod engine from nothing the parent holds
+            self._pool = spawn_pool(self.jobs, _init_worker, self.settings)
         return self._pool
 
     def close(self) -> None:
@@ -83,10 +75,8 @@ class Pending:
 
 
 def _init_worker(planner_class: type, station_config, config) -> None:
-    """A worker's planner of the station, of the parent's planner class (Ctrl-C ignored: the parent ends the
-    pool)."""
+    """A worker's planner of the station, of the parent's planner class."""
     global _PLANNER
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # already inherited; said again for a pool started elsewhere
     from dataclasses import replace
 
     from dresspack_gym.stations.station import Station

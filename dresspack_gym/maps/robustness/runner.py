@@ -14,6 +14,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...fields import check_choice
+from ...process_pool import spawn_pool
 from ...ray_pool import ray_imap_unordered, require_ray
 from ...robots.time_law import TIME_LAW
 from ...stations.config import StationConfig
@@ -98,15 +99,6 @@ def _init_worker(config: StationConfig, settings: RobustnessSettings) -> None:
     _WORKER = RobustnessEvaluator(config, settings)
 
 
-def _init_pool_worker(config: StationConfig, settings: RobustnessSettings) -> None:
-    """A pool worker leaves Ctrl-C to the parent (which saves, reports and ends the pool): otherwise every worker
-    prints its own KeyboardInterrupt traceback."""
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _init_worker(config, settings)
-
-
 def _run_unit(args) -> list[tuple]:
     indices, configs, report = args
     if _WORKER.settings.start == "row":
@@ -124,10 +116,7 @@ def _iterate(backend: str, workers: int, config, settings, units, configs, ray_a
         for p in payload:
             yield _run_unit(p)
     elif backend == "process":
-        import multiprocessing as mp
-
-        ctx = mp.get_context("spawn")  # no inherited MuJoCo/GL state in the workers
-        with ctx.Pool(workers, initializer=_init_pool_worker, initargs=(config, settings)) as pool:
+        with spawn_pool(workers, _init_worker, (config, settings)) as pool:
             yield from pool.imap_unordered(_run_unit, payload)
     else:
         yield from ray_imap_unordered(_init_worker, (config, settings), _run_unit, payload, workers, ray_address)
