@@ -1,5 +1,7 @@
 """Robot-obstacle collision queries: the fast yes/no check agrees with the exact minimum distance."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -255,5 +257,6 @@ def test_bench_collision_compares_lockstep_and_one_by_one_segment_checks_in_one_
 
     out = collision_benchmark(repeats=1, n_configs=20)
     assert out["segments_lockstep_vs_one_by_one"] > 0 and 0 < out["segments_clear_fraction"] < 1
-    # a step of conservative advancement poses the robot and queries at least one pair: more than kinematics
-    assert out["stepping_query_vs_kinematics"] > 1.0 and out["stepping_queries_per_segment"] > 2.0
+    # a ratio of two times measured in one run (compiled kinematics make a query cheaper than MuJoCo's posing, so
+    # its size is the machine's, not a property to test) and a count: a segment takes several advancement steps
+    assert 0 < out["stepping_query_vs_kinematics"] < math.inf and out["stepping_queries_per_segment"] > 2.0
