@@ -37,6 +37,8 @@ from .config import CableNode, DresspackConfig
 from .shape import node_vertices
 
 CABLE_RGBA = (0.1, 0.1, 0.12, 1.0)
+# Coulomb friction coefficient of the cable's jacket (the rod engine's on every contact of a station's cable)
+CABLE_FRICTION = 0.5
 # Constant impedance of the edge constraints: with solimp flat at d the static stiffness of an edge row
 # is -solref[0] / ((1 - d) * invweight) (MuJoCo's soft-constraint regulariser R = (1 - d)/d * invweight);
 # 0.5 keeps R comparable to the edge's own inverse mass, so the stretch mode is neither stiffer nor
@@ -305,7 +307,9 @@ def add_cable(spec: mujoco.MjSpec, robot: str, dresspack: DresspackConfig, *, ze
         f.young, f.shear, f.damping = dresspack.young_modulus, dresspack.shear_modulus, bending_damping
         f.rgba = list(CABLE_RGBA)
         f.contype, f.conaffinity, f.condim = cable_bits(index), affinity, 3
-        f.friction = [0.5, 0.005, 0.0001]
+        # MuJoCo combines two coefficients by the larger: against the links', the obstacles' and the floor's 1 the
+        # cable slides at 1, on another cable at this
+        f.friction = [CABLE_FRICTION, 0.005, 0.0001]
         f.selfcollide = mujoco.mjtFlexSelf.mjFLEXSELF_NONE
         f.solref = list(CONTACT_SOLREF)
         spec.add_equality(name=f"{piece.flex}_edges", type=mujoco.mjtEq.mjEQ_FLEX, name1=piece.flex,

@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..cable.model import CABLE_FRICTION
 from ..errors import ConfigError
 from ..physics.damage import worst_rates
 from ..physics.measures import MAX_CLEARANCE, WearMeasures
@@ -15,7 +16,7 @@ from ..stations.station import Station
 from .advance import carried_step, following
 from .measuring import measure
 from .rod import MAX_ITERATIONS, Rod, initial_frames
-from .scene import Primitives
+from .scene import ContactSettings, Primitives
 from .segments import segment_state
 from .station_cable import StationCable, station_cable
 from .station_scene import StationScene
@@ -69,7 +70,8 @@ class RodSimulator:
         for cable, scene, shape in zip(self.cables, self.scenes, shapes):
             primitives = scene.at(q)
             _, dirs = scene.targets()
-            rod = Rod(cable.model, shape, clamp_directors=dirs, radius=cable.radius)
+            rod = Rod(cable.model, shape, clamp_directors=dirs, radius=cable.radius,
+                      contact=ContactSettings(friction=CABLE_FRICTION))  # the jacket's, as in MuJoCo
             rod.ref[:] = initial_frames(shape, dirs[0, 0] if len(dirs) else None)
             rod.primitives = primitives
             self.rods.append(rod)
