@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError
-from .contact.friction import friction_lag
+from .contact.friction import MAX_RELAGS, friction_lag, friction_relag
 from .elastic import span_twists
 from .frames import transport, unit_tangents
 from .model import RodModel
@@ -168,10 +168,34 @@ class Rod:
                 and self._inside(self.x, held_pos, contact)):
             start = self._recover(held_pos, h, contact)
             recovered = True
-        x, ref, iterations, residual, converged, tau, static = self._newton(start, held_pos, h, tolerance, contact)
+        solved = self._newton(start, held_pos, h, tolerance, contact)
+        if len(self.primitives) and not math.isinf(h):
+            solved = self._relagged(solved, held_pos, h, tolerance, contact)
+        x, ref, iterations, residual, converged, tau, static = solved
         self._static_forces = -static
         self._twists = tau
         return x, ref, SolveResult(int(iterations), float(residual), bool(converged), recovered)
+
+    def _relagged(self, solved: tuple, held_pos, h, tolerance, contact) -> tuple:
+        """``solved`` (newton_step's answer) solved again with its friction lagged again at its solution (see
+        advance.carried_step), until the solution moves less than a settled step; iterations summed."""
+        p, before, c = self.primitives, self.previous_primitives, self.contact
+        if len(before) != len(p):
+            before = p
+        iterations = solved[2]
+        for _ in range(MAX_RELAGS):
+            x = solved[0]
+            near = broad_phase(x, (self.radius, p.kind, p.pos, p.rot, p.size, p.mask), c.activation)
+            lag = friction_relag(self.x, x, self.radius, p.kind, before.pos, before.rot, p.size, p.pos, p.rot, near[5],
+                                 c.activation, c.stiffness)
+            if lag[0].shape[0] == 0 and contact[8].shape[0] == 0:
+                break
+            contact = contact[:8] + lag + contact[13:]
+            solved = self._newton(x, held_pos, h, tolerance, contact)
+            iterations += solved[2]
+            if float(np.linalg.norm(solved[0] - x, axis=1).max()) <= max(self.settled_step, 1e-9):
+                break
+        return solved[:2] + (iterations,) + tuple(solved[3:])
 
     def _newton(self, start, held_pos, h, tolerance, contact):
         m = self.model

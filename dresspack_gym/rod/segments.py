@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 from ..physics.segment_state import SegmentState
-from .contact.friction import friction_lag
+from .contact.friction import friction_relag
 from .contact.report import contact_report
 from .frames import reference_twist, signed_angle, unit_tangents
 from .measuring import menger_curvature
@@ -159,7 +159,7 @@ def vertex_strains(x, rest, held):
 def vertex_slip(x, edge, tpar, normal, anchor, h):
     """Per vertex the largest tangential speed |u|/h of the lagged contact pairs it shares (by weight 1 - t*, t*,
     a zero share left out), u the contact point's displacement relative to the touched surface's material point
-    over the step (friction_lag's anchor); 0 where nothing touches (MuJoCo's reader: the max over a vertex's
+    over the step (friction_relag's anchor); 0 where nothing touches (MuJoCo's reader: the max over a vertex's
     contacts)."""
     slip = np.zeros(x.shape[0])
     u = np.empty(3)
@@ -199,8 +199,8 @@ def segment_arrays(x, x_prev, h, ref, span_edges, span_dirs, span_len, tau, held
         normal, friction, _, _ = contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev,
                                                 near | lagged, dhat, kappa, mu, eps)
         if h > 0.0:
-            edge, tpar, nrm, _, anchor = friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, lagged,
-                                                      dhat, kappa)
+            edge, tpar, nrm, _, anchor = friction_relag(x_prev, x, r, kind, pos_prev, rot_prev, size, pos, rot, near,
+                                                        dhat, kappa)
             slip = vertex_slip(x, edge, tpar, nrm, anchor, h)
     return curvature, bend, twist, strain, normal, friction, slip
 
@@ -210,7 +210,7 @@ def segment_state(rod: Rod, previous_x: np.ndarray | None, h: float | None, *,
     """The :class:`SegmentState` of ``rod`` now, the engine's counterpart of ``SegmentStateReader.state``.
 
     ``previous_x`` is the shape at the step's start and ``h`` its length [s]: friction and sliding are those of the
-    step from there to ``rod.x`` (the contact set lagged at ``previous_x``, as the solve lags it), against the
+    step from there to ``rod.x`` (the contact set lagged again at ``rod.x``, as the solve's last lag), against the
     primitives moving from ``previous_primitives`` (default: where they are now, ``rod.primitives``: a still scene;
     the rod does not keep its previous primitives, so a caller stepping moving links passes them) to
     ``rod.primitives``. With ``previous_x`` None the step is taken as none: no friction, no sliding (a rest

@@ -13,6 +13,7 @@ from dresspack_gym.rod.contact.friction import (
     friction_energy,
     friction_force,
     friction_lag,
+    friction_relag,
 )
 from dresspack_gym.rod.contact.primitives import CYLINDER, PLANE
 from dresspack_gym.rod.contact.warm import compile_kernels
@@ -116,6 +117,49 @@ def test_a_spinning_drum_drags_a_still_vertex_along_its_surface():
         np.testing.assert_allclose(u, [0.0, -0.3 * np.sin(angle), 0.0], atol=1e-12)
     _, g, _ = accumulate(x_prev, lagged)
     assert -(g[0, 1] + g[1, 1]) == pytest.approx(MU * lam.sum())  # the surface moves to +y and drags the cable
+
+
+def relag(x_prev, x, prims_prev, prims_now):
+    kind, pos_prev, rot_prev, size = prims_prev
+    _, pos, rot, _ = prims_now
+    mask = np.ones((len(x) - 1, 1), bool)
+    return friction_relag(x_prev, x, R, kind, pos_prev, rot_prev, size, pos, rot, mask, DHAT, KAPPA)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_lagged_again_where_the_step_began_it_is_the_lag(kind):
+    """Relagged at the step's start against primitives that did not move, the set is the start's own."""
+    rng = np.random.default_rng(90 + kind)
+    found = 0
+    while found < 3:
+        pos, rot = rng.normal(size=3), rotation(rng)
+        x = np.cumsum(np.vstack([pos + rng.normal(scale=0.6, size=3), rng.normal(scale=0.12, size=(3, 3))]), axis=0)
+        prims = prims_of(kind, pos, rot)
+        start = lag(x, prims, prims)
+        if len(start[0]) == 0:
+            continue
+        found += 1
+        for a, b in zip(start, relag(x, x, prims, prims)):
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
+
+
+def test_lagged_again_a_pressed_cable_feels_the_normal_force_at_the_steps_end():
+    """A plane rises into a still cable within the step: lagged at the start the pair is far (a small normal force),
+    lagged again at the end the normal force is the end's and the anchor still the start's (the cable rode along
+    with the surface: no tangential slip)."""
+    x_prev = np.array([[0.0, 0.0, 0.15], [0.3, 0.0, 0.4]])  # only the first end within the barrier's reach
+    before = prims_of(PLANE, np.zeros(3), np.eye(3))
+    after = prims_of(PLANE, np.array([0.002, 0.0, 0.1]), np.eye(3))  # 10 cm up, 2 mm along x
+    x = x_prev.copy()
+    x[:, 0] += 0.002  # carried along x with the surface
+    start, end = lag(x_prev, before, after), relag(x_prev, x, before, after)
+    gap = 0.15 - 0.1 - R
+    assert end[3][0] == pytest.approx(-0.5 * KAPPA * barrier_d1(gap, DHAT))  # the end's normal force, half the pair
+    assert end[3][0] > start[3][0]
+    u = x[0] - end[4][0]
+    u -= (u @ end[2][0]) * end[2][0]
+    np.testing.assert_allclose(u, 0.0, atol=1e-12)  # no slip relative to the surface's material point
+    assert friction_force(x, *end, MU, EPS)[0] == pytest.approx(0.0, abs=1e-12)
 
 
 @pytest.mark.parametrize("kind", KINDS)

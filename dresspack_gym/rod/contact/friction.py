@@ -13,6 +13,9 @@ from .barrier import barrier_d1
 from .primitives import bounding_radii
 from .segment import MAX_CONTACTS, lower_bound, pair_contacts
 
+# The most times a step's friction is lagged again at its solution and the step solved again (friction_relag).
+MAX_RELAGS = 3
+
 
 @njit(cache=True)
 def f0(y, eps):
@@ -41,7 +44,25 @@ def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat
     the primitive's material point at the contact from the previous pose to (pos, rot)), so that the tangential
     relative displacement at x is u = (I - n n^T)(p(t*; x) - anchor).
     """
-    n_e = x_prev.shape[0] - 1
+    return _lagged_set(x_prev, x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat, kappa, 1.0)
+
+
+@njit(cache=True)
+def friction_relag(x_prev, x, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat, kappa):
+    """The contact set lagged again at a step's solution ``x`` (IPC's lagged iterations): the pairs, normals and
+    normal forces of x against the primitives' poses now, the anchors still the step's start, p(t*; x_prev) + (the
+    displacement of the touched material point from the previous pose to now). At a fixed point (x solved with the
+    set relagged at x) friction is mu times the normal force at the step's end, as Coulomb's law asks."""
+    return _lagged_set(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev, mask, dhat, kappa, -1.0)
+
+
+@njit(cache=True)
+def _lagged_set(x_eval, x_anchor, r, kind, pos_eval, rot_eval, size, pos_other, rot_other, mask, dhat, kappa,
+                toward):
+    """The contact set of the pairs with 0 < d < dhat at ``x_eval`` against the primitives at (pos_eval, rot_eval), with
+    anchors taken from ``x_anchor``: per pair p(t*; x_anchor) + ``toward`` x (the touched material point's place at
+    (pos_other, rot_other) - its place now). See :func:`friction_lag` (toward +1) and :func:`friction_relag` (-1)."""
+    n_e = x_eval.shape[0] - 1
     n_prims = kind.shape[0]
     bound = bounding_radii(kind, size)
     pairs = 0
@@ -65,10 +86,10 @@ def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat
     m = 0
     for i in range(n_e):
         for j in range(n_prims):
-            if not mask[i, j] or lower_bound(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j],
+            if not mask[i, j] or lower_bound(x_eval[i], x_eval[i + 1], r, kind[j], pos_eval[j], rot_eval[j], size[j],
                                              bound[j]) >= dhat:
                 continue
-            count, _ = pair_contacts(x_prev[i], x_prev[i + 1], r, kind[j], pos_prev[j], rot_prev[j], size[j], dhat,
+            count, _ = pair_contacts(x_eval[i], x_eval[i + 1], r, kind[j], pos_eval[j], rot_eval[j], size[j], dhat,
                                      dc, tc, wc, pc, nc, hc)
             for c in range(count):
                 d, t = dc[c], tc[c]
@@ -76,16 +97,17 @@ def friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat
                     continue
                 for k in range(3):
                     p[k], n[k] = pc[c, k], nc[c, k]
-                # the primitive's surface point under the contact, carried rigidly to the current pose
+                # the primitive's surface point under the contact, carried rigidly to its other pose
                 for k in range(3):
                     s[k] = p[k] - (d + r) * n[k]
                 for k in range(3):
                     local[k] = 0.0
                     for m2 in range(3):
-                        local[k] += rot_prev[j, m2, k] * (s[m2] - pos_prev[j, m2])
+                        local[k] += rot_eval[j, m2, k] * (s[m2] - pos_eval[j, m2])
                 for k in range(3):
-                    moved = pos[j, k] + rot[j, k, 0] * local[0] + rot[j, k, 1] * local[1] + rot[j, k, 2] * local[2]
-                    anchor[m, k] = p[k] + moved - s[k]
+                    moved = (pos_other[j, k] + rot_other[j, k, 0] * local[0] + rot_other[j, k, 1] * local[1]
+                             + rot_other[j, k, 2] * local[2])
+                    anchor[m, k] = (1.0 - t) * x_anchor[i, k] + t * x_anchor[i + 1, k] + toward * (moved - s[k])
                     normal[m, k] = n[k]
                 edge[m] = i
                 tpar[m] = t

@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit
 
 from .barrier import barrier_d1
-from .friction import friction_force, friction_lag
+from .friction import friction_force, friction_relag
 from .primitives import bounding_radii
 from .segment import MAX_CONTACTS, lower_bound, pair_contacts
 
@@ -18,9 +18,10 @@ def contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev, mask,
     """Per vertex the normal and friction force magnitudes [N], per edge the smallest gap [m] and nearest primitive.
 
     The normal force of a pair, -kappa b'(d) at x, and its friction force mu lam f1(|u|) (the contact set lagged
-    from x_prev and the primitives' previous poses, as in the solve) go to the edge's vertices by weights 1 - t*
-    and t*; a vertex sums the magnitudes of its pairs. Gaps are exact below cap; an edge with no enabled primitive
-    nearer than cap [m] reports gap cap and index -1. A penetrating pair reports an infinite normal force.
+    again at x, its anchors at x_prev and the primitives' previous poses, as the solve's last lag) go to the edge's
+    vertices by weights 1 - t* and t*; a vertex sums the magnitudes of its pairs. Gaps are exact below cap; an edge
+    with no enabled primitive nearer than cap [m] reports gap cap and index -1. A penetrating pair reports an
+    infinite normal force.
     Returns (normal (n+1,), friction (n+1,), gap (n,), nearest (n,) int64).
     """
     n_v = x.shape[0]
@@ -50,7 +51,8 @@ def contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev, mask,
                     f = -kappa * wc[c] * barrier_d1(d, dhat) if d > 0.0 else np.inf
                     normal[i] += (1.0 - t) * f
                     normal[i + 1] += t * f
-    edge, tpar, nrm, lam, anchor = friction_lag(x_prev, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat, kappa)
+    edge, tpar, nrm, lam, anchor = friction_relag(x_prev, x, r, kind, pos_prev, rot_prev, size, pos, rot, mask, dhat,
+                                                  kappa)
     force = friction_force(x, edge, tpar, nrm, lam, anchor, mu, eps)
     for c in range(edge.shape[0]):
         fric[edge[c]] += (1.0 - tpar[c]) * force[c]
