@@ -8,7 +8,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .contact.friction import MAX_RELAGS, friction_lag, friction_relag
+from .contact.friction import MAX_RELAGS, friction_lag, friction_relag, friction_settled
 from .contact.motion import surface_displacements
 from .contact.primitives import bounding_radii
 from .newton import BROAD_MARGIN, broad_phase, contact_energy, newton_step
@@ -91,17 +91,18 @@ def carried_step(x, v, ref, held, rest, voronoi, mass, ea, ei, gj, gravity, damp
         span_len, force_scale, tolerance, max_iterations, contact, settled_step, near_start[5])
     # friction lagged from the step's start falls short of mu N where a link presses harder within the step (or
     # where a contact begins in it): the set is lagged again at the solution and the step solved again from there,
-    # until the solution moves less than a settled step (Coulomb's law at the step's end)
+    # until that changes no vertex's friction bound by the solve's tolerance or the solution moves less than a
+    # settled step (Coulomb's law at the step's end)
     for _ in range(MAX_RELAGS):
-        near_new = broad_phase(x_new, (r, kind, pos, rot, size, mask), dhat)[5]
+        near_new = broad_phase(x_new, bare, BROAD_MARGIN)[5]  # the solve's first broad phase too
         lag = friction_relag(x, x_new, r, kind, prev_pos, prev_rot, size, pos, rot, near_new, dhat, kappa)
-        if lag[0].shape[0] == 0 and not lagged:
+        if friction_settled(x.shape[0], contact[8], contact[9], contact[11], lag[0], lag[1], lag[3], mu, force_scale,
+                            tolerance):
             break
         contact = (r, kind, pos, rot, size, mask, dhat, kappa, lag[0], lag[1], lag[2], lag[3], lag[4], mu, eps, False)
         x_again, ref_again, more, residual, converged, tau, static = newton_step(
             x_new, ref, x, v, held, held_pos, rest, voronoi, mass, ea, ei, gj, gravity, h, damping, span_edges, dirs,
-            span_len, force_scale, tolerance, max_iterations, contact, settled_step,
-            broad_phase(x_new, bare, BROAD_MARGIN)[5])
+            span_len, force_scale, tolerance, max_iterations, contact, settled_step, near_new)
         iterations += more
         moved_most = 0.0
         for i in range(x.shape[0]):
@@ -109,7 +110,6 @@ def carried_step(x, v, ref, held, rest, voronoi, mass, ea, ei, gj, gravity, damp
                                                    + (x_again[i, 1] - x_new[i, 1]) ** 2
                                                    + (x_again[i, 2] - x_new[i, 2]) ** 2))
         x_new, ref_new = x_again, ref_again
-        lagged = True
         if moved_most <= max(settled_step, 1e-9):
             break
     return (True, x_new, ref_new, iterations, residual, converged, tau, static, pos, rot, held_pos, dirs)

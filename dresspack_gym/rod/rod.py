@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError
-from .contact.friction import MAX_RELAGS, friction_lag, friction_relag
+from .contact.friction import MAX_RELAGS, friction_lag, friction_relag, friction_settled
 from .elastic import span_twists
 from .frames import transport, unit_tangents
 from .model import RodModel
@@ -178,7 +178,8 @@ class Rod:
 
     def _relagged(self, solved: tuple, held_pos, h, tolerance, contact) -> tuple:
         """``solved`` (newton_step's answer) solved again with its friction lagged again at its solution (see
-        advance.carried_step), until the solution moves less than a settled step; iterations summed."""
+        advance.carried_step), until that changes no friction bound by the solve's tolerance or the solution moves
+        less than a settled step; iterations summed."""
         p, before, c = self.primitives, self.previous_primitives, self.contact
         if len(before) != len(p):
             before = p
@@ -188,7 +189,8 @@ class Rod:
             near = broad_phase(x, (self.radius, p.kind, p.pos, p.rot, p.size, p.mask), c.activation)
             lag = friction_relag(self.x, x, self.radius, p.kind, before.pos, before.rot, p.size, p.pos, p.rot, near[5],
                                  c.activation, c.stiffness)
-            if lag[0].shape[0] == 0 and contact[8].shape[0] == 0:
+            if friction_settled(len(x), contact[8], contact[9], contact[11], lag[0], lag[1], lag[3], c.friction,
+                                self._force_scale, tolerance):
                 break
             contact = contact[:8] + lag + contact[13:]
             solved = self._newton(x, held_pos, h, tolerance, contact)

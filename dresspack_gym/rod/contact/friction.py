@@ -57,6 +57,24 @@ def friction_relag(x_prev, x, r, kind, pos_prev, rot_prev, size, pos, rot, mask,
 
 
 @njit(cache=True)
+def friction_settled(n_vertices, edge, t, lam, edge_again, t_again, lam_again, mu, force_scale, tolerance):
+    """Whether lagging again changes no vertex's friction bound mu lam (its pairs' shares by weights 1 - t*, t*) by
+    ``tolerance`` of its ``force_scale`` or more: the solve would then stand (its own tolerance), so it is not
+    repeated."""
+    change = np.zeros(n_vertices)
+    for c in range(edge.shape[0]):
+        change[edge[c]] -= (1.0 - t[c]) * lam[c]
+        change[edge[c] + 1] -= t[c] * lam[c]
+    for c in range(edge_again.shape[0]):
+        change[edge_again[c]] += (1.0 - t_again[c]) * lam_again[c]
+        change[edge_again[c] + 1] += t_again[c] * lam_again[c]
+    for v in range(n_vertices):
+        if mu * abs(change[v]) >= tolerance * force_scale[v]:
+            return False
+    return True
+
+
+@njit(cache=True)
 def _lagged_set(x_eval, x_anchor, r, kind, pos_eval, rot_eval, size, pos_other, rot_other, mask, dhat, kappa,
                 toward):
     """The contact set of the pairs with 0 < d < dhat at ``x_eval`` against the primitives at (pos_eval, rot_eval), with
