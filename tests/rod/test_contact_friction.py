@@ -14,6 +14,7 @@ from dresspack_gym.rod.contact.friction import (
     friction_force,
     friction_lag,
     friction_relag,
+    friction_settled,
 )
 from dresspack_gym.rod.contact.primitives import CYLINDER, PLANE
 from dresspack_gym.rod.contact.warm import compile_kernels
@@ -160,6 +161,23 @@ def test_lagged_again_a_pressed_cable_feels_the_normal_force_at_the_steps_end():
     u -= (u @ end[2][0]) * end[2][0]
     np.testing.assert_allclose(u, 0.0, atol=1e-12)  # no slip relative to the surface's material point
     assert friction_force(x, *end, MU, EPS)[0] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_a_step_is_solved_again_only_where_a_friction_bound_moves_by_the_tolerance():
+    """friction_settled compares per vertex the bounds mu lam shared by weights 1 - t*, t*; a pair moved to another
+    edge or a new pair counts in full."""
+    scale, tol = np.full(4, 2.0), 0.1  # a bound may move by 0.2 N at each vertex
+    edge, t, lam = np.array([1]), np.array([0.25]), np.array([1.0])
+
+    def settled(edge2, t2, lam2):
+        return friction_settled(4, edge, t, lam, np.array(edge2, np.int64), np.array(t2, float), np.array(lam2, float),
+                                MU, scale, tol)
+
+    assert settled([1], [0.25], [1.0])
+    assert settled([1], [0.25], [1.0 + 0.19 / (MU * 0.75)])  # vertex 1 takes 3/4 of the change: 0.19 N
+    assert not settled([1], [0.25], [1.0 + 0.21 / (MU * 0.75)])
+    assert not settled([2], [0.25], [1.0])  # the same force one edge on
+    assert not settled([], [], [])  # the contact is gone
 
 
 @pytest.mark.parametrize("kind", KINDS)
