@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import multiprocessing.pool
 import multiprocessing.resource_tracker
+import os
 import signal
+import sys
 import threading
 from collections.abc import Callable
+
+_PR_SET_PDEATHSIG = 1  # Linux prctl: the signal a process gets when the thread that started it ends
 
 
 def spawn_pool(processes: int, initializer: Callable | None = None, initargs: tuple = ()) -> multiprocessing.pool.Pool:
@@ -27,7 +32,7 @@ def spawn_pool(processes: int, initializer: Callable | None = None, initargs: tu
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         pool = multiprocessing.get_context("spawn").Pool(processes, initializer=_start_worker,
-                                                           initargs=(initializer, initargs))
+                                                           initargs=(os.getpid(), initializer, initargs))
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)  # a Ctrl-C held until now is delivered here
         if on_main:
@@ -41,9 +46,22 @@ def spawn_pool(processes: int, initializer: Callable | None = None, initargs: tu
     return pool
 
 
-def _start_worker(initializer: Callable | None, initargs: tuple) -> None:
-    """Ignore Ctrl-C (the parent's), unblock it, then the pool's own initializer."""
+def _start_worker(parent: int, initializer: Callable | None, initargs: tuple) -> None:
+    """Ignore Ctrl-C (the parent's), unblock it, end with the parent, then the pool's own initializer."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    _end_with(parent)
     if initializer is not None:
         initializer(*initargs)
+
+
+def _end_with(parent: int) -> None:
+    """On Linux, this worker is terminated when the process that started it ends, however it ends: killed outright
+    (SIGKILL, SIGTERM: no terminate()), it would leave a busy worker to finish its task (a leg, a map row) first."""
+    if not sys.platform.startswith("linux"):
+        return
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0) != 0:
+        return  # not available here: the pool's own terminate() still ends the worker
+    if os.getppid() != parent:  # the parent ended before the request was made
+        os._exit(1)

@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -81,3 +82,44 @@ def test_a_ctrl_c_to_the_group_while_workers_import_ends_none_of_them(tmp_path):
                           start_new_session=True)
     assert done.stdout.split() == ["True", "True"], done.stdout + done.stderr
     assert "KeyboardInterrupt" not in done.stderr, done.stderr
+
+
+_KILLED = """
+import sys, time
+from dresspack_gym.process_pool import spawn_pool
+
+if __name__ == "__main__":
+    pool = spawn_pool(2)
+    pool.map(abs, range(4))  # the workers are up
+    pool.map_async(time.sleep, [100, 100], chunksize=1)  # and busy (an idle one ends at its pipe's end)
+    time.sleep(1)
+    print(*(p.pid for p in pool._pool), flush=True)
+    time.sleep(120)
+"""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = next(line for line in open(f"/proc/{pid}/status") if line.startswith("State:"))
+    except (OSError, StopIteration):
+        return False
+    return "Z" not in state.split()[1]  # a zombie has ended
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the parent-death signal is Linux's")
+def test_busy_workers_end_when_their_command_is_killed_outright(tmp_path):
+    script = tmp_path / "killed.py"
+    script.write_text(_KILLED)
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        workers = [int(pid) for pid in proc.stdout.readline().split()]
+        assert len(workers) == 2 and all(_alive(pid) for pid in workers)
+        proc.kill()  # SIGKILL: no handler, no atexit, no pool terminate()
+        proc.wait()
+        deadline = time.time() + 20
+        while time.time() < deadline and any(_alive(pid) for pid in workers):
+            time.sleep(0.1)
+        assert not any(_alive(pid) for pid in workers)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
