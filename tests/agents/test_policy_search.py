@@ -252,7 +252,7 @@ def _cost_to_go_file(planner, path, prefer: str):
     return path
 
 
-@pytest.mark.parametrize("prefer", ["low", "none"])
+@pytest.mark.parametrize("prefer", ["low", pytest.param("none", marks=pytest.mark.slow)])
 def test_a_cost_to_go_model_ranks_the_proposals_and_the_cheaper_of_its_rollout_and_the_policys_is_kept(
         station, tasks, tmp_path, prefer):
     """Each ranked step takes the proposal the model predicts cheapest to go, one env step a decision; the route is

@@ -127,6 +127,7 @@ def test_option_costs_are_read_back_only_for_their_engine(two_robot_station, tmp
     assert other.costs.rates == {}
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_workers_compute_what_the_planner_computes_itself(two_robot_station):
     """Option costs, straight moves, legs and leg runs from two worker processes equal this process's own."""
     config = StationPlanConfig(**SMALL, objective="time")

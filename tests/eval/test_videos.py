@@ -11,6 +11,7 @@ from dresspack_gym.physics.trajectory import Trajectory, replay
 from dresspack_gym.stations.station import Station
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_videos_are_the_same_files_on_one_process_or_two(tmp_path):
     pytest.importorskip("imageio.v2")
     from dresspack.eval.animations import Clip, render_clips

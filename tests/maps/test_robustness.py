@@ -41,6 +41,7 @@ def test_thesis_grids_have_the_thesis_sizes():
     assert np.array_equal(b.nearest_index(v[[0, 1234, 67_499]]), [0, 1234, 67_499])
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_serial_and_process_backends_give_the_same_map(tmp_path, station):
     grid = RobustnessGrid.from_dict(TINY)
     s1 = run_map(grid, station, tmp_path / "serial", FAST, backend="serial", progress=False)
@@ -171,6 +172,7 @@ def test_cable_robot_contact_is_an_explicit_option(station):
     assert on.station.config.robots[0].dresspack.collide_with_robot
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_cli_json_summary(tmp_path, capsys):
     grid = tmp_path / "tiny.yaml"
     import yaml
@@ -203,6 +205,7 @@ def test_ray_backend_gives_the_same_map_as_serial(tmp_path, station):
     assert set(a) == {0, 1} and {k: v["max_dev_m"] for k, v in a.items()} == {k: v["max_dev_m"] for k, v in b.items()}
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_path_comparison_reports_consistent_counts(tmp_path, station):
     from dresspack_gym.maps.robustness.paths import compare_paths
 

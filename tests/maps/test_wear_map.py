@@ -286,6 +286,7 @@ def test_wear_map_command_builds_a_loadable_map_and_names_bad_input(tmp_path, ca
     assert exit_info.value.code == 2 and "--samples" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_planner_uses_the_shipped_map_or_says_it_has_none():
     from dresspack.agents.planners.registry import make_planner
 

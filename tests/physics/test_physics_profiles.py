@@ -23,6 +23,7 @@ def test_spearman_by_hand():
     assert spearman([1, 2, 3, 4, 5], [2, 1, 4, 3, 5]) == pytest.approx(1 - 6 * 4 / (5 * 24))
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_cheaper_profiles_rank_fixed_weld_cycles_like_the_accurate_one():
     config = load_station("default")
     accurate = Station(config)

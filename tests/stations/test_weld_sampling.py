@@ -154,6 +154,7 @@ def test_env_takes_explicit_goal_configurations(station):
         env.reset(options={"goals": {"my_weld": goal}, "welds": ["sill_front"]})
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_evaluation_on_welds_drawn_from_their_own_seeds(tmp_path):
     pytest.importorskip("ompl.base")
     from dresspack.eval.runs import EvalSpec, build_tasks, run_evaluation

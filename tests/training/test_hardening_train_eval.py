@@ -132,6 +132,7 @@ def _ctrl_c_once(tmp_path: Path, k: int) -> tuple[int, float, bool, list[str]]:
 REPEATS = int(os.environ.get("DRESSPACK_CTRLC_REPEATS", "1"))
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 @pytest.mark.parametrize("k", range(REPEATS))
 def test_ctrl_c_in_training_always_exits_with_a_checkpoint(tmp_path, k):
     code, seconds, saved, lines = _ctrl_c_once(tmp_path, k)
@@ -253,6 +254,7 @@ def test_eval_cost_variant_damage_reports_the_integrated_damage_rate(tmp_path, c
         eval_main(["--cost-variant", "cheap", "--out", str(tmp_path / "x")])
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_close_vec_env_frees_a_close_stuck_on_an_answer_already_read():
     """The Ctrl-C hang, made deterministic (found by the issue-19 helper): step_wait() had read worker 0's answer
     when the interrupt came, so SubprocVecEnv.close() waits for that answer again, forever; close_vec_env returns
