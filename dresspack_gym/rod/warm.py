@@ -63,7 +63,37 @@ def compile_all() -> float:
     validity = MotionValidity(station, 0)
     validity.segment_valid(home, via)
     validity.checker.min_distances(np.stack([home, via]))
+    validity.checker.collides(via)
+    _called_from_python(sim)
     return time.perf_counter() - start
+
+
+def _called_from_python(sim) -> None:
+    """The kernels Python calls directly outside a replay (a rod's static forces, a link closing in on the cable,
+    the benchmark adapter's reference twists) and the elastic pieces the tests check one by one: each is cached on
+    its own, so a test worker would otherwise compile it."""
+    from . import elastic
+    from .band import band_matvec
+    from .frames import reference_twists, unit_tangents
+    from .station_scene import closing_fraction
+
+    rod, scene = sim.rods[0], sim.scenes[0]
+    rod.forget_forces()
+    rod.static_forces()
+    now = scene.at(sim.q)
+    moved = scene.at(sim.q + np.radians(5.0))
+    closing_fraction(rod.x, rod.radius, now, moved, np.ones(len(now.kind)))
+    reference_twists(rod.ref, unit_tangents(rod.x)[0])
+    band_matvec(np.ones((3, 6)), np.ones(6))
+    e, f = np.array([1.0, 0.0, 0.0]), np.array([0.8, 0.6, 0.0])
+    elastic.stretch_edge(e, 1.0, 1.0, True)
+    elastic.bend_vertex(e, f, 1.0, True)
+    elastic.twist_vertex(e, f)
+    elastic.curvature_binormal(e, f)
+    elastic.curvature_binormal_jacobian(e, f)
+    elastic.edges_to_vertices_grad(np.ones(6))
+    elastic.edges_to_vertices_hess(np.ones((6, 6)))
+    elastic.vertex_block(np.ones((6, 6)), 0, 1, 0, 1)
 
 
 if __name__ == "__main__":

@@ -39,6 +39,7 @@ def test_a_plan_on_two_workers_is_the_plan_of_one_process(tension, planner):
     assert one[1] == two[1]  # route scores, cable evaluations and give-ups, collision checks, objective
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_a_prefetched_leg_answers_every_bound_as_its_own_simulation_would(tension):
     """A leg simulated ahead at one bound, then asked at a lower, the same or a higher one: the answer, the counters
     and the cache are those of simulating it at the asked bound."""

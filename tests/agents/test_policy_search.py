@@ -65,6 +65,7 @@ def test_one_proposal_is_the_most_probable_rollout(station, tasks):
     assert search.info["simulated_steps"] == search.info["policy_steps"]
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_search_finds_a_cheaper_path_than_the_policys_and_reports_its_true_cost(station, tasks):
     """drawn_19: two proposals a step find a path cheaper than the policy's most probable rollout (7 % with
     mujoco-core 4.0.1, numpy 2.4.6, torch 2.13.0; ~40 % with the libraries of an earlier install: how much differs
@@ -191,6 +192,7 @@ def test_alternative_routes_compete_with_the_found_legs_reproducibly(station, ta
     assert total == pytest.approx(info["leg_cost"], abs=1e-5)
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_a_task_the_policy_cannot_finish_is_planned_from_ompl_routes(station, tasks, monkeypatch):
     """Where no rollout finishes (here made to fail), a planner with other routes starts from OMPL's routes between
     the task's stops and says so; it visits the welds in order, passes the validity check and is reproducible.

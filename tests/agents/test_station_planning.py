@@ -383,6 +383,7 @@ def test_coordination_resolves_a_conflict_by_waiting_and_the_dense_check_confirm
     assert second.leg_start[0] >= first.leg_end()[0] + first.weld_time - second.leg_durations()[0]
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_coordination_keeps_the_order_of_least_makespan(two_robot_station):
     """Both robots to one weld; r2 welds 5 s, r1 1 s. Placing the longest program first (r2, r1 waits for it)
     ends later than letting r1 through first: coordination tries both orders and keeps the shorter, which is

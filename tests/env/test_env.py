@@ -87,6 +87,7 @@ def test_reward_is_the_sum_of_its_documented_terms(env):
             assert np.isfinite(info[key])
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_long_random_masked_rollout_never_violates_anything():
     """Checked from info['q'] with independent code: limits, restriction rules, exact min distance."""
     e = DresspackEnv(station="default", max_steps=400)

@@ -122,6 +122,7 @@ def test_dry_run_prints_the_margins_and_writes_nothing(default_cfg, tmp_path, ca
     assert summary["cycle_time_s"] > 0 and summary["interpolated_points_checked"] > 2
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_random_plans_export_and_parse_back_and_random_violations_are_refused(default_cfg, tmp_path, capsys):
     """Property: 24 random plans within the limits export in every format and parse back within 1e-6 rad and
     1e-6 s; each with one random violation (a joint beyond a limit, a speed beyond the rated, another station)

@@ -67,6 +67,7 @@ def test_rerun_resumes_without_recomputing_and_survives_a_torn_line(tmp_path, st
     assert len(open(out / "results.csv").read().strip().splitlines()) == 5  # header + 4, no duplicates
 
 
+@pytest.mark.slow  # one of the fast tier's longest: the slow tier runs it
 def test_rows_land_in_a_results_file_replaced_while_the_map_runs(tmp_path, station, monkeypatch):
     """A git checkout, stash or pull replaces results.csv with a new file (new inode); rows finished afterwards must
     land in that file, not in the replaced one (held open, they were silently lost)."""
