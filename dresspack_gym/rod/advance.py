@@ -11,7 +11,7 @@ from numba import njit
 from .contact.friction import MAX_RELAGS, friction_lag, friction_relag, friction_settled
 from .contact.motion import surface_displacements
 from .contact.primitives import bounding_radii
-from .newton import BROAD_MARGIN, broad_phase, contact_energy, newton_step
+from .newton import BROAD_MARGIN, broad_phase, contact_energy, largest_move, newton_step
 from .station_scene import carried_along, held_targets, pose_primitives
 
 
@@ -104,11 +104,7 @@ def carried_step(x, v, ref, held, rest, voronoi, mass, ea, ei, gj, gravity, damp
             x_new, ref, x, v, held, held_pos, rest, voronoi, mass, ea, ei, gj, gravity, h, damping, span_edges, dirs,
             span_len, force_scale, tolerance, max_iterations, contact, settled_step, near_new)
         iterations += more
-        moved_most = 0.0
-        for i in range(x.shape[0]):
-            moved_most = max(moved_most, math.sqrt((x_again[i, 0] - x_new[i, 0]) ** 2
-                                                   + (x_again[i, 1] - x_new[i, 1]) ** 2
-                                                   + (x_again[i, 2] - x_new[i, 2]) ** 2))
+        moved_most = largest_move(x_again, x_new)
         x_new, ref_new = x_again, ref_again
         if moved_most <= max(settled_step, 1e-9):
             break

@@ -155,7 +155,8 @@ def inside(x, contact) -> bool:
 
 
 @njit(cache=True)
-def _largest_move(a, b) -> float:
+def largest_move(a, b) -> float:
+    """The largest distance between a vertex of ``a`` and the same vertex of ``b`` [m]."""
     out = 0.0
     for v in range(a.shape[0]):
         out = max(out, math.sqrt((a[v, 0] - b[v, 0]) ** 2 + (a[v, 1] - b[v, 1]) ** 2 + (a[v, 2] - b[v, 2]) ** 2))
@@ -267,7 +268,7 @@ def newton_step(x_start, ref_start, x0, v0, held, held_pos, rest, voronoi, mass,
         reach = 0.0
         for v in range(n1):
             reach = max(reach, math.sqrt(dx[v, 0] ** 2 + dx[v, 1] ** 2 + dx[v, 2] ** 2))
-        if _largest_move(x, broad_at) + reach > margin - dhat:  # this step could reach a pair left out: redo
+        if largest_move(x, broad_at) + reach > margin - dhat:  # this step could reach a pair left out: redo
             margin = max(BROAD_MARGIN, 2.0 * reach + dhat)
             broad_at = x.copy()
             contact = broad_phase(x, full_contact, margin)

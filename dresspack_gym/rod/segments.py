@@ -192,12 +192,11 @@ def segment_arrays(x, x_prev, h, ref, span_edges, span_dirs, span_len, tau, held
     strain = vertex_strains(x, rest, held)
     normal, friction, slip = np.zeros(n1), np.zeros(n1), np.zeros(n1)
     if kind.shape[0]:
-        # only the pairs within the barrier's reach now or at the step's start carry force: the others are left out
-        # before the per-pair work
+        # only the pairs within the barrier's reach now carry force (friction too: its set is lagged again at x):
+        # the others are left out before the per-pair work
         near = broad_phase(x, (r, kind, pos, rot, size, mask), dhat)[5]
-        lagged = broad_phase(x_prev, (r, kind, pos_prev, rot_prev, size, mask), dhat)[5]
-        normal, friction, _, _ = contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev,
-                                                near | lagged, dhat, kappa, mu, eps)
+        normal, friction, _, _ = contact_report(x, x_prev, r, kind, pos, rot, size, pos_prev, rot_prev, near, dhat,
+                                                kappa, mu, eps)
         if h > 0.0:
             edge, tpar, nrm, _, anchor = friction_relag(x_prev, x, r, kind, pos_prev, rot_prev, size, pos, rot, near,
                                                         dhat, kappa)
